@@ -1,0 +1,49 @@
+# Shared set-up for demo.sh and test.sh: Debian packages, configure, build. Sourced, not run.
+# A second run installs nothing and rebuilds only what changed.
+
+# Every Debian 12 package the project needs to build, test and run its demo.
+VDBMAP_APT_PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libopenvdb-dev libopenvdb-tools libtbb-dev libeigen3-dev libblosc-dev zlib1g-dev
+  libboost-iostreams-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
+  libompl-dev libceres-dev libpng-dev libcli11-dev nlohmann-json3-dev libnanoflann-dev
+  catch2 pybind11-dev python3-dev python3-numpy python3-pytest python3-openvdb
+)
+
+vdbmap_root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+vdbmap_build="${VDBMAP_BUILD_DIR:-$vdbmap_root/build}"
+# Each OpenVDB compile job peaks near 1 GB; never more than 4 jobs.
+vdbmap_jobs="${VDBMAP_JOBS:-$(nproc 2>/dev/null || echo 2)}"
+[ "$vdbmap_jobs" -gt 4 ] && vdbmap_jobs=4
+
+vdbmap_install_packages() {
+  local missing=()
+  for p in "${VDBMAP_APT_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "Missing Debian packages. Install them with:" >&2
+    echo "  sudo apt-get update && sudo apt-get install -y ${missing[*]}" >&2
+    exit 1
+  fi
+  echo "== installing ${#missing[@]} Debian packages: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+# vdbmap_build_targets [target...]: configure once (Release, Ninja), then build what is asked.
+vdbmap_build_targets() {
+  if [ ! -f "$vdbmap_build/CMakeCache.txt" ]; then
+    cmake -S "$vdbmap_root" -B "$vdbmap_build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+      -DVDBMAP_BUILD_TESTS=ON -DVDBMAP_BUILD_PYTHON=OFF -DVDBMAP_BUILD_BENCHMARKS=ON \
+      -DPython_EXECUTABLE=/usr/bin/python3 > "$vdbmap_build.configure.log" 2>&1 ||
+      { cat "$vdbmap_build.configure.log"; rm -f "$vdbmap_build/CMakeCache.txt"; exit 1; }
+  fi
+  if [ $# -eq 0 ]; then
+    cmake --build "$vdbmap_build" -j "$vdbmap_jobs"
+  else
+    cmake --build "$vdbmap_build" -j "$vdbmap_jobs" --target "$@"
+  fi
+}

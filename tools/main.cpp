@@ -1,0 +1,41 @@
+// `vdbmap`: the command-line front end. Parsing and printing only; the work is in the libraries.
+#include "command.hpp"
+
+#include <algorithm>
+#include <exception>
+#include <iostream>
+#include <map>
+
+namespace vdbmap::cli {
+namespace {
+std::map<std::string, CommandSetup>& registry() {
+  static std::map<std::string, CommandSetup> commands;
+  return commands;
+}
+}  // namespace
+
+Registration::Registration(std::string name, CommandSetup setup) {
+  registry().emplace(std::move(name), std::move(setup));
+}
+
+std::vector<std::pair<std::string, CommandSetup>> registeredCommands() {
+  return {registry().begin(), registry().end()};
+}
+}  // namespace vdbmap::cli
+
+int main(int argc, char** argv) {
+  CLI::App app{"vdbmap: globally consistent TSDF mapping on OpenVDB, with re-integration, "
+               "frame pruning and exploration planning"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "vdbmap 0.1.0");
+  for (auto& [name, setup] : vdbmap::cli::registeredCommands()) setup(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "vdbmap: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

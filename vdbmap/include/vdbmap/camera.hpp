@@ -1,0 +1,43 @@
+// Pinhole depth cameras: intrinsics, depth images, and back-projection to sensor-frame points.
+//
+// Axes follow OpenCV: x right, y down, z forward. A pixel (u, v) with depth z (metres, along the
+// optical axis) is the point ((u - cx) z / fx, (v - cy) z / fy, z). Pixel centres are at integer
+// (u, v). fy may be negative (ICL-NUIM's convention flips the image's y axis).
+#pragma once
+
+#include "vdbmap/types.hpp"
+
+#include <vector>
+
+namespace vdbmap {
+
+struct CameraIntrinsics {
+  int width = 640;
+  int height = 480;
+  double fx = 387.229;  ///< focal length in pixels; FUEL's simulated camera by default
+  double fy = 387.229;  ///< may be negative (flipped y axis), never zero
+  double cx = 320.0;
+  double cy = 240.0;
+
+  /// Throws std::invalid_argument naming the field when a value is out of range.
+  void validate() const;
+};
+
+/// A depth image in metres along the optical axis; 0 or NaN marks an invalid pixel.
+struct DepthImage {
+  int width = 0;
+  int height = 0;
+  std::vector<float> depth_m;  ///< row-major, size width * height
+
+  DepthImage() = default;
+  DepthImage(int w, int h, float fill = 0.0f) : width(w), height(h), depth_m(std::size_t(w) * h, fill) {}
+  float& at(int u, int v) { return depth_m[std::size_t(v) * width + u]; }
+  float at(int u, int v) const { return depth_m[std::size_t(v) * width + u]; }
+};
+
+/// Back-projects every pixel to a point in the sensor frame. Invalid pixels (0, NaN, negative)
+/// become NaN points so that the integrator counts them; `stride` keeps every stride-th pixel in
+/// both directions. Throws std::invalid_argument when the image size differs from the intrinsics.
+PointCloud backProject(const DepthImage& depth, const CameraIntrinsics& K, int stride = 1);
+
+}  // namespace vdbmap

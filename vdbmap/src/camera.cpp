@@ -1,0 +1,44 @@
+#include "vdbmap/camera.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace vdbmap {
+
+void CameraIntrinsics::validate() const {
+  auto fail = [](const std::string& what) { throw std::invalid_argument("CameraIntrinsics: " + what); };
+  if (width <= 0) fail("width must be > 0, got " + std::to_string(width));
+  if (height <= 0) fail("height must be > 0, got " + std::to_string(height));
+  if (!std::isfinite(fx) || fx == 0.0) fail("fx must be finite and non-zero, got " + std::to_string(fx));
+  if (!std::isfinite(fy) || fy == 0.0) fail("fy must be finite and non-zero, got " + std::to_string(fy));
+  if (!std::isfinite(cx)) fail("cx must be finite");
+  if (!std::isfinite(cy)) fail("cy must be finite");
+}
+
+PointCloud backProject(const DepthImage& depth, const CameraIntrinsics& K, int stride) {
+  K.validate();
+  if (depth.width != K.width || depth.height != K.height)
+    throw std::invalid_argument("backProject: depth image is " + std::to_string(depth.width) + "x" +
+                                std::to_string(depth.height) + " but the camera is " +
+                                std::to_string(K.width) + "x" + std::to_string(K.height));
+  if (stride < 1) throw std::invalid_argument("backProject: stride must be >= 1, got " + std::to_string(stride));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  PointCloud points_S;
+  points_S.reserve(std::size_t((K.width + stride - 1) / stride) * ((K.height + stride - 1) / stride));
+  const double inv_fx = 1.0 / K.fx, inv_fy = 1.0 / K.fy;
+  for (int v = 0; v < K.height; v += stride) {
+    for (int u = 0; u < K.width; u += stride) {
+      const float z = depth.at(u, v);
+      if (!(z > 0.0f) || !std::isfinite(z)) {
+        points_S.emplace_back(nan, nan, nan);
+        continue;
+      }
+      points_S.emplace_back(float((u - K.cx) * inv_fx * z), float((v - K.cy) * inv_fy * z), z);
+    }
+  }
+  return points_S;
+}
+
+}  // namespace vdbmap
