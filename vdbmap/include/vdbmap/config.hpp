@@ -1,0 +1,59 @@
+// Parameters of the TSDF map and of frame integration, with their defaults.
+//
+// Defaults live here only. Every struct has validate(), which throws std::invalid_argument naming
+// the field and its allowed range.
+#pragma once
+
+#include <string>
+
+namespace vdbmap {
+
+/// How much one ray counts in a voxel's weighted average.
+enum class Weighting {
+  Constant,       ///< every ray weighs 1
+  InverseSquare,  ///< 1/z^2 (z = depth along the optical axis), with the paper's Eq. 2 linear
+                  ///< drop-off behind the surface: from -voxel_size down to -truncation it falls
+                  ///< linearly to 0
+};
+
+/// Whether rays that end in the same voxel are bundled into one (voxblox's "merged" integrator,
+/// the fast default) or every point casts its own ray (slow, the reference).
+enum class RayMode { Merged, PerRay };
+
+const char* toString(Weighting w);
+const char* toString(RayMode m);
+/// Parses "constant" / "inverse_square"; throws std::invalid_argument listing the choices.
+Weighting parseWeighting(const std::string& text);
+/// Parses "merged" / "per_ray"; throws std::invalid_argument listing the choices.
+RayMode parseRayMode(const std::string& text);
+
+/// The map's geometry and the meaning of its values.
+struct TsdfConfig {
+  double voxel_size_m = 0.1;               ///< edge of a voxel; (0, 10]
+  double truncation_vox = 3.0;             ///< truncation distance delta in voxels; [1, 100]
+  Weighting weighting = Weighting::InverseSquare;
+  /// tau_w of the paper (Sect. IV-A): a voxel is *known* when its weight sum exceeds this. One ray
+  /// weighs 1 (constant) or 1/z^2 (inverse_square), so the default 1e-3 means "seen at all".
+  double min_weight = 1e-3;                ///< [0, 1e6)
+  /// A known voxel is *occupied* when its tsdf is below this many voxels, else *free*. 0.5 makes
+  /// the voxel that contains the surface occupied.
+  double occupancy_threshold_vox = 0.5;    ///< [-truncation_vox, truncation_vox]
+
+  double truncation_m() const { return truncation_vox * voxel_size_m; }
+  void validate() const;
+};
+
+/// How frames are turned into ray updates. Part of a map's identity: a frame is de-integrated
+/// with the same settings it was integrated with.
+struct IntegratorConfig {
+  double min_range_m = 0.1;  ///< points closer than this are invalid (skipped, counted); [0, max_range_m)
+  /// Points beyond this carve free space up to it and add no surface; (min_range_m, 1000]
+  double max_range_m = 5.0;
+  RayMode ray_mode = RayMode::Merged;
+  /// Worker threads for integration; 0 = TBB's default (all cores). The map does not depend on it.
+  int threads = 0;            ///< [0, 1024]
+
+  void validate() const;
+};
+
+}  // namespace vdbmap

@@ -1,0 +1,138 @@
+// The TSDF map: OpenVDB grids of exact fixed-point sums, with integration and exact
+// de-integration of frames.
+//
+// Per voxel the map holds two 64-bit integers: the weight sum W and the weighted signed-distance
+// sum WD, both in fixed point (see kWeightScale, kSdfScale). Integer addition is exact and
+// commutative, so integrating a frame and then de-integrating it restores every voxel bit for bit,
+// and neither the order of frames nor the number of threads changes the map. Voxels whose weight
+// returns to zero are removed, so the tree shrinks back.
+//
+// Voxel centres follow OpenVDB's convention: voxel (i, j, k) is centred at (i, j, k) * voxel_size.
+#pragma once
+
+#include "vdbmap/config.hpp"
+#include "vdbmap/openvdb.hpp"
+#include "vdbmap/types.hpp"
+
+#include <filesystem>
+#include <map>
+#include <optional>
+
+namespace vdbmap {
+
+/// Fixed-point scales of the exact state: one ray of weight 1 adds kWeightScale to W; a voxel at
+/// signed distance +truncation adds kSdfScale per weight unit to WD.
+inline constexpr std::int64_t kWeightScale = 1024;
+inline constexpr std::int64_t kSdfScale = 32768;
+
+enum class VoxelState { Unknown, Free, Occupied };
+const char* toString(VoxelState s);
+
+/// What one call of integrate() or deintegrate() did with its points.
+struct IntegrationStats {
+  std::size_t points_total = 0;
+  std::size_t points_invalid = 0;      ///< NaN, infinite, zero, or closer than min_range_m
+  std::size_t points_beyond_range = 0; ///< beyond max_range_m: carved free space only
+  std::size_t rays_cast = 0;           ///< after bundling (Merged) or one per valid point (PerRay)
+  std::size_t voxel_updates = 0;       ///< voxel visits summed over all rays
+};
+
+/// One voxel's value, read from the exact state.
+struct VoxelSample {
+  VoxelState state = VoxelState::Unknown;
+  float tsdf_m = 0.0f;   ///< weighted mean signed distance; +truncation when unknown
+  float weight = 0.0f;   ///< weight sum in ray units (0 when never observed)
+};
+
+/// Why the map refuses a frame in integrate() / deintegrate(). Misuse, so an exception.
+class FrameError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+class TsdfVolume {
+ public:
+  using Int64GridT = openvdb::Int64Grid;
+
+  explicit TsdfVolume(const TsdfConfig& config = {}, const IntegratorConfig& integrator = {});
+
+  const TsdfConfig& config() const { return config_; }
+  const IntegratorConfig& integratorConfig() const { return integrator_; }
+  /// Changes only the thread count (the map does not depend on it).
+  void setThreads(int threads);
+
+  /// Integrates a frame: points in the sensor frame S (NaN/zero points are skipped and counted)
+  /// seen from the sensor pose T_W_S. Throws FrameError when `id` is already integrated or the
+  /// pose is not a rigid transform; nothing is changed then.
+  IntegrationStats integrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S);
+
+  /// Removes exactly what integrate(id, points_S, T_W_S) added. Throws FrameError, changing
+  /// nothing, when `id` was never integrated or was integrated with other points or pose.
+  IntegrationStats deintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S);
+
+  bool isIntegrated(FrameId id) const { return frames_.count(id) != 0; }
+  std::size_t frameCount() const { return frames_.size(); }
+  /// The pose each integrated frame was integrated with, by id.
+  std::map<FrameId, Pose3d> integratedPoses() const;
+
+  // ---- queries -------------------------------------------------------------------------------
+  VoxelSample sample(const openvdb::Coord& ijk) const;
+  /// The voxel whose centre is nearest to p_W.
+  VoxelSample sampleAt(const Vec3d& p_W) const { return sample(worldToVoxel(p_W)); }
+  VoxelState state(const openvdb::Coord& ijk) const { return sample(ijk).state; }
+  VoxelState stateAt(const Vec3d& p_W) const { return sample(worldToVoxel(p_W)).state; }
+  openvdb::Coord worldToVoxel(const Vec3d& p_W) const;
+  Vec3d voxelCenter(const openvdb::Coord& ijk) const;
+
+  /// Number of voxels with any weight (known or not).
+  std::size_t activeVoxelCount() const { return weight_q_->activeVoxelCount(); }
+  /// Memory of the exact state in bytes (both trees).
+  std::size_t memoryBytes() const { return weight_q_->memUsage() + wsdf_q_->memUsage(); }
+  /// Index-space bounding box of voxels with any weight (empty when the map is empty).
+  openvdb::CoordBBox activeBoundingBox() const;
+
+  // ---- exports -------------------------------------------------------------------------------
+  /// Known voxels' tsdf in metres (FloatGrid "tsdf", background +truncation, level-set class).
+  openvdb::FloatGrid::Ptr tsdfGrid() const;
+  /// Known voxels' weight sums (FloatGrid "weight", background 0).
+  openvdb::FloatGrid::Ptr weightGrid() const;
+  /// The exact state (read-only views; copy before modifying).
+  openvdb::Int64Grid::ConstPtr weightSumGrid() const { return weight_q_; }
+  openvdb::Int64Grid::ConstPtr weightedSdfSumGrid() const { return wsdf_q_; }
+
+  /// True when both maps hold bit-identical exact state (values and topology).
+  bool exactlyEquals(const TsdfVolume& other) const;
+
+  // ---- files (implemented in tsdf_volume_io.cpp) ---------------------------------------------
+  /// Writes `path` (.vdb: float grids "tsdf" and "weight" plus metadata, readable by vdb_print
+  /// and pyopenvdb) and the exact integer state with the frame registry to exactStatePath(path).
+  /// Both are written to temporaries and renamed: a failure leaves existing files untouched.
+  void save(const std::filesystem::path& path) const;
+  /// Loads a map saved by save(). With the companion file the state is exact and integration can
+  /// resume bit for bit; without it the state is rebuilt from the float grids (approximately) and
+  /// the frame registry is empty. Throws std::runtime_error naming the file on bad input.
+  static TsdfVolume load(const std::filesystem::path& path);
+  /// `map.vdb` -> `map.exact.vdb`.
+  static std::filesystem::path exactStatePath(const std::filesystem::path& path);
+  /// Whether the state came from exact data (false after loading a map without its companion).
+  bool hasExactState() const { return exact_state_; }
+
+ private:
+  struct FrameRecord {
+    std::uint64_t fingerprint = 0;
+    Pose3d T_W_S = Pose3d::Identity();
+  };
+  IntegrationStats apply(const PointCloud& points_S, const Pose3d& T_W_S, std::int64_t sign);
+  std::uint64_t fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const;
+  void checkPose(FrameId id, const Pose3d& T_W_S) const;
+
+  TsdfConfig config_;
+  IntegratorConfig integrator_;
+  openvdb::math::Transform::Ptr transform_;
+  Int64GridT::Ptr weight_q_;  ///< W in units of 1 / kWeightScale
+  Int64GridT::Ptr wsdf_q_;    ///< WD in units of truncation / (kWeightScale * kSdfScale)
+  std::map<FrameId, FrameRecord> frames_;
+  bool exact_state_ = true;
+};
+
+}  // namespace vdbmap

@@ -1,0 +1,217 @@
+#include "vdbmap/tsdf_volume.hpp"
+
+#include "internal/ray_integrator.hpp"
+
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tree/LeafManager.h>
+
+#include <tbb/task_arena.h>
+
+#include <cstring>
+#include <sstream>
+
+namespace vdbmap {
+
+const char* toString(VoxelState s) {
+  switch (s) {
+    case VoxelState::Unknown: return "unknown";
+    case VoxelState::Free: return "free";
+    case VoxelState::Occupied: return "occupied";
+  }
+  return "?";
+}
+
+TsdfVolume::TsdfVolume(const TsdfConfig& config, const IntegratorConfig& integrator)
+    : config_(config), integrator_(integrator) {
+  config_.validate();
+  integrator_.validate();
+  initializeOpenVdb();
+  transform_ = openvdb::math::Transform::createLinearTransform(config_.voxel_size_m);
+  weight_q_ = Int64GridT::create(0);
+  weight_q_->setTransform(transform_);
+  weight_q_->setName("weight_q");
+  wsdf_q_ = Int64GridT::create(0);
+  wsdf_q_->setTransform(transform_);
+  wsdf_q_->setName("wsdf_q");
+}
+
+void TsdfVolume::setThreads(int threads) {
+  IntegratorConfig c = integrator_;
+  c.threads = threads;
+  c.validate();
+  integrator_ = c;
+}
+
+std::uint64_t TsdfVolume::fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const {
+  // A 64-bit mix over the raw bytes (splitmix64 finaliser per word): equal inputs give equal
+  // fingerprints; a different point or pose changes it with overwhelming probability.
+  std::uint64_t h = 0x9e3779b97f4a7c15ULL ^ points_S.size();
+  auto mix = [&h](std::uint64_t w) {
+    h ^= w + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
+    h ^= h >> 30;
+    h *= 0xbf58476d1ce4e5b9ULL;
+    h ^= h >> 27;
+    h *= 0x94d049bb133111ebULL;
+    h ^= h >> 31;
+  };
+  const auto* bytes = reinterpret_cast<const unsigned char*>(points_S.data());
+  const std::size_t n = points_S.size() * sizeof(Vec3f);
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, bytes + i, 8);
+    mix(w);
+  }
+  std::uint64_t tail = 0;
+  std::memcpy(&tail, bytes + i, n - i);
+  mix(tail);
+  for (int k = 0; k < 16; ++k) {
+    std::uint64_t w;
+    const double v = T_W_S.matrix().data()[k];
+    std::memcpy(&w, &v, 8);
+    mix(w);
+  }
+  return h;
+}
+
+void TsdfVolume::checkPose(FrameId id, const Pose3d& T_W_S) const {
+  if (!isValidRigidTransform(T_W_S))
+    throw FrameError("frame " + std::to_string(id) + ": T_W_S is not a rigid transform (NaN or non-orthonormal rotation)");
+}
+
+IntegrationStats TsdfVolume::apply(const PointCloud& points_S, const Pose3d& T_W_S, std::int64_t sign) {
+  IntegrationStats stats;
+  auto work = [&] {
+    const std::vector<internal::RayBundle> bundles =
+        internal::bundleRays(points_S, T_W_S, config_, integrator_, stats);
+    internal::castRays(bundles, T_W_S.translation(), config_, *weight_q_, *wsdf_q_, sign, stats);
+  };
+  if (integrator_.threads > 0) {
+    tbb::task_arena arena(integrator_.threads);
+    arena.execute(work);
+  } else {
+    work();
+  }
+  return stats;
+}
+
+IntegrationStats TsdfVolume::integrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S) {
+  if (frames_.count(id)) throw FrameError("frame " + std::to_string(id) + " is already integrated");
+  checkPose(id, T_W_S);
+  IntegrationStats stats = apply(points_S, T_W_S, +1);
+  frames_[id] = FrameRecord{fingerprint(points_S, T_W_S), T_W_S};
+  return stats;
+}
+
+IntegrationStats TsdfVolume::deintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S) {
+  const auto it = frames_.find(id);
+  if (it == frames_.end())
+    throw FrameError("frame " + std::to_string(id) + " cannot be de-integrated: it was never integrated");
+  if (it->second.fingerprint != fingerprint(points_S, T_W_S))
+    throw FrameError("frame " + std::to_string(id) +
+                     " cannot be de-integrated: its points or pose differ from those it was integrated with");
+  IntegrationStats stats = apply(points_S, T_W_S, -1);
+  frames_.erase(it);
+  return stats;
+}
+
+std::map<FrameId, Pose3d> TsdfVolume::integratedPoses() const {
+  std::map<FrameId, Pose3d> poses;
+  for (const auto& [id, rec] : frames_) poses.emplace(id, rec.T_W_S);
+  return poses;
+}
+
+openvdb::Coord TsdfVolume::worldToVoxel(const Vec3d& p_W) const {
+  const double inv = 1.0 / config_.voxel_size_m;
+  return openvdb::Coord(int(std::floor(p_W.x() * inv + 0.5)), int(std::floor(p_W.y() * inv + 0.5)),
+                        int(std::floor(p_W.z() * inv + 0.5)));
+}
+
+Vec3d TsdfVolume::voxelCenter(const openvdb::Coord& ijk) const {
+  return Vec3d(ijk.x(), ijk.y(), ijk.z()) * config_.voxel_size_m;
+}
+
+namespace {
+/// Converts a voxel's exact sums to (state, tsdf, weight).
+inline VoxelSample decode(std::int64_t w, std::int64_t wd, const TsdfConfig& c) {
+  VoxelSample s;
+  const double delta = c.truncation_m();
+  s.weight = float(double(w) / double(kWeightScale));
+  if (w <= 0 || double(w) <= c.min_weight * double(kWeightScale)) {
+    s.tsdf_m = float(delta);
+    s.state = VoxelState::Unknown;
+    return s;
+  }
+  s.tsdf_m = float(double(wd) / double(w) / double(kSdfScale) * delta);
+  s.state = s.tsdf_m < c.occupancy_threshold_vox * c.voxel_size_m ? VoxelState::Occupied : VoxelState::Free;
+  return s;
+}
+}  // namespace
+
+VoxelSample TsdfVolume::sample(const openvdb::Coord& ijk) const {
+  const std::int64_t w = weight_q_->tree().getValue(ijk);
+  const std::int64_t wd = wsdf_q_->tree().getValue(ijk);
+  return decode(w, wd, config_);
+}
+
+openvdb::CoordBBox TsdfVolume::activeBoundingBox() const {
+  openvdb::CoordBBox bbox;
+  weight_q_->tree().evalActiveVoxelBoundingBox(bbox);
+  return bbox;
+}
+
+namespace {
+/// A float grid with the exact state's topology, holding `value(sample)` on known voxels only.
+template <typename ValueFn>
+openvdb::FloatGrid::Ptr derivedGrid(const openvdb::Int64Grid& weight_q, const openvdb::Int64Grid& wsdf_q,
+                                    const TsdfConfig& config, float background, const char* name, ValueFn value) {
+  auto tree = std::make_shared<openvdb::FloatTree>(weight_q.tree(), background, openvdb::TopologyCopy());
+  openvdb::tree::LeafManager<openvdb::FloatTree> leaves(*tree);
+  leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
+    const auto* w_leaf = weight_q.tree().probeConstLeaf(leaf.origin());
+    const auto* wd_leaf = wsdf_q.tree().probeConstLeaf(leaf.origin());
+    for (auto it = leaf.beginValueOn(); it; ++it) {
+      const VoxelSample s = decode(w_leaf->getValue(it.pos()), wd_leaf->getValue(it.pos()), config);
+      if (s.state == VoxelState::Unknown)
+        it.setValueOff();  // the leaf's value stays the background below
+      else
+        it.setValue(value(s));
+    }
+    for (auto it = leaf.beginValueOff(); it; ++it) it.setValue(background);
+  });
+  openvdb::tools::pruneInactive(*tree);
+  auto grid = openvdb::FloatGrid::create(tree);
+  grid->setTransform(weight_q.transform().copy());
+  grid->setName(name);
+  return grid;
+}
+}  // namespace
+
+openvdb::FloatGrid::Ptr TsdfVolume::tsdfGrid() const {
+  auto grid = derivedGrid(*weight_q_, *wsdf_q_, config_, float(config_.truncation_m()), "tsdf",
+                          [](const VoxelSample& s) { return s.tsdf_m; });
+  grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  return grid;
+}
+
+openvdb::FloatGrid::Ptr TsdfVolume::weightGrid() const {
+  auto grid = derivedGrid(*weight_q_, *wsdf_q_, config_, 0.0f, "weight", [](const VoxelSample& s) { return s.weight; });
+  grid->setGridClass(openvdb::GRID_UNKNOWN);
+  return grid;
+}
+
+namespace {
+bool treesEqual(const openvdb::Int64Tree& a, const openvdb::Int64Tree& b) {
+  if (a.activeVoxelCount() != b.activeVoxelCount() || a.leafCount() != b.leafCount()) return false;
+  if (!a.hasSameTopology(b)) return false;
+  for (auto it = a.cbeginValueOn(); it; ++it)
+    if (b.getValue(it.getCoord()) != *it) return false;
+  return true;
+}
+}  // namespace
+
+bool TsdfVolume::exactlyEquals(const TsdfVolume& other) const {
+  return treesEqual(weight_q_->tree(), other.weight_q_->tree()) && treesEqual(wsdf_q_->tree(), other.wsdf_q_->tree());
+}
+
+}  // namespace vdbmap

@@ -1,0 +1,162 @@
+// Saving and loading TsdfVolume: the portable float map (.vdb) and the exact companion file.
+#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/tsdf_volume.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <openvdb/tree/LeafManager.h>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace vdbmap {
+namespace {
+
+constexpr int kFormatVersion = 1;
+
+openvdb::MetaMap configMetadata(const TsdfConfig& c, const IntegratorConfig& in, std::size_t frames) {
+  openvdb::MetaMap meta;
+  meta.insertMeta("vdbmap_format_version", openvdb::Int32Metadata(kFormatVersion));
+  meta.insertMeta("voxel_size_m", openvdb::DoubleMetadata(c.voxel_size_m));
+  meta.insertMeta("truncation_vox", openvdb::DoubleMetadata(c.truncation_vox));
+  meta.insertMeta("truncation_m", openvdb::DoubleMetadata(c.truncation_m()));
+  meta.insertMeta("weighting", openvdb::StringMetadata(toString(c.weighting)));
+  meta.insertMeta("min_weight", openvdb::DoubleMetadata(c.min_weight));
+  meta.insertMeta("occupancy_threshold_vox", openvdb::DoubleMetadata(c.occupancy_threshold_vox));
+  meta.insertMeta("min_range_m", openvdb::DoubleMetadata(in.min_range_m));
+  meta.insertMeta("max_range_m", openvdb::DoubleMetadata(in.max_range_m));
+  meta.insertMeta("ray_mode", openvdb::StringMetadata(toString(in.ray_mode)));
+  meta.insertMeta("frames_integrated", openvdb::Int64Metadata(openvdb::Int64(frames)));
+  return meta;
+}
+
+template <typename MetaT, typename T>
+T requireMeta(const openvdb::MetaMap& meta, const std::string& key, const std::filesystem::path& path) {
+  const auto m = meta.getMetadata<MetaT>(key);
+  if (!m) throw std::runtime_error(path.string() + ": metadata '" + key + "' is missing: not a vdbmap map?");
+  return m->value();
+}
+
+void writeGrids(const std::filesystem::path& path, const openvdb::GridPtrVec& grids, const openvdb::MetaMap& meta) {
+  const std::filesystem::path tmp = io::temporaryPathFor(path);
+  try {
+    openvdb::io::File file(tmp.string());
+    file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
+    file.write(grids, meta);
+    file.close();
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw std::runtime_error("cannot write " + path.string() + ": " + e.what());
+  }
+  io::commitTemporary(tmp, path);
+}
+
+}  // namespace
+
+std::filesystem::path TsdfVolume::exactStatePath(const std::filesystem::path& path) {
+  std::filesystem::path p = path;
+  p.replace_extension();
+  p += ".exact.vdb";
+  return p;
+}
+
+void TsdfVolume::save(const std::filesystem::path& path) const {
+  if (path.has_parent_path() && !std::filesystem::is_directory(path.parent_path()))
+    throw std::runtime_error("cannot write " + path.string() + ": folder " + path.parent_path().string() +
+                             " does not exist");
+  const openvdb::MetaMap meta = configMetadata(config_, integrator_, frames_.size());
+
+  // The exact state and the frame registry go first: a map file never points at a stale companion.
+  if (exact_state_) {
+    nlohmann::json registry = nlohmann::json::array();
+    for (const auto& [id, rec] : frames_) {
+      const auto& m = rec.T_W_S.matrix();
+      registry.push_back({{"id", id}, {"fingerprint", std::to_string(rec.fingerprint)},
+                          {"T_W_S", std::vector<double>(m.data(), m.data() + 16)}});
+    }
+    openvdb::MetaMap exact_meta = meta;
+    exact_meta.insertMeta("frames_json", openvdb::StringMetadata(registry.dump()));
+    exact_meta.insertMeta("weight_scale", openvdb::Int64Metadata(kWeightScale));
+    exact_meta.insertMeta("sdf_scale", openvdb::Int64Metadata(kSdfScale));
+    writeGrids(exactStatePath(path), {weight_q_->deepCopyGrid(), wsdf_q_->deepCopyGrid()}, exact_meta);
+  }
+
+  openvdb::FloatGrid::Ptr tsdf = tsdfGrid();
+  openvdb::FloatGrid::Ptr weight = weightGrid();
+  for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
+    tsdf->insertMeta(it->first, *it->second);
+    weight->insertMeta(it->first, *it->second);
+  }
+  writeGrids(path, {tsdf, weight}, meta);
+}
+
+TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
+  initializeOpenVdb();
+  if (!std::filesystem::is_regular_file(path)) throw std::runtime_error("cannot open map " + path.string() + ": no such file");
+  try {
+    openvdb::io::File file(path.string());
+    file.open();
+    const openvdb::MetaMap::Ptr meta = file.getMetadata();
+    TsdfConfig c;
+    IntegratorConfig in;
+    c.voxel_size_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "voxel_size_m", path);
+    c.truncation_vox = requireMeta<openvdb::DoubleMetadata, double>(*meta, "truncation_vox", path);
+    c.weighting = parseWeighting(requireMeta<openvdb::StringMetadata, std::string>(*meta, "weighting", path));
+    c.min_weight = requireMeta<openvdb::DoubleMetadata, double>(*meta, "min_weight", path);
+    c.occupancy_threshold_vox = requireMeta<openvdb::DoubleMetadata, double>(*meta, "occupancy_threshold_vox", path);
+    in.min_range_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "min_range_m", path);
+    in.max_range_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "max_range_m", path);
+    in.ray_mode = parseRayMode(requireMeta<openvdb::StringMetadata, std::string>(*meta, "ray_mode", path));
+    TsdfVolume volume(c, in);
+
+    const std::filesystem::path exact = exactStatePath(path);
+    if (std::filesystem::is_regular_file(exact)) {
+      openvdb::io::File ef(exact.string());
+      ef.open();
+      const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
+      if (requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "weight_scale", exact) != kWeightScale ||
+          requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "sdf_scale", exact) != kSdfScale)
+        throw std::runtime_error(exact.string() + ": fixed-point scales differ from this build's");
+      auto w = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("weight_q"));
+      auto wd = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("wsdf_q"));
+      if (!w || !wd) throw std::runtime_error(exact.string() + ": grids weight_q / wsdf_q missing or not Int64");
+      volume.weight_q_->setTree(w->treePtr());
+      volume.wsdf_q_->setTree(wd->treePtr());
+      const auto registry =
+          nlohmann::json::parse(requireMeta<openvdb::StringMetadata, std::string>(*emeta, "frames_json", exact));
+      for (const auto& f : registry) {
+        FrameRecord rec;
+        rec.fingerprint = std::stoull(f.at("fingerprint").get<std::string>());
+        const auto m = f.at("T_W_S").get<std::vector<double>>();
+        if (m.size() != 16) throw std::runtime_error(exact.string() + ": frame pose must have 16 numbers");
+        std::copy(m.begin(), m.end(), rec.T_W_S.matrix().data());
+        volume.frames_[f.at("id").get<FrameId>()] = rec;
+      }
+      return volume;
+    }
+
+    // No companion: rebuild an approximate integer state from the float grids.
+    auto tsdf = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
+    auto weight = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("weight"));
+    if (!tsdf || !weight) throw std::runtime_error(path.string() + ": grids tsdf / weight missing or not float");
+    auto wacc = volume.weight_q_->getAccessor();
+    auto wdacc = volume.wsdf_q_->getAccessor();
+    const double delta = c.truncation_m();
+    for (auto it = weight->cbeginValueOn(); it; ++it) {
+      const std::int64_t wq = std::llround(double(*it) * kWeightScale);
+      if (wq <= 0) continue;
+      const double sdf = tsdf->tree().getValue(it.getCoord());
+      wacc.setValue(it.getCoord(), wq);
+      wdacc.setValue(it.getCoord(), wq * std::llround(sdf / delta * kSdfScale));
+    }
+    volume.exact_state_ = false;
+    return volume;
+  } catch (const openvdb::Exception& e) {
+    throw std::runtime_error("cannot read map " + path.string() + ": " + e.what());
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error("cannot read map " + path.string() + ": bad frame registry: " + e.what());
+  }
+}
+
+}  // namespace vdbmap
