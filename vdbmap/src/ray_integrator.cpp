@@ -96,6 +96,8 @@ struct LocalGrids {
   openvdb::tree::ValueAccessor<Int64Tree> weight_acc{weight}, wsdf_acc{wsdf};
   Int64Leaf* weight_leaf = nullptr;
   Int64Leaf* wsdf_leaf = nullptr;
+  std::int64_t* weight_data = nullptr;  // the leaves' in-core buffers: no per-value checks
+  std::int64_t* wsdf_data = nullptr;
   openvdb::Coord leaf_origin{std::numeric_limits<int>::max()};
   std::size_t updates = 0;
 
@@ -104,11 +106,15 @@ struct LocalGrids {
     if (origin != leaf_origin) {
       weight_leaf = weight_acc.touchLeaf(ijk);
       wsdf_leaf = wsdf_acc.touchLeaf(ijk);
+      weight_data = weight_leaf->buffer().data();
+      wsdf_data = wsdf_leaf->buffer().data();
       leaf_origin = origin;
     }
     const openvdb::Index n = Int64Leaf::coordToOffset(ijk);
-    weight_leaf->setValueOn(n, weight_leaf->getValue(n) + dw);
-    wsdf_leaf->setValueOn(n, wsdf_leaf->getValue(n) + dwd);
+    weight_data[n] += dw;
+    wsdf_data[n] += dwd;
+    weight_leaf->setActiveState(n, true);
+    wsdf_leaf->setActiveState(n, true);
     ++updates;
   }
 };
