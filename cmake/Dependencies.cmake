@@ -8,6 +8,7 @@ list(APPEND CMAKE_MODULE_PATH "/usr/lib/${CMAKE_LIBRARY_ARCHITECTURE}/cmake/Open
 find_package(OpenVDB REQUIRED)          # OpenVDB::openvdb (needs Boost iostreams on Debian)
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)  # Eigen3::Eigen
 find_package(Threads REQUIRED)
+find_package(ZLIB REQUIRED)             # ZLIB::ZLIB, keyframe compression
 find_package(PNG REQUIRED)              # PNG::PNG, 16-bit depth images
 find_package(nlohmann_json 3 REQUIRED)  # nlohmann_json::nlohmann_json, sensor.json and summaries
 find_package(CLI11 REQUIRED)            # CLI11::CLI11, the vdbmap command line

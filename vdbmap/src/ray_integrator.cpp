@@ -292,6 +292,16 @@ std::vector<RayBundle> bundleRays(const PointCloud& points_S, const Pose3d& T_W_
 
 void castRays(const std::vector<RayBundle>& bundles, const Vec3d& origin_W, const TsdfConfig& tsdf,
               openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q, std::int64_t sign, IntegrationStats& stats) {
+  if (!bundles.empty()) {
+    // The box around the rays' segments (origin to end, padded by the truncation band).
+    const double pad = tsdf.truncation_m() + tsdf.voxel_size_m;
+    Eigen::AlignedBox3d box(origin_W);
+    for (const RayBundle& b : bundles) box.extend(b.end_W);
+    const double inv = 1.0 / tsdf.voxel_size_m;
+    const auto lo = ((box.min().array() - pad) * inv).floor().cast<int>();
+    const auto hi = ((box.max().array() + pad) * inv).ceil().cast<int>();
+    stats.touched_voxels.expand(openvdb::CoordBBox(openvdb::Coord(lo[0], lo[1], lo[2]), openvdb::Coord(hi[0], hi[1], hi[2])));
+  }
   tbb::enumerable_thread_specific<LocalGrids> locals;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, bundles.size(), 256), [&](const auto& r) {
     LocalGrids& g = locals.local();

@@ -6,6 +6,7 @@
 
 #include <openvdb/tree/LeafManager.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -91,6 +92,23 @@ void TsdfVolume::save(const std::filesystem::path& path) const {
   writeGrids(path, {tsdf, weight}, meta);
 }
 
+TsdfVolume TsdfVolume::fromWeightedSums(const TsdfConfig& config, const IntegratorConfig& integrator,
+                                         const openvdb::FloatGrid& weight, const openvdb::FloatGrid& weighted_tsdf) {
+  TsdfVolume volume(config, integrator);
+  auto wacc = volume.weight_q_->getAccessor();
+  auto wdacc = volume.wsdf_q_->getAccessor();
+  const double delta = config.truncation_m();
+  for (auto it = weight.cbeginValueOn(); it; ++it) {
+    const std::int64_t wq = std::llround(double(*it) * kWeightScale);
+    if (wq <= 0) continue;
+    const double sdf = std::clamp(double(weighted_tsdf.tree().getValue(it.getCoord())) / double(*it), -delta, delta);
+    wacc.setValue(it.getCoord(), wq);
+    wdacc.setValue(it.getCoord(), wq * std::llround(sdf / delta * kSdfScale));
+  }
+  volume.exact_state_ = false;
+  return volume;
+}
+
 TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
   initializeOpenVdb();
   if (!std::filesystem::is_regular_file(path)) throw std::runtime_error("cannot open map " + path.string() + ": no such file");
@@ -140,18 +158,9 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
     auto tsdf = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
     auto weight = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("weight"));
     if (!tsdf || !weight) throw std::runtime_error(path.string() + ": grids tsdf / weight missing or not float");
-    auto wacc = volume.weight_q_->getAccessor();
-    auto wdacc = volume.wsdf_q_->getAccessor();
-    const double delta = c.truncation_m();
-    for (auto it = weight->cbeginValueOn(); it; ++it) {
-      const std::int64_t wq = std::llround(double(*it) * kWeightScale);
-      if (wq <= 0) continue;
-      const double sdf = tsdf->tree().getValue(it.getCoord());
-      wacc.setValue(it.getCoord(), wq);
-      wdacc.setValue(it.getCoord(), wq * std::llround(sdf / delta * kSdfScale));
-    }
-    volume.exact_state_ = false;
-    return volume;
+    auto weighted = weight->deepCopy();
+    for (auto it = weighted->beginValueOn(); it; ++it) it.setValue(*it * tsdf->tree().getValue(it.getCoord()));
+    return fromWeightedSums(c, in, *weight, *weighted);
   } catch (const openvdb::Exception& e) {
     throw std::runtime_error("cannot read map " + path.string() + ": " + e.what());
   } catch (const nlohmann::json::exception& e) {

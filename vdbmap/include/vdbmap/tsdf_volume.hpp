@@ -35,6 +35,7 @@ struct IntegrationStats {
   std::size_t points_beyond_range = 0; ///< beyond max_range_m: carved free space only
   std::size_t rays_cast = 0;           ///< after bundling (Merged) or one per valid point (PerRay)
   std::size_t voxel_updates = 0;       ///< voxel visits summed over all rays
+  openvdb::CoordBBox touched_voxels;   ///< index-space box around every voxel the rays touched
 };
 
 /// One voxel's value, read from the exact state.
@@ -112,6 +113,11 @@ class TsdfVolume {
   /// resume bit for bit; without it the state is rebuilt from the float grids (approximately) and
   /// the frame registry is empty. Throws std::runtime_error naming the file on bad input.
   static TsdfVolume load(const std::filesystem::path& path);
+  /// A map rebuilt from float sums: `weight` (ray units) and `weighted_tsdf` (weight x tsdf in
+  /// metres) on the same voxels, e.g. the fusion of submaps. The state is approximate (quantized
+  /// from floats, hasExactState() false) and the frame registry is empty.
+  static TsdfVolume fromWeightedSums(const TsdfConfig& config, const IntegratorConfig& integrator,
+                                     const openvdb::FloatGrid& weight, const openvdb::FloatGrid& weighted_tsdf);
   /// `map.vdb` -> `map.exact.vdb`.
   static std::filesystem::path exactStatePath(const std::filesystem::path& path);
   /// Whether the state came from exact data (false after loading a map without its companion).

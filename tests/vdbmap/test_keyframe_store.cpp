@@ -1,0 +1,60 @@
+// Keyframe storage: exact decoding and memory per frame.
+#include "vdbmap/keyframe_store.hpp"
+#include "vdbmap/sim/analytic_scene.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+
+using namespace vdbmap;
+
+TEST_CASE("a stored depth frame decodes to the same points every time, within half a depth unit of the input",
+          "[keyframes][store]") {
+  auto K = std::make_shared<CameraIntrinsics>();  // 640x480, FUEL's camera
+  const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
+  const Pose3d T = sim::lookingPose({0.5, 0.2, 1.2}, 0.7, 0.2);
+  DepthImage depth = scene.renderDepth(*K, T, 5.0);
+  depth.at(10, 10) = std::numeric_limits<float>::quiet_NaN();
+  depth.at(11, 10) = 0.0f;
+  const EncodedFrame f = EncodedFrame::fromDepth(depth, K, 0.001);
+  const PointCloud a = f.decode(), b = f.decode();
+  REQUIRE(a.size() == std::size_t(K->width * K->height));
+  const PointCloud exact = backProject(depth, *K);
+  std::size_t invalid = 0;
+  double max_err = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    REQUIRE((a[i].allFinite() == b[i].allFinite()));
+    if (!a[i].allFinite()) {
+      ++invalid;
+      continue;
+    }
+    REQUIRE((a[i].array() == b[i].array()).all());  // bit-identical decodes
+    max_err = std::max(max_err, double(std::abs(a[i].z() - exact[i].z())));
+  }
+  CHECK(invalid >= 2);
+  CHECK(max_err <= 0.0005 + 1e-6);
+  // Memory: the budget is 150 KB per 640x480 depth frame.
+  INFO("bytes per 640x480 frame: " << f.bytes());
+  CHECK(f.bytes() <= 150 * 1024);
+}
+
+TEST_CASE("stored point clouds keep invalid points invalid and quantize to the unit", "[keyframes][store]") {
+  PointCloud pts = {Vec3f(1.2345f, -0.5f, 3.0f), Vec3f::Constant(std::numeric_limits<float>::quiet_NaN()),
+                    Vec3f(0.0f, 0.0f, 0.0f)};
+  const PointCloud d = EncodedFrame::fromPoints(pts, 0.001).decode();
+  REQUIRE(d.size() == 3);
+  CHECK(d[0].x() == Approx(1.235f).margin(1e-6));
+  CHECK_FALSE(d[1].allFinite());
+  CHECK(d[2].isZero());
+}
+
+TEST_CASE("the store refuses duplicate ids and names missing ones", "[keyframes][store]") {
+  KeyframeStore store;
+  Keyframe kf;
+  kf.id = 4;
+  store.add(kf);
+  CHECK_THROWS_WITH(store.add(kf), Catch::Contains("frame 4"));
+  CHECK_THROWS_WITH(store.at(5), Catch::Contains("frame 5"));
+  CHECK(store.bytes() > 0);
+}

@@ -1,0 +1,201 @@
+// The mapper's consistency modes and budgeted re-integration.
+#include "vdbmap/mapper.hpp"
+#include "vdbmap/mesh.hpp"
+#include "vdbmap/sim/analytic_scene.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace vdbmap;
+using sim::AnalyticScene;
+using sim::lookingPose;
+
+namespace {
+std::shared_ptr<const CameraIntrinsics> smallCamera() {
+  auto K = std::make_shared<CameraIntrinsics>();
+  K->width = 160;
+  K->height = 120;
+  K->fx = K->fy = 96.8;
+  K->cx = 79.5;
+  K->cy = 59.5;
+  return K;
+}
+
+MapperConfig config(ConsistencyMode mode) {
+  MapperConfig c;
+  c.mode = mode;
+  c.tsdf.voxel_size_m = 0.1;
+  return c;
+}
+
+Pose3d moved(const Pose3d& T, const Vec3d& dt, double dyaw) {
+  Pose3d out = T;
+  out.translation() += dt;
+  out.linear() = Eigen::AngleAxisd(dyaw, Vec3d::UnitZ()).toRotationMatrix() * T.linear();
+  return out;
+}
+
+/// Root mean square distance of the mesh's vertices to the analytic surfaces.
+double meshRmse(const TriangleMesh& mesh, const AnalyticScene& scene) {
+  double sum = 0.0;
+  for (const Vec3f& v : mesh.vertices) sum += std::pow(scene.distance(v.cast<double>()), 2);
+  return std::sqrt(sum / std::max<double>(1.0, double(mesh.vertices.size())));
+}
+
+const AnalyticScene kScene = AnalyticScene::demoRoom();
+}  // namespace
+
+TEST_CASE("re-integrating a frame at pose B equals integrating it at B in a fresh map", "[mapper][reintegration]") {
+  const auto K = smallCamera();
+  const Pose3d A = lookingPose({0.5, 0.2, 1.2}, 0.3, 0.2);
+  const Pose3d B = moved(A, {0.15, -0.1, 0.05}, 0.08);
+  const DepthImage depth = kScene.renderDepth(*K, A, 5.0);
+  for (const ConsistencyMode mode : {ConsistencyMode::All, ConsistencyMode::Keyframes}) {
+    INFO("mode " << toString(mode));
+    Mapper mapper(config(mode));
+    mapper.addDepthFrame(0, 0.0, depth, K, A);
+    REQUIRE(mapper.updatePoses({{0, B}}) == 1);
+    mapper.reintegrateAll(B.translation());
+    Mapper fresh(config(mode));
+    fresh.addDepthFrame(0, 0.0, depth, K, B);
+    CHECK(mapper.volume().exactlyEquals(fresh.volume()));
+    CHECK(mapper.stats().reintegrated_frames == 1);
+    CHECK(mapper.keyframes().at(0).T_W_S_integrated.isApprox(B));
+  }
+}
+
+TEST_CASE("a frame corrected twice ends identical to integrating it once at the final pose", "[mapper][reintegration]") {
+  const auto K = smallCamera();
+  const Pose3d A = lookingPose({-0.5, 0.4, 1.0}, 2.0, 0.1);
+  const Pose3d B = moved(A, {0.2, 0.0, 0.0}, -0.05);
+  const Pose3d C = moved(A, {-0.1, 0.3, 0.1}, 0.12);
+  const DepthImage d0 = kScene.renderDepth(*K, A, 5.0);
+  const Pose3d A1 = lookingPose({1.0, -1.0, 1.4}, -1.0, 0.3);
+  const DepthImage d1 = kScene.renderDepth(*K, A1, 5.0);
+
+  Mapper fresh(config(ConsistencyMode::All));
+  fresh.addDepthFrame(0, 0.0, d0, K, C);
+  fresh.addDepthFrame(1, 0.1, d1, K, A1);
+
+  SECTION("re-integrated after each correction") {
+    Mapper mapper(config(ConsistencyMode::All));
+    mapper.addDepthFrame(0, 0.0, d0, K, A);
+    mapper.addDepthFrame(1, 0.1, d1, K, A1);
+    mapper.updatePoses({{0, B}});
+    mapper.reintegrateAll(Vec3d::Zero());
+    mapper.updatePoses({{0, C}});
+    mapper.reintegrateAll(Vec3d::Zero());
+    CHECK(mapper.stats().reintegrated_frames == 2);
+    CHECK(mapper.volume().exactlyEquals(fresh.volume()));
+  }
+  SECTION("both corrections arrive before the frame's turn") {
+    Mapper mapper(config(ConsistencyMode::All));
+    mapper.addDepthFrame(0, 0.0, d0, K, A);
+    mapper.addDepthFrame(1, 0.1, d1, K, A1);
+    mapper.updatePoses({{0, B}});
+    mapper.updatePoses({{0, C}});
+    CHECK(mapper.queuedFrames() == 1);
+    mapper.reintegrateAll(Vec3d::Zero());
+    CHECK(mapper.stats().reintegrated_frames == 1);
+    CHECK(mapper.volume().exactlyEquals(fresh.volume()));
+  }
+}
+
+TEST_CASE("pose changes below the gate are not re-integrated; none mode ignores corrections", "[mapper][gate]") {
+  const auto K = smallCamera();
+  const Pose3d A = lookingPose({0, 0, 1.2}, 0.0, 0.2);
+  const DepthImage depth = kScene.renderDepth(*K, A, 5.0);
+  Mapper all(config(ConsistencyMode::All));
+  all.addDepthFrame(0, 0.0, depth, K, A);
+  CHECK(all.updatePoses({{0, moved(A, {0.005, 0, 0}, 0.0)}}) == 0);           // 5 mm < 1 cm
+  CHECK(all.updatePoses({{0, moved(A, {0, 0, 0}, 0.3 * M_PI / 180)}}) == 0);  // 0.3 deg < 0.5 deg
+  CHECK(all.updatePoses({{0, moved(A, {0.02, 0, 0}, 0.0)}}) == 1);
+  CHECK(all.updatePoses({{42, A}}) == 0);  // an unknown frame is skipped
+
+  Mapper none(config(ConsistencyMode::None));
+  none.addDepthFrame(0, 0.0, depth, K, A);
+  CHECK(none.updatePoses({{0, moved(A, {0.5, 0, 0}, 0.2)}}) == 0);
+  CHECK(none.queuedFrames() == 0);
+  CHECK(none.keyframesKept() == 0);
+}
+
+TEST_CASE("each cycle keeps to its budget and takes the frames nearest the robot first", "[mapper][budget]") {
+  const auto K = smallCamera();
+  MapperConfig c = config(ConsistencyMode::All);
+  c.reintegration.budget_frames = 2;
+  c.reintegration.budget_ms = 1e6;
+  c.set_cover.block_size_m = 1.0;
+  Mapper mapper(c);
+  std::map<FrameId, Pose3d> corrected;
+  for (int i = 0; i < 6; ++i) {
+    const Pose3d T = lookingPose({-3.0 + 1.2 * i, 0.0, 1.2}, 0.5 * i, 0.2);
+    mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*K, T, 5.0), K, T);
+    corrected[i] = moved(T, {0.05, 0.05, 0}, 0.02);
+  }
+  REQUIRE(mapper.updatePoses(corrected) == 6);
+  const Vec3d robot(3.0, 0.0, 1.2);  // nearest to frames 5 and 4
+  const CycleReport first = mapper.reintegrate(robot);
+  CHECK(first.frames == 2);
+  CHECK(first.queued_left == 4);
+  CHECK(mapper.keyframes().at(5).T_W_S_integrated.isApprox(corrected[5]));
+  CHECK(mapper.keyframes().at(4).T_W_S_integrated.isApprox(corrected[4]));
+  CHECK_FALSE(mapper.keyframes().at(0).T_W_S_integrated.isApprox(corrected[0]));
+  CHECK(mapper.reintegrateAll(robot) == 4);
+  CHECK(mapper.stats().reintegration_cycles == 3);
+  CHECK(mapper.stats().reintegration_ms_max_cycle <= mapper.stats().reintegration_ms_total);
+}
+
+TEST_CASE("the mapper reports the region it changed", "[mapper][dirty]") {
+  const auto K = smallCamera();
+  Mapper mapper(config(ConsistencyMode::All));
+  CHECK(mapper.takeDirtyRegion().empty());
+  const Pose3d A = lookingPose({0, 0, 1.2}, 0.0, 0.2);
+  mapper.addDepthFrame(0, 0.0, kScene.renderDepth(*K, A, 5.0), K, A);
+  const openvdb::CoordBBox box = mapper.takeDirtyRegion();
+  REQUIRE_FALSE(box.empty());
+  CHECK(box.isInside(mapper.volume().activeBoundingBox()));
+  CHECK(mapper.takeDirtyRegion().empty());
+  mapper.updatePoses({{0, moved(A, {0.3, 0, 0}, 0)}});
+  mapper.reintegrateAll(Vec3d::Zero());
+  CHECK(mapper.takeDirtyRegion().isInside(mapper.volume().activeBoundingBox()));
+}
+
+TEST_CASE("submap mode moves rigid submaps by their anchors and fuses them", "[mapper][submap]") {
+  const auto K = smallCamera();
+  MapperConfig c = config(ConsistencyMode::Submap);
+  c.submap_frames = 4;
+  Mapper submap(c), none(config(ConsistencyMode::None));
+  // The true path circles the room; odometry gains a constant offset from the 5th frame on.
+  const auto truth = AnalyticScene::demoTrajectory(8);
+  const Pose3d drift = moved(Pose3d::Identity(), {0.25, -0.15, 0.0}, 0.0);
+  std::map<FrameId, Pose3d> corrections;
+  for (int i = 0; i < 8; ++i) {
+    const Pose3d odom = i < 4 ? truth[i] : drift * truth[i];
+    const DepthImage depth = kScene.renderDepth(*K, truth[i], 5.0);
+    submap.addDepthFrame(i, 0.1 * i, depth, K, odom);
+    none.addDepthFrame(i, 0.1 * i, depth, K, odom);
+    corrections[i] = truth[i];
+  }
+  CHECK(submap.stats().submaps == 2);
+  CHECK(submap.updatePoses(corrections) == 1);  // only the second submap's anchor moved
+  const double rmse_submap = meshRmse(extractMesh(submap.volume()), kScene);
+  const double rmse_none = meshRmse(extractMesh(none.volume()), kScene);
+  CHECK(rmse_submap < 0.5 * rmse_none);
+  CHECK(rmse_submap < 0.5 * c.tsdf.voxel_size_m);
+  CHECK_FALSE(submap.volume().hasExactState());
+}
+
+TEST_CASE("invalid mapper settings name the field", "[mapper][bad-input]") {
+  MapperConfig c;
+  c.reintegration.budget_ms = 0;
+  CHECK_THROWS_WITH(Mapper(c), Catch::Contains("budget_ms"));
+  c = MapperConfig{};
+  c.submap_frames = 0;
+  CHECK_THROWS_WITH(Mapper(c), Catch::Contains("submap_frames"));
+  CHECK_THROWS_WITH(parseConsistencyMode("everything"), Catch::Contains("none, submap, all or keyframes"));
+  Mapper m(config(ConsistencyMode::All));
+  Pose3d bad = Pose3d::Identity();
+  bad.translation().x() = std::nan("");
+  CHECK_THROWS_WITH(m.updatePoses({{3, bad}}), Catch::Contains("frame 3"));
+}

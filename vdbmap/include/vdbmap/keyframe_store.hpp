@@ -1,0 +1,78 @@
+// Compact storage of integrated frames, so the map can de-integrate and re-integrate them later.
+//
+// A frame is stored quantized and compressed (depth images: 16-bit depth in `depth_unit_m`
+// steps, row-delta coded and zlib-compressed; point clouds: 32-bit integer coordinates in
+// `point_unit_m` steps, zlib-compressed). The mapper integrates the *decoded* frame, so what it
+// later de-integrates is bit-identical to what it integrated.
+#pragma once
+
+#include "vdbmap/camera.hpp"
+#include "vdbmap/types.hpp"
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <vector>
+
+namespace vdbmap {
+
+/// One frame's sensor data, quantized and compressed.
+class EncodedFrame {
+ public:
+  EncodedFrame() = default;
+  /// Depth in metres quantized to `depth_unit_m` (depths beyond 65535 units are clamped there,
+  /// which keeps them beyond any sensible max range); invalid pixels stay invalid.
+  static EncodedFrame fromDepth(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
+                                double depth_unit_m = 0.001, int stride = 1);
+  /// Points in the sensor frame quantized to `unit_m`; NaN points are kept as invalid.
+  static EncodedFrame fromPoints(const PointCloud& points_S, double unit_m = 0.001);
+
+  /// The frame's points in the sensor frame, exactly as every other decode of this frame.
+  PointCloud decode() const;
+  /// Bytes held (compressed payload plus bookkeeping).
+  std::size_t bytes() const { return sizeof(*this) + payload_.capacity(); }
+  bool empty() const { return payload_.empty(); }
+
+ private:
+  enum class Kind : std::uint8_t { Depth, Points };
+  Kind kind_ = Kind::Points;
+  std::shared_ptr<const CameraIntrinsics> intrinsics_;
+  double unit_m_ = 0.001;
+  int stride_ = 1;
+  std::uint32_t count_ = 0;  ///< pixels or points
+  std::vector<std::uint8_t> payload_;
+};
+
+/// A stored keyframe: its data and both poses.
+struct Keyframe {
+  FrameId id = 0;
+  double timestamp = 0.0;
+  Pose3d T_W_S_integrated = Pose3d::Identity();  ///< the pose the map currently holds it at
+  Pose3d T_W_S_latest = Pose3d::Identity();      ///< the newest estimate (odometry or correction)
+  bool integrated = false;                       ///< whether the map currently holds it
+  EncodedFrame data;
+};
+
+class KeyframeStore {
+ public:
+  /// Adds a keyframe; throws std::invalid_argument when the id is already stored.
+  Keyframe& add(Keyframe keyframe);
+  /// Throws std::out_of_range naming the id when it is not stored.
+  Keyframe& at(FrameId id);
+  const Keyframe& at(FrameId id) const;
+  bool contains(FrameId id) const { return frames_.count(id) != 0; }
+  void erase(FrameId id) { frames_.erase(id); }
+  std::size_t size() const { return frames_.size(); }
+  /// Bytes held by all stored frames.
+  std::size_t bytes() const;
+
+  auto begin() const { return frames_.begin(); }
+  auto end() const { return frames_.end(); }
+  auto begin() { return frames_.begin(); }
+  auto end() { return frames_.end(); }
+
+ private:
+  std::map<FrameId, Keyframe> frames_;
+};
+
+}  // namespace vdbmap

@@ -1,0 +1,135 @@
+// The mapper: one engine, four ways to keep the map consistent when loop closure corrects poses.
+//
+//  - none:      integrate with the odometry poses, ignore corrections (Voxblox-like baseline);
+//  - submap:    a new rigid submap every `submap_frames` frames, integrated in the frame of its
+//               first keyframe (its anchor); corrections move anchors only; queries and exports
+//               fuse the submaps (C-blox-like baseline);
+//  - all:       keep every frame and re-integrate every frame whose pose changed (no pruning);
+//  - keyframes: ours: keep only the frames a greedy set cover selects (set_cover.hpp) and
+//               re-integrate those.
+// Re-integration is budgeted per cycle: frames nearest to the robot (by block, then distance) go
+// first, and a frame may be corrected any number of times; it is de-integrated at the pose the map
+// holds and integrated at its newest pose.
+#pragma once
+
+#include "vdbmap/camera.hpp"
+#include "vdbmap/config.hpp"
+#include "vdbmap/keyframe_store.hpp"
+#include "vdbmap/set_cover.hpp"
+#include "vdbmap/tsdf_volume.hpp"
+#include "vdbmap/types.hpp"
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+
+namespace vdbmap {
+
+enum class ConsistencyMode { None, Submap, All, Keyframes };
+const char* toString(ConsistencyMode m);
+/// Parses none / submap / all / keyframes; throws std::invalid_argument listing the choices.
+ConsistencyMode parseConsistencyMode(const std::string& text);
+
+struct ReintegrationConfig {
+  double gate_translation_m = 0.01;  ///< a pose change below both gates is ignored; [0, 1e3]
+  double gate_rotation_deg = 0.5;    ///< [0, 180]
+  /// Time budget of one re-integration cycle (one call of reintegrate()); at least one frame is
+  /// processed per cycle so progress never stops; (0, 1e6]
+  double budget_ms = 20.0;
+  int budget_frames = 0;             ///< also stop after this many frames per cycle; 0 = no limit
+
+  void validate() const;
+};
+
+struct MapperConfig {
+  ConsistencyMode mode = ConsistencyMode::Keyframes;
+  TsdfConfig tsdf;
+  IntegratorConfig integrator;
+  ReintegrationConfig reintegration;
+  SetCoverConfig set_cover;       ///< keyframes mode
+  int submap_frames = 50;         ///< submap mode: frames per rigid submap; [1, 1e6]
+  double depth_unit_m = 0.001;    ///< keyframe store quantization of depth and points; (0, 0.1]
+
+  void validate() const;
+};
+
+/// What one re-integration cycle did.
+struct CycleReport {
+  std::size_t frames = 0;       ///< frames re-integrated in this cycle
+  double ms = 0.0;              ///< time spent
+  std::size_t queued_left = 0;  ///< frames still waiting
+};
+
+struct MapperStats {
+  std::size_t frames_total = 0;          ///< frames given to the mapper
+  std::size_t frames_dropped = 0;        ///< de-integrated and released by pruning
+  std::size_t reintegrated_frames = 0;   ///< re-integrations done (a frame may count many times)
+  std::size_t reintegration_cycles = 0;  ///< cycles that re-integrated at least one frame
+  double reintegration_ms_total = 0.0;
+  double reintegration_ms_max_cycle = 0.0;
+  std::size_t pruning_solves = 0;
+  std::size_t submaps = 0;
+};
+
+class Mapper {
+ public:
+  explicit Mapper(const MapperConfig& config);
+  ~Mapper();
+  Mapper(Mapper&&) noexcept;
+
+  const MapperConfig& config() const { return config_; }
+
+  /// Stores (except in none mode) and integrates a depth frame seen from T_W_S (odometry).
+  IntegrationStats addDepthFrame(FrameId id, double timestamp, const DepthImage& depth,
+                                 std::shared_ptr<const CameraIntrinsics> K, const Pose3d& T_W_S);
+  /// Same for a point cloud in the sensor frame.
+  IntegrationStats addPointFrame(FrameId id, double timestamp, const PointCloud& points_S, const Pose3d& T_W_S);
+
+  /// New pose estimates T_W_S by frame id (a loop-closure correction). Frames whose pose moved
+  /// beyond the gates are queued for re-integration (all, keyframes), or the submaps they anchor
+  /// move (submap); none ignores corrections. Unknown ids (e.g. pruned frames) are skipped.
+  /// Returns how many frames (or anchors) changed.
+  std::size_t updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id);
+
+  /// One budgeted re-integration cycle, nearest frames to `robot_W` first.
+  CycleReport reintegrate(const Vec3d& robot_W);
+  /// Re-integrates every queued frame (end of a log); returns frames processed.
+  std::size_t reintegrateAll(const Vec3d& robot_W);
+  std::size_t queuedFrames() const { return queue_.size(); }
+
+  /// The map: in submap mode the fusion of all submaps (rebuilt when stale, approximate state).
+  const TsdfVolume& volume() const;
+  /// Voxel box changed since the last call (integration, re-integration, pruning, anchors);
+  /// empty when nothing changed. Planners refresh frontiers and distances there.
+  openvdb::CoordBBox takeDirtyRegion();
+
+  const MapperStats& stats() const { return stats_; }
+  /// Frames whose data the mapper keeps (0 in none mode).
+  std::size_t keyframesKept() const { return store_.size(); }
+  std::size_t keyframeStoreBytes() const { return store_.bytes(); }
+  const KeyframeStore& keyframes() const { return store_; }
+
+ private:
+  struct Submap;
+  IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S);
+  void reintegrateFrame(Keyframe& kf);
+  void prune();
+  bool beyondGate(const Pose3d& a, const Pose3d& b) const;
+  void markDirty(const openvdb::CoordBBox& box);
+
+  MapperConfig config_;
+  TsdfVolume volume_;                      ///< none, all, keyframes
+  KeyframeStore store_;
+  std::set<FrameId> queue_;                ///< frames awaiting re-integration
+  std::unique_ptr<FramePruner> pruner_;    ///< keyframes mode
+  std::size_t frames_since_solve_ = 0;
+  std::vector<std::unique_ptr<Submap>> submaps_;  ///< submap mode
+  mutable std::unique_ptr<TsdfVolume> fused_;     ///< submap mode: cached fusion
+  openvdb::CoordBBox dirty_;
+  MapperStats stats_;
+};
+
+}  // namespace vdbmap

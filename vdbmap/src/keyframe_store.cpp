@@ -1,0 +1,130 @@
+#include "vdbmap/keyframe_store.hpp"
+
+#include <zlib.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace vdbmap {
+namespace {
+
+std::vector<std::uint8_t> deflateBytes(const void* data, std::size_t n) {
+  uLongf bound = compressBound(uLong(n));
+  std::vector<std::uint8_t> out(bound);
+  if (compress2(out.data(), &bound, static_cast<const Bytef*>(data), uLong(n), 1) != Z_OK)
+    throw std::runtime_error("keyframe store: zlib compression failed");
+  out.resize(bound);
+  out.shrink_to_fit();
+  return out;
+}
+
+void inflateBytes(const std::vector<std::uint8_t>& in, void* out, std::size_t n) {
+  uLongf size = uLongf(n);
+  if (uncompress(static_cast<Bytef*>(out), &size, in.data(), uLong(in.size())) != Z_OK || size != n)
+    throw std::runtime_error("keyframe store: corrupt compressed frame");
+}
+
+}  // namespace
+
+EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
+                                     double depth_unit_m, int stride) {
+  if (!K) throw std::invalid_argument("EncodedFrame::fromDepth: intrinsics are required");
+  if (depth.width != K->width || depth.height != K->height)
+    throw std::invalid_argument("EncodedFrame::fromDepth: image is " + std::to_string(depth.width) + "x" +
+                                std::to_string(depth.height) + " but the camera is " + std::to_string(K->width) + "x" +
+                                std::to_string(K->height));
+  if (!(depth_unit_m > 0.0)) throw std::invalid_argument("EncodedFrame::fromDepth: depth_unit_m must be > 0");
+  if (stride < 1) throw std::invalid_argument("EncodedFrame::fromDepth: stride must be >= 1");
+  EncodedFrame f;
+  f.kind_ = Kind::Depth;
+  f.intrinsics_ = std::move(K);
+  f.unit_m_ = depth_unit_m;
+  f.stride_ = stride;
+  f.count_ = std::uint32_t(depth.depth_m.size());
+  // Row-delta coding: neighbouring depths are close, so the differences compress well.
+  std::vector<std::uint16_t> coded(depth.depth_m.size());
+  for (int v = 0; v < depth.height; ++v) {
+    std::uint16_t prev = 0;
+    for (int u = 0; u < depth.width; ++u) {
+      const float d = depth.at(u, v);
+      std::uint16_t q = 0;
+      if (d > 0.0f && std::isfinite(d)) q = std::uint16_t(std::min(65535.0, std::max(1.0, std::round(d / depth_unit_m))));
+      coded[std::size_t(v) * depth.width + u] = std::uint16_t(q - prev);
+      prev = q;
+    }
+  }
+  f.payload_ = deflateBytes(coded.data(), coded.size() * sizeof(std::uint16_t));
+  return f;
+}
+
+EncodedFrame EncodedFrame::fromPoints(const PointCloud& points_S, double unit_m) {
+  if (!(unit_m > 0.0)) throw std::invalid_argument("EncodedFrame::fromPoints: unit_m must be > 0");
+  EncodedFrame f;
+  f.kind_ = Kind::Points;
+  f.unit_m_ = unit_m;
+  f.count_ = std::uint32_t(points_S.size());
+  constexpr std::int32_t kInvalid = std::numeric_limits<std::int32_t>::min();
+  const double limit = double(std::numeric_limits<std::int32_t>::max()) * unit_m;
+  std::vector<std::int32_t> q(points_S.size() * 3);
+  for (std::size_t i = 0; i < points_S.size(); ++i) {
+    const Vec3f& p = points_S[i];
+    const bool ok = p.allFinite() && p.cast<double>().cwiseAbs().maxCoeff() < limit;
+    for (int a = 0; a < 3; ++a) q[3 * i + a] = ok ? std::int32_t(std::lround(double(p[a]) / unit_m)) : kInvalid;
+  }
+  f.payload_ = deflateBytes(q.data(), q.size() * sizeof(std::int32_t));
+  return f;
+}
+
+PointCloud EncodedFrame::decode() const {
+  if (kind_ == Kind::Depth) {
+    std::vector<std::uint16_t> coded(count_);
+    inflateBytes(payload_, coded.data(), coded.size() * sizeof(std::uint16_t));
+    DepthImage depth(intrinsics_->width, intrinsics_->height, 0.0f);
+    for (int v = 0; v < depth.height; ++v) {
+      std::uint16_t q = 0;
+      for (int u = 0; u < depth.width; ++u) {
+        q = std::uint16_t(q + coded[std::size_t(v) * depth.width + u]);
+        depth.at(u, v) = q == 0 ? 0.0f : float(q * unit_m_);
+      }
+    }
+    return backProject(depth, *intrinsics_, stride_);
+  }
+  std::vector<std::int32_t> q(std::size_t(count_) * 3);
+  inflateBytes(payload_, q.data(), q.size() * sizeof(std::int32_t));
+  constexpr std::int32_t kInvalid = std::numeric_limits<std::int32_t>::min();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  PointCloud points(count_);
+  for (std::size_t i = 0; i < count_; ++i) {
+    if (q[3 * i] == kInvalid)
+      points[i] = Vec3f::Constant(nan);
+    else
+      points[i] = Vec3f(float(q[3 * i] * unit_m_), float(q[3 * i + 1] * unit_m_), float(q[3 * i + 2] * unit_m_));
+  }
+  return points;
+}
+
+Keyframe& KeyframeStore::add(Keyframe keyframe) {
+  const FrameId id = keyframe.id;
+  const auto [it, inserted] = frames_.emplace(id, std::move(keyframe));
+  if (!inserted) throw std::invalid_argument("keyframe store: frame " + std::to_string(id) + " is already stored");
+  return it->second;
+}
+
+Keyframe& KeyframeStore::at(FrameId id) {
+  const auto it = frames_.find(id);
+  if (it == frames_.end()) throw std::out_of_range("keyframe store: no frame " + std::to_string(id));
+  return it->second;
+}
+
+const Keyframe& KeyframeStore::at(FrameId id) const { return const_cast<KeyframeStore*>(this)->at(id); }
+
+std::size_t KeyframeStore::bytes() const {
+  std::size_t total = 0;
+  for (const auto& [id, kf] : frames_) total += sizeof(Keyframe) + kf.data.bytes();
+  return total;
+}
+
+}  // namespace vdbmap
