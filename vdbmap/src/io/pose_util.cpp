@@ -3,6 +3,7 @@
 #include "vdbmap/io/tum_trajectory.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 
 #include <cmath>
 #include <sstream>
@@ -39,7 +40,10 @@ std::string poseFromMatrix(const double* m, int rows, Pose3d& T) {
     return s.str();
   }
   T = Pose3d::Identity();
-  T.linear() = Eigen::Quaterniond(R).normalized().toRotationMatrix();
+  // The nearest rotation (Frobenius norm): R = U V^T from the SVD R = U S V^T. Files hold 6-8
+  // digits, so their matrices are orthonormal only to ~1e-5.
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  T.linear() = svd.matrixU() * svd.matrixV().transpose();
   T.translation() = Vec3d(m[3], m[7], m[11]);
   return {};
 }
