@@ -1,0 +1,116 @@
+#include "vdbmap/log_replay.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <future>
+#include <optional>
+#include <stdexcept>
+
+namespace vdbmap {
+
+OnBadFrame parseOnBadFrame(const std::string& text) {
+  if (text == "fail") return OnBadFrame::Fail;
+  if (text == "skip") return OnBadFrame::Skip;
+  throw std::invalid_argument("on-bad-frame must be fail or skip, got '" + text + "'");
+}
+
+void ReplayOptions::validate() const {
+  if (frame_stride < 1 || frame_stride > 1000000)
+    throw std::invalid_argument("ReplayOptions.frame_stride must be in [1, 1e6], got " + std::to_string(frame_stride));
+}
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// A loaded frame, or the bad-frame error it raised.
+struct Loaded {
+  std::optional<io::Frame> frame;
+  std::optional<io::BadFrameError> error;
+  double load_s = 0.0;
+};
+
+Loaded loadFrame(const io::FrameSource& source, std::size_t i) {
+  Loaded out;
+  const auto t0 = Clock::now();
+  try {
+    out.frame = source.load(i);
+  } catch (const io::BadFrameError& e) {
+    out.error = e;
+  }
+  out.load_s = secondsSince(t0);
+  return out;
+}
+}  // namespace
+
+ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const ReplayOptions& options) {
+  options.validate();
+  const auto wall0 = Clock::now();
+  ReplayResult result;
+  std::vector<std::size_t> indices;
+  for (std::size_t i = 0; i < source.size(); i += std::size_t(options.frame_stride)) indices.push_back(i);
+  result.frames_total = indices.size();
+
+  // Corrections by the frame after which they apply.
+  std::multimap<std::size_t, const io::CorrectionEvent*> events;
+  if (options.apply_corrections)
+    for (const io::CorrectionEvent& e : source.corrections()) events.emplace(e.event_frame, &e);
+  std::vector<bool> integrated(source.size(), false);
+
+  auto K = std::make_shared<const CameraIntrinsics>(source.sensor().intrinsics);
+  std::vector<double> frame_ms;
+  frame_ms.reserve(indices.size());
+  Vec3d robot_W = Vec3d::Zero();
+
+  // Load the next frame while this one integrates.
+  std::future<Loaded> next;
+  if (!indices.empty()) next = std::async(std::launch::async, loadFrame, std::cref(source), indices[0]);
+  for (std::size_t k = 0; k < indices.size(); ++k) {
+    Loaded loaded = next.get();
+    if (k + 1 < indices.size()) next = std::async(std::launch::async, loadFrame, std::cref(source), indices[k + 1]);
+    result.load_s += loaded.load_s;
+    const std::size_t i = indices[k];
+    if (loaded.error) {
+      if (options.on_bad_frame == OnBadFrame::Fail) throw *loaded.error;
+      result.bad_frames.push_back({i, loaded.error->what()});
+      ++result.frames_skipped;
+    } else {
+      const io::Frame& f = *loaded.frame;
+      const auto t0 = Clock::now();
+      const IntegrationStats stats =
+          f.is_depth ? mapper.addDepthFrame(i, f.timestamp_s, f.depth, K, f.T_W_S)
+                     : mapper.addPointFrame(i, f.timestamp_s, f.points_S, f.T_W_S);
+      const double ms = 1e3 * secondsSince(t0);
+      frame_ms.push_back(ms);
+      result.integrate_s += ms / 1e3;
+      result.points_invalid += stats.points_invalid;
+      ++result.frames_integrated;
+      integrated[i] = true;
+      robot_W = f.T_W_S.translation();
+    }
+    // Corrections that apply once frame i (or, with a stride, a frame up to i) is integrated.
+    const std::size_t upto = k + 1 < indices.size() ? indices[k + 1] : source.size();
+    for (auto it = events.lower_bound(i); it != events.end() && it->first < upto; ++it) {
+      std::map<FrameId, Pose3d> poses;
+      const io::CorrectionEvent& e = *it->second;
+      for (std::size_t p = 0; p < e.poses.size(); ++p)
+        if (integrated[e.pose_frames[p]]) poses[e.pose_frames[p]] = e.poses[p].T_W_S;
+      mapper.updatePoses(poses);
+      ++result.correction_events;
+    }
+    mapper.reintegrate(robot_W);
+    if (options.progress) options.progress(k + 1, indices.size());
+  }
+  mapper.reintegrateAll(robot_W);
+
+  if (!frame_ms.empty()) {
+    std::vector<double> sorted = frame_ms;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    result.ms_per_frame_median = sorted[sorted.size() / 2];
+    result.ms_per_frame_max = *std::max_element(frame_ms.begin(), frame_ms.end());
+  }
+  result.wall_s = secondsSince(wall0);
+  return result;
+}
+
+}  // namespace vdbmap

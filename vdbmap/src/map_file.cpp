@@ -1,0 +1,59 @@
+#include "vdbmap/map_file.hpp"
+
+#include "vdbmap/tsdf_volume.hpp"
+
+#include <stdexcept>
+
+namespace vdbmap {
+
+namespace {
+openvdb::io::File openFile(const std::filesystem::path& path) {
+  initializeOpenVdb();
+  if (!std::filesystem::is_regular_file(path)) throw std::runtime_error("cannot open map " + path.string() + ": no such file");
+  openvdb::io::File file(path.string());
+  try {
+    file.open();
+  } catch (const openvdb::Exception& e) {
+    throw std::runtime_error("cannot read map " + path.string() + ": " + e.what());
+  }
+  return file;
+}
+}  // namespace
+
+openvdb::FloatGrid::Ptr readTsdfGrid(const std::filesystem::path& path) {
+  openvdb::io::File file = openFile(path);
+  if (!file.hasGrid("tsdf")) throw std::runtime_error(path.string() + ": no grid named 'tsdf' (not a vdbmap map?)");
+  auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
+  if (!grid) throw std::runtime_error(path.string() + ": grid 'tsdf' is not a float grid");
+  return grid;
+}
+
+MapFileInfo inspectMapFile(const std::filesystem::path& path) {
+  openvdb::io::File file = openFile(path);
+  MapFileInfo info;
+  info.path = path;
+  info.file_bytes = std::filesystem::file_size(path);
+  info.has_exact_state = std::filesystem::is_regular_file(TsdfVolume::exactStatePath(path));
+  const openvdb::MetaMap::Ptr meta = file.getMetadata();
+  for (auto it = meta->beginMeta(); it != meta->endMeta(); ++it) info.metadata.emplace_back(it->first, it->second->str());
+  const openvdb::GridPtrVecPtr grids = file.getGrids();
+  for (const openvdb::GridBase::Ptr& g : *grids) {
+    MapFileGrid m;
+    m.name = g->getName();
+    m.type = g->type();
+    m.grid_class = openvdb::GridBase::gridClassToString(g->getGridClass());
+    m.active_voxels = g->activeVoxelCount();
+    m.memory_bytes = g->memUsage();
+    m.voxel_size_m = g->voxelSize()[0];
+    m.bbox_index = g->evalActiveVoxelBoundingBox();
+    if (auto fg = openvdb::gridPtrCast<openvdb::FloatGrid>(g)) m.leaf_nodes = fg->tree().leafCount();
+    if (!m.bbox_index.empty()) {
+      m.bbox_min_m = g->indexToWorld(m.bbox_index.min().asVec3d());
+      m.bbox_max_m = g->indexToWorld(m.bbox_index.max().asVec3d());
+    }
+    info.grids.push_back(m);
+  }
+  return info;
+}
+
+}  // namespace vdbmap
