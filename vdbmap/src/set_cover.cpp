@@ -1,0 +1,470 @@
+// Set-cover keyframe pruning: compact cell sets, visible cells by a coarse DDA, the lazy greedy
+// multi-cover, and the per-block incremental pruner. See vdbmap/set_cover.hpp.
+//
+// Why the guarantees in the header hold (greedy with counters r(c) = n_ob - cover(c)):
+// - Termination: every selection removes one set from the candidates, so at most |sets| rounds.
+// - tau_gain < 1: the greedy stops only when the best gain is 0, i.e. no unselected set contains a
+//   cell with r(c) > 0. Take any cell c: either r(c) <= 0 (covered >= n_ob times), or every set
+//   containing c is selected (covered deg(c) times). So cover(c) >= min(n_ob, deg(c)).
+// - tau_gain >= 1: at the stop every unselected set S has gain(S) = |{c in S : r(c) > 0}| <= tau.
+//   A cell with cover(c) < min(n_ob, deg(c)) has r(c) > 0 and lies in some unselected set, so the
+//   deficient cells are a subset of the union of the unselected sets' still-needed cells: at most
+//   floor(tau) per unselected set.
+// - Laminar families, n_ob = 1: the maximal sets are pairwise disjoint (two intersecting sets are
+//   nested) and every cell of a maximal set M lies only in M or its subsets, so a cover needs a
+//   distinct set inside each maximal set: OPT >= number of distinct maximal sets. The greedy takes
+//   a largest set, which is maximal; its subsets then have gain 0 and the other sets are disjoint
+//   from it and keep their gains, so by induction it takes exactly one set per maximal set.
+// - Every cell seen by at most n_ob sets: demand(c) = deg(c), so every set with a cell is needed,
+//   and the greedy takes them all (a non-empty unselected set has r(c) >= 1 on each of its cells).
+#include "vdbmap/set_cover.hpp"
+
+#include "internal/ray_integrator.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <climits>
+#include <limits>
+#include <cmath>
+#include <queue>
+#include <sstream>
+#include <stdexcept>
+
+namespace vdbmap {
+namespace {
+
+constexpr int kCoordBias = 1 << 20;
+constexpr std::uint64_t kCoordMask = (std::uint64_t(1) << 21) - 1;
+/// Above this many bits (16 MiB) the frame's bounding box is too big for a dense bit set.
+constexpr std::uint64_t kMaxDenseBits = std::uint64_t(1) << 27;
+
+void requireRange(const char* field, double value, double lo, double hi, const char* range_text) {
+  if (!(value >= lo && value <= hi)) {
+    std::ostringstream msg;
+    msg << "SetCoverConfig." << field << " must be in " << range_text << ", got " << value;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+void requireCellSize(double cell_size_vox) {
+  if (!(cell_size_vox >= 1.0 && cell_size_vox <= 64.0)) {
+    std::ostringstream msg;
+    msg << "cell_size_vox must be in [1, 64], got " << cell_size_vox;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+void appendVarint(std::vector<std::uint8_t>& out, std::uint64_t v) {
+  while (v >= 0x80) {
+    out.push_back(std::uint8_t(v | 0x80));
+    v >>= 7;
+  }
+  out.push_back(std::uint8_t(v));
+}
+
+/// Visibility counters r(c) in an Int32 tree whose background is n_ob (cells never decremented
+/// still need n_ob frames), with a one-leaf cache: consecutive cells of a set share leaves.
+class CounterGrid {
+ public:
+  using Tree = openvdb::Int32Tree;
+  using Leaf = Tree::LeafNodeType;
+
+  explicit CounterGrid(int n_ob) : tree_(std::make_shared<Tree>(n_ob)), acc_(*tree_), background_(n_ob) {}
+
+  int value(const openvdb::Coord& c) {
+    seek(c, false);
+    return leaf_ ? leaf_->getValue(Leaf::coordToOffset(c)) : background_;
+  }
+  void decrement(const openvdb::Coord& c) {
+    seek(c, true);
+    const openvdb::Index n = Leaf::coordToOffset(c);
+    leaf_->buffer().data()[n] -= 1;
+    leaf_->setActiveState(n, true);
+  }
+  Tree::Ptr tree() const { return tree_; }
+
+ private:
+  void seek(const openvdb::Coord& c, bool create) {
+    const openvdb::Coord origin = c & ~(Leaf::DIM - 1);
+    if (origin == origin_ && (leaf_ || !create)) return;
+    leaf_ = create ? acc_.touchLeaf(c) : acc_.probeLeaf(c);
+    origin_ = origin;
+  }
+
+  Tree::Ptr tree_;
+  openvdb::tree::ValueAccessor<Tree> acc_;
+  int background_;
+  Leaf* leaf_ = nullptr;
+  openvdb::Coord origin_{INT_MAX};
+};
+
+void validateGreedy(int n_ob, double tau_gain) {
+  if (n_ob < 1) throw std::invalid_argument("greedyCover: n_ob must be >= 1, got " + std::to_string(n_ob));
+  if (!(tau_gain >= 0.0)) {
+    std::ostringstream msg;
+    msg << "greedyCover: tau_gain must be >= 0, got " << tau_gain;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+}  // namespace
+
+// ---- config -----------------------------------------------------------------------------------
+
+void SetCoverConfig::validate() const {
+  requireRange("n_ob", double(n_ob), 1.0, 1000.0, "[1, 1000]");
+  requireRange("tau_gain", tau_gain, 0.0, 1e9, "[0, 1e9]");
+  if (!(block_size_m > 0.0 && block_size_m <= 1e4)) {
+    std::ostringstream msg;
+    msg << "SetCoverConfig.block_size_m must be in (0, 1e4], got " << block_size_m;
+    throw std::invalid_argument(msg.str());
+  }
+  requireRange("cell_size_vox", cell_size_vox, 1.0, 64.0, "[1, 64]");
+  requireRange("solve_period_frames", double(solve_period_frames), 1.0, 1e6, "[1, 1e6]");
+}
+
+// ---- cells ------------------------------------------------------------------------------------
+
+std::uint64_t packCell(const openvdb::Coord& c) {
+  for (int a = 0; a < 3; ++a) {
+    if (c[a] < -kCoordBias || c[a] >= kCoordBias) {
+      std::ostringstream msg;
+      msg << "cell (" << c.x() << ", " << c.y() << ", " << c.z() << ") is outside the packable range [-2^20, 2^20)";
+      throw std::out_of_range(msg.str());
+    }
+  }
+  return (std::uint64_t(c.x() + kCoordBias) << 42) | (std::uint64_t(c.y() + kCoordBias) << 21) |
+         std::uint64_t(c.z() + kCoordBias);
+}
+
+CellSet CellSet::fromSortedKeys(const std::vector<std::uint64_t>& keys) {
+  CellSet s;
+  s.bytes_.reserve(keys.size() + keys.size() / 4 + 8);
+  std::uint64_t prev = 0;
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    if (i > 0 && keys[i] <= prev) throw std::invalid_argument("CellSet::fromSortedKeys: keys must be strictly increasing");
+    if (keys[i] >> 63) throw std::invalid_argument("CellSet::fromSortedKeys: not a packed cell key");
+    appendVarint(s.bytes_, keys[i] - prev);
+    prev = keys[i];
+  }
+  s.bytes_.shrink_to_fit();
+  s.size_ = keys.size();
+  return s;
+}
+
+CellSet CellSet::fromCoords(std::vector<openvdb::Coord> cells) {
+  std::vector<std::uint64_t> keys;
+  keys.reserve(cells.size());
+  for (const auto& c : cells) keys.push_back(packCell(c));
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  return fromSortedKeys(keys);
+}
+
+std::vector<openvdb::Coord> CellSet::toCoords() const {
+  std::vector<openvdb::Coord> out;
+  out.reserve(size_);
+  forEach([&](const openvdb::Coord& c) { out.push_back(c); });
+  return out;
+}
+
+std::vector<std::uint64_t> CellSet::toKeys() const {
+  std::vector<std::uint64_t> out;
+  out.reserve(size_);
+  forEach([&](const openvdb::Coord& c) { out.push_back(packCell(c)); });
+  return out;
+}
+
+openvdb::Coord cellOf(const Vec3d& p_W, double voxel_size_m, double cell_size_vox) {
+  const double s = 1.0 / (voxel_size_m * cell_size_vox), off = 0.5 / cell_size_vox;
+  return openvdb::Coord(int(std::floor(p_W.x() * s + off)), int(std::floor(p_W.y() * s + off)),
+                        int(std::floor(p_W.z() * s + off)));
+}
+
+openvdb::math::Transform::Ptr cellTransform(double voxel_size_m, double cell_size_vox) {
+  // Cell c spans x in [(c k - 0.5) v, ((c + 1) k - 0.5) v): its centre is c k v + (k - 1) v / 2.
+  auto xform = openvdb::math::Transform::createLinearTransform(voxel_size_m * cell_size_vox);
+  const double shift = 0.5 * (cell_size_vox - 1.0) * voxel_size_m;
+  xform->postTranslate(openvdb::Vec3d(shift, shift, shift));
+  return xform;
+}
+
+CellSet visibleCells(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+                     const IntegratorConfig& integrator, double cell_size_vox) {
+  tsdf.validate();
+  integrator.validate();
+  requireCellSize(cell_size_vox);
+  if (!isValidRigidTransform(T_W_S)) throw std::invalid_argument("visibleCells: T_W_S is not a rigid transform");
+
+  IntegrationStats stats;
+  const std::vector<internal::RayBundle> bundles = internal::bundleRays(points_S, T_W_S, tsdf, integrator, stats);
+  const Vec3d origin_W = T_W_S.translation();
+  const double s = 1.0 / (tsdf.voxel_size_m * cell_size_vox);  // cells per metre
+  const Vec3d o = origin_W * s + Vec3d::Constant(0.5 / cell_size_vox);  // origin in cell space
+  const double delta = tsdf.truncation_m();
+
+  // The segments in cell space: direction and length (metres), as castOne in ray_integrator.cpp.
+  struct Segment {
+    Vec3d dir;
+    double t_end;
+  };
+  std::vector<Segment> segments;
+  segments.reserve(bundles.size());
+  openvdb::Coord lo(int(std::floor(o.x())), int(std::floor(o.y())), int(std::floor(o.z()))), hi = lo;
+  for (const auto& b : bundles) {
+    const Vec3d d = b.end_W - origin_W;
+    const double dist = d.norm();
+    if (!(dist > 1e-9)) continue;
+    const double t_end = b.surface ? dist + delta : dist - delta;
+    if (t_end <= 0.0) continue;
+    const Vec3d dir = d / dist;
+    const Vec3d e = o + dir * (t_end * s);
+    const openvdb::Coord ce(int(std::floor(e.x())), int(std::floor(e.y())), int(std::floor(e.z())));
+    lo.minComponent(ce);
+    hi.maxComponent(ce);
+    segments.push_back({dir, t_end});
+  }
+  for (const auto& c : {lo, hi}) packCell(c);  // throws when the frame is outside the packable range
+  lo -= openvdb::Coord(1);                     // one cell of slack for rounding at the segment ends
+  hi += openvdb::Coord(1);
+
+  const std::uint64_t nx = std::uint64_t(hi.x() - lo.x() + 1), ny = std::uint64_t(hi.y() - lo.y() + 1),
+                      nz = std::uint64_t(hi.z() - lo.z() + 1);
+  const bool dense = nx * ny * nz <= kMaxDenseBits;
+  std::vector<std::uint64_t> bits(dense ? (nx * ny * nz + 63) / 64 : 0);
+  std::vector<std::uint64_t> keys;  // cells outside the box (rounding) or all cells when not dense
+
+  const auto mark = [&](int x, int y, int z) {
+    if (dense && x >= lo.x() && x <= hi.x() && y >= lo.y() && y <= hi.y() && z >= lo.z() && z <= hi.z()) {
+      const std::uint64_t i = (std::uint64_t(x - lo.x()) * ny + std::uint64_t(y - lo.y())) * nz + std::uint64_t(z - lo.z());
+      bits[i >> 6] |= std::uint64_t(1) << (i & 63);
+    } else {
+      keys.push_back(packCell(openvdb::Coord(x, y, z)));
+    }
+  };
+
+  // Coarse 3D DDA (Amanatides & Woo) per segment; t in metres along the ray.
+  for (const Segment& seg : segments) {
+    int ijk[3], step[3];
+    double t_max[3], t_delta[3];
+    for (int a = 0; a < 3; ++a) {
+      ijk[a] = int(std::floor(o[a]));
+      const double g = seg.dir[a] * s;
+      if (g > 0.0) {
+        step[a] = 1;
+        t_max[a] = (ijk[a] + 1 - o[a]) / g;
+        t_delta[a] = 1.0 / g;
+      } else if (g < 0.0) {
+        step[a] = -1;
+        t_max[a] = (ijk[a] - o[a]) / g;
+        t_delta[a] = -1.0 / g;
+      } else {
+        step[a] = 0;
+        t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
+      }
+    }
+    while (true) {
+      mark(ijk[0], ijk[1], ijk[2]);
+      const int a = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
+      if (t_max[a] > seg.t_end) break;
+      ijk[a] += step[a];
+      t_max[a] += t_delta[a];
+    }
+  }
+  if (segments.empty()) return CellSet();
+
+  // Bits in index order are cells in key order (x, then y, then z): no sort needed unless some
+  // cells fell outside the box.
+  std::vector<std::uint64_t> dense_keys;
+  for (std::size_t w = 0; w < bits.size(); ++w) {
+    std::uint64_t word = bits[w];
+    while (word) {
+      const std::uint64_t i = std::uint64_t(w) * 64 + std::uint64_t(__builtin_ctzll(word));
+      word &= word - 1;
+      const std::uint64_t z = i % nz, xy = i / nz;
+      const std::uint64_t y = xy % ny, x = xy / ny;
+      dense_keys.push_back(packCell(openvdb::Coord(lo.x() + int(x), lo.y() + int(y), lo.z() + int(z))));
+    }
+  }
+  if (!keys.empty()) {
+    dense_keys.insert(dense_keys.end(), keys.begin(), keys.end());
+    std::sort(dense_keys.begin(), dense_keys.end());
+    dense_keys.erase(std::unique(dense_keys.begin(), dense_keys.end()), dense_keys.end());
+  }
+  return CellSet::fromSortedKeys(dense_keys);
+}
+
+// ---- greedy -----------------------------------------------------------------------------------
+
+std::vector<std::size_t> greedyCover(const std::vector<const CellSet*>& sets, int n_ob, double tau_gain) {
+  initializeOpenVdb();
+  validateGreedy(n_ob, tau_gain);
+  for (std::size_t i = 0; i < sets.size(); ++i)
+    if (!sets[i]) throw std::invalid_argument("greedyCover: set " + std::to_string(i) + " is null");
+
+  // Max-heap on (gain, -index): the largest gain first, the lowest index among equal gains.
+  struct Entry {
+    std::size_t gain;
+    std::size_t index;
+  };
+  const auto lower = [](const Entry& a, const Entry& b) {
+    return a.gain < b.gain || (a.gain == b.gain && a.index > b.index);
+  };
+  std::priority_queue<Entry, std::vector<Entry>, decltype(lower)> heap(lower);
+  // evaluated_at[i]: the number of selections made when set i's gain was last computed. All
+  // counters start at n_ob >= 1, so the initial gains (the set sizes) are exact at 0 selections.
+  std::vector<std::size_t> evaluated_at(sets.size(), 0);
+  for (std::size_t i = 0; i < sets.size(); ++i)
+    if (double(sets[i]->size()) > tau_gain) heap.push({sets[i]->size(), i});
+
+  CounterGrid counters(n_ob);
+  std::vector<std::size_t> selected;
+  while (!heap.empty()) {
+    const Entry top = heap.top();
+    heap.pop();
+    if (evaluated_at[top.index] == selected.size()) {
+      // Exact and not below any other entry's upper bound: the true greedy choice. Its gain is
+      // > tau_gain because entries at or below tau_gain are never pushed.
+      sets[top.index]->forEach([&](const openvdb::Coord& c) { counters.decrement(c); });
+      selected.push_back(top.index);
+      continue;
+    }
+    std::size_t gain = 0;
+    sets[top.index]->forEach([&](const openvdb::Coord& c) { gain += counters.value(c) > 0; });
+    evaluated_at[top.index] = selected.size();
+    if (double(gain) > tau_gain) heap.push({gain, top.index});  // gains only fall: else never again
+  }
+  return selected;
+}
+
+std::vector<std::size_t> greedyCover(const std::vector<std::vector<openvdb::Coord>>& sets, int n_ob,
+                                     double tau_gain) {
+  validateGreedy(n_ob, tau_gain);
+  std::vector<CellSet> compact;
+  compact.reserve(sets.size());
+  for (const auto& s : sets) compact.push_back(CellSet::fromCoords(s));
+  std::vector<const CellSet*> ptrs;
+  ptrs.reserve(compact.size());
+  for (const auto& s : compact) ptrs.push_back(&s);
+  return greedyCover(ptrs, n_ob, tau_gain);
+}
+
+// ---- pruner -----------------------------------------------------------------------------------
+
+FramePruner::FramePruner(const SetCoverConfig& config, double voxel_size_m)
+    : config_(config), voxel_size_m_(voxel_size_m) {
+  config_.validate();
+  if (!(voxel_size_m > 0.0 && voxel_size_m <= 10.0)) {
+    std::ostringstream msg;
+    msg << "FramePruner: voxel_size_m must be in (0, 10], got " << voxel_size_m;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+FramePruner::BlockKey FramePruner::blockOf(const Vec3d& p) const {
+  const double inv = 1.0 / config_.block_size_m;
+  return BlockKey(int(std::floor(p.x() * inv)), int(std::floor(p.y() * inv)), int(std::floor(p.z() * inv)));
+}
+
+void FramePruner::addFrame(FrameId id, const Vec3d& camera_position_W, CellSet cells) {
+  if (frames_.count(id)) throw std::invalid_argument("FramePruner::addFrame: frame " + std::to_string(id) + " is already held");
+  if (!camera_position_W.allFinite() ||
+      (camera_position_W.array().abs() / config_.block_size_m).maxCoeff() >= double(INT_MAX))
+    throw std::invalid_argument("FramePruner::addFrame: frame " + std::to_string(id) +
+                                " has a non-finite or out-of-range camera position");
+  const BlockKey key = blockOf(camera_position_W);
+  Block& block = blocks_[key];
+  block.frames.insert(std::upper_bound(block.frames.begin(), block.frames.end(), id), id);
+  block.dirty = true;
+  frames_.emplace(id, Frame{key, std::move(cells)});
+}
+
+void FramePruner::removeFrame(FrameId id) {
+  const auto it = frames_.find(id);
+  if (it == frames_.end()) throw std::invalid_argument("FramePruner::removeFrame: frame " + std::to_string(id) + " is not held");
+  const auto b = blocks_.find(it->second.block);
+  auto& ids = b->second.frames;
+  ids.erase(std::lower_bound(ids.begin(), ids.end(), id));
+  if (ids.empty()) blocks_.erase(b);
+  frames_.erase(it);
+}
+
+std::size_t FramePruner::dirtyBlockCount() const {
+  std::size_t n = 0;
+  for (const auto& [key, block] : blocks_) n += block.dirty;
+  return n;
+}
+
+std::vector<FrameId> FramePruner::framesInBlock(const BlockKey& block) const {
+  const auto it = blocks_.find(block);
+  return it == blocks_.end() ? std::vector<FrameId>{} : it->second.frames;
+}
+
+FramePruner::Result FramePruner::solve() {
+  Result result;
+  std::vector<std::pair<BlockKey, Block*>> dirty;
+  for (auto& [key, block] : blocks_)
+    if (block.dirty) dirty.emplace_back(key, &block);
+
+  // Blocks are independent (own counters, disjoint frames): solve them in parallel, then apply.
+  std::vector<std::vector<std::size_t>> selections(dirty.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, dirty.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t d = r.begin(); d != r.end(); ++d) {
+      const Block& block = *dirty[d].second;
+      std::vector<const CellSet*> sets;
+      sets.reserve(block.frames.size());
+      for (const FrameId id : block.frames) sets.push_back(&frames_.at(id).cells);
+      selections[d] = greedyCover(sets, config_.n_ob, config_.tau_gain);
+    }
+  });
+
+  for (std::size_t d = 0; d < dirty.size(); ++d) {
+    Block& block = *dirty[d].second;
+    std::vector<char> keep(block.frames.size(), 0);
+    for (const std::size_t i : selections[d]) keep[i] = 1;
+    std::vector<FrameId> kept;
+    for (std::size_t i = 0; i < block.frames.size(); ++i) {
+      if (keep[i]) {
+        kept.push_back(block.frames[i]);
+      } else {
+        result.dropped.push_back(block.frames[i]);
+        frames_.erase(block.frames[i]);
+      }
+    }
+    block.frames = std::move(kept);
+    block.dirty = false;
+    result.solved_blocks.push_back(dirty[d].first);
+  }
+  for (auto it = blocks_.begin(); it != blocks_.end();) it = it->second.frames.empty() ? blocks_.erase(it) : std::next(it);
+  result.blocks_solved = dirty.size();
+  result.frames_kept = frames_.size();
+  return result;
+}
+
+std::size_t FramePruner::memoryBytes() const {
+  std::size_t bytes = sizeof(*this);
+  // unordered_map: one node per frame (value + next pointer + cached hash) and the bucket array.
+  bytes += frames_.size() * (sizeof(std::pair<const FrameId, Frame>) + 2 * sizeof(void*)) +
+           frames_.bucket_count() * sizeof(void*);
+  for (const auto& [id, frame] : frames_) bytes += frame.cells.memoryBytes();
+  // std::map: one node per block (value + three pointers + colour).
+  for (const auto& [key, block] : blocks_)
+    bytes += sizeof(std::pair<const BlockKey, Block>) + 4 * sizeof(void*) + block.frames.capacity() * sizeof(FrameId);
+  return bytes;
+}
+
+openvdb::Int32Grid::Ptr FramePruner::visibilityCounters(const BlockKey& block) const {
+  initializeOpenVdb();
+  CounterGrid counters(config_.n_ob);
+  const auto it = blocks_.find(block);
+  if (it != blocks_.end())
+    for (const FrameId id : it->second.frames) frames_.at(id).cells.forEach([&](const openvdb::Coord& c) { counters.decrement(c); });
+  auto grid = openvdb::Int32Grid::create(counters.tree());
+  grid->setTransform(cellTransform(voxel_size_m_, config_.cell_size_vox));
+  grid->setName("visibility_counters");
+  return grid;
+}
+
+}  // namespace vdbmap
