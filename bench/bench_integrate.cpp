@@ -2,7 +2,7 @@
 // range 5 m) in a 20 x 14 x 3 m room, at 0.05 m and 0.1 m voxels, 1 and 2 threads, merged and
 // per-ray modes. Prints one JSON line per configuration.
 //
-//   cmake --build build --target vdbmap_bench_integrate && build/bin/vdbmap_bench_integrate [frames]
+//   cmake --build build --target vdbmap_bench_integrate && build/bin/vdbmap_bench_integrate [frames] [merged|per_ray]
 #include "vdbmap/camera.hpp"
 #include "vdbmap/sim/analytic_scene.hpp"
 #include "vdbmap/tsdf_volume.hpp"
@@ -10,9 +10,11 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <string>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
 #include <iostream>
 
 using namespace vdbmap;
@@ -30,6 +32,14 @@ sim::AnalyticScene benchRoom() {
   return s;
 }
 
+/// CPU time of the whole process (all threads) in milliseconds: on a machine shared with other
+/// work, CPU time per frame of a 1-thread run is a steadier figure than wall time.
+double processCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return 1e3 * double(ts.tv_sec) + 1e-6 * double(ts.tv_nsec);
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : v[v.size() / 2];
@@ -38,6 +48,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 40;
+  const std::string only_mode = argc > 2 ? argv[2] : "";  // "merged" or "per_ray": only that one
   const sim::AnalyticScene scene = benchRoom();
   const CameraIntrinsics K;
   std::vector<Pose3d> poses;
@@ -51,6 +62,7 @@ int main(int argc, char** argv) {
     points += clouds.back().size();
   }
   for (const RayMode mode : {RayMode::Merged, RayMode::PerRay}) {
+    if (!only_mode.empty() && only_mode != toString(mode)) continue;
     for (const double voxel : {0.05, 0.1}) {
       for (const int threads : {1, 2}) {
         TsdfConfig c;
@@ -59,11 +71,16 @@ int main(int argc, char** argv) {
         in.threads = threads;
         in.ray_mode = mode;
         TsdfVolume volume(c, in);
-        std::vector<double> integrate_ms, deintegrate_ms;
+        std::vector<double> integrate_ms, deintegrate_ms, integrate_cpu_ms;
         double total_s = 0.0;
+        std::size_t rays = 0, updates = 0;
         for (int i = 0; i < frames; ++i) {
           const auto t0 = std::chrono::steady_clock::now();
-          volume.integrate(i, clouds[i], poses[i]);
+          const double cpu0 = processCpuMs();
+          const IntegrationStats stats = volume.integrate(i, clouds[i], poses[i]);
+          integrate_cpu_ms.push_back(processCpuMs() - cpu0);
+          rays += stats.rays_cast;
+          updates += stats.voxel_updates;
           const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
           integrate_ms.push_back(ms);
           total_s += ms / 1e3;
@@ -81,7 +98,10 @@ int main(int argc, char** argv) {
                             {"frames", frames},
                             {"points_per_s", double(points) / total_s},
                             {"ms_per_frame_median", median(integrate_ms)},
+                            {"cpu_ms_per_frame_median", median(integrate_cpu_ms)},
                             {"deintegrate_ms_per_frame_median", median(deintegrate_ms)},
+                            {"rays_per_frame", rays / std::size_t(frames)},
+                            {"voxel_updates_per_frame", updates / std::size_t(frames)},
                             {"map_bytes", map_bytes},
                             {"active_voxels", voxels},
                             {"empty_after_deintegration", volume.activeVoxelCount() == 0}};

@@ -21,7 +21,17 @@ std::vector<std::uint8_t> deflateBytes(const void* data, std::size_t n) {
   return out;
 }
 
-void inflateBytes(const std::vector<std::uint8_t>& in, void* out, std::size_t n) {
+std::vector<std::uint8_t> rawBytes(const void* data, std::size_t n) {
+  const auto* bytes = static_cast<const std::uint8_t*>(data);
+  return std::vector<std::uint8_t>(bytes, bytes + n);
+}
+
+void inflateBytes(const std::vector<std::uint8_t>& in, void* out, std::size_t n, bool compressed) {
+  if (!compressed) {
+    if (in.size() != n) throw std::runtime_error("keyframe store: corrupt frame");
+    std::memcpy(out, in.data(), n);
+    return;
+  }
   uLongf size = uLongf(n);
   if (uncompress(static_cast<Bytef*>(out), &size, in.data(), uLong(in.size())) != Z_OK || size != n)
     throw std::runtime_error("keyframe store: corrupt compressed frame");
@@ -30,7 +40,7 @@ void inflateBytes(const std::vector<std::uint8_t>& in, void* out, std::size_t n)
 }  // namespace
 
 EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
-                                     double depth_unit_m, int stride) {
+                                     double depth_unit_m, int stride, bool compress) {
   if (!K) throw std::invalid_argument("EncodedFrame::fromDepth: intrinsics are required");
   if (depth.width != K->width || depth.height != K->height)
     throw std::invalid_argument("EncodedFrame::fromDepth: image is " + std::to_string(depth.width) + "x" +
@@ -51,16 +61,18 @@ EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<co
     for (int u = 0; u < depth.width; ++u) {
       const float d = depth.at(u, v);
       std::uint16_t q = 0;
-      if (d > 0.0f && std::isfinite(d)) q = std::uint16_t(std::min(65535.0, std::max(1.0, std::round(d / depth_unit_m))));
+      if (d > 0.0f && std::isfinite(d)) q = std::uint16_t(std::min(65535.0, std::max(1.0, double(d) / depth_unit_m + 0.5)));
       coded[std::size_t(v) * depth.width + u] = std::uint16_t(q - prev);
       prev = q;
     }
   }
-  f.payload_ = deflateBytes(coded.data(), coded.size() * sizeof(std::uint16_t));
+  f.compressed_ = compress;
+  const std::size_t n = coded.size() * sizeof(std::uint16_t);
+  f.payload_ = compress ? deflateBytes(coded.data(), n) : rawBytes(coded.data(), n);
   return f;
 }
 
-EncodedFrame EncodedFrame::fromPoints(const PointCloud& points_S, double unit_m) {
+EncodedFrame EncodedFrame::fromPoints(const PointCloud& points_S, double unit_m, bool compress) {
   if (!(unit_m > 0.0)) throw std::invalid_argument("EncodedFrame::fromPoints: unit_m must be > 0");
   EncodedFrame f;
   f.kind_ = Kind::Points;
@@ -74,14 +86,16 @@ EncodedFrame EncodedFrame::fromPoints(const PointCloud& points_S, double unit_m)
     const bool ok = p.allFinite() && p.cast<double>().cwiseAbs().maxCoeff() < limit;
     for (int a = 0; a < 3; ++a) q[3 * i + a] = ok ? std::int32_t(std::lround(double(p[a]) / unit_m)) : kInvalid;
   }
-  f.payload_ = deflateBytes(q.data(), q.size() * sizeof(std::int32_t));
+  f.compressed_ = compress;
+  const std::size_t n = q.size() * sizeof(std::int32_t);
+  f.payload_ = compress ? deflateBytes(q.data(), n) : rawBytes(q.data(), n);
   return f;
 }
 
 PointCloud EncodedFrame::decode() const {
   if (kind_ == Kind::Depth) {
     std::vector<std::uint16_t> coded(count_);
-    inflateBytes(payload_, coded.data(), coded.size() * sizeof(std::uint16_t));
+    inflateBytes(payload_, coded.data(), coded.size() * sizeof(std::uint16_t), compressed_);
     DepthImage depth(intrinsics_->width, intrinsics_->height, 0.0f);
     for (int v = 0; v < depth.height; ++v) {
       std::uint16_t q = 0;
@@ -93,7 +107,7 @@ PointCloud EncodedFrame::decode() const {
     return backProject(depth, *intrinsics_, stride_);
   }
   std::vector<std::int32_t> q(std::size_t(count_) * 3);
-  inflateBytes(payload_, q.data(), q.size() * sizeof(std::int32_t));
+  inflateBytes(payload_, q.data(), q.size() * sizeof(std::int32_t), compressed_);
   constexpr std::int32_t kInvalid = std::numeric_limits<std::int32_t>::min();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   PointCloud points(count_);

@@ -88,11 +88,14 @@ openvdb::CoordBBox Mapper::takeDirtyRegion() {
 
 IntegrationStats Mapper::addDepthFrame(FrameId id, double timestamp, const DepthImage& depth,
                                        std::shared_ptr<const CameraIntrinsics> K, const Pose3d& T_W_S) {
-  return addFrame(id, timestamp, EncodedFrame::fromDepth(depth, std::move(K), config_.depth_unit_m), T_W_S);
+  // Frames the mapper keeps are compressed; in none mode a frame is decoded once and dropped.
+  const bool store = config_.mode != ConsistencyMode::None;
+  return addFrame(id, timestamp, EncodedFrame::fromDepth(depth, std::move(K), config_.depth_unit_m, 1, store), T_W_S);
 }
 
 IntegrationStats Mapper::addPointFrame(FrameId id, double timestamp, const PointCloud& points_S, const Pose3d& T_W_S) {
-  return addFrame(id, timestamp, EncodedFrame::fromPoints(points_S, config_.depth_unit_m), T_W_S);
+  const bool store = config_.mode != ConsistencyMode::None;
+  return addFrame(id, timestamp, EncodedFrame::fromPoints(points_S, config_.depth_unit_m, store), T_W_S);
 }
 
 IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) {

@@ -43,34 +43,45 @@ void TsdfVolume::setThreads(int threads) {
 }
 
 std::uint64_t TsdfVolume::fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const {
-  // A 64-bit mix over the raw bytes (splitmix64 finaliser per word): equal inputs give equal
-  // fingerprints; a different point or pose changes it with overwhelming probability.
-  std::uint64_t h = 0x9e3779b97f4a7c15ULL ^ points_S.size();
-  auto mix = [&h](std::uint64_t w) {
-    h ^= w + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
-    h ^= h >> 30;
-    h *= 0xbf58476d1ce4e5b9ULL;
-    h ^= h >> 27;
-    h *= 0x94d049bb133111ebULL;
-    h ^= h >> 31;
+  // A 64-bit hash of the raw bytes: four independent multiply-rotate lanes over 8-byte words
+  // (about 1 ns per point), then a splitmix64 finaliser. Equal inputs give equal fingerprints; a
+  // different point or pose changes it with overwhelming probability.
+  constexpr std::uint64_t kP1 = 0x9e3779b185ebca87ULL, kP2 = 0xc2b2ae3d27d4eb4fULL;
+  auto round = [](std::uint64_t acc, std::uint64_t w) {
+    acc += w * kP2;
+    acc = (acc << 31) | (acc >> 33);
+    return acc * kP1;
   };
+  std::uint64_t lane[4] = {kP1 + kP2, kP2, 0, 0 - kP1};
   const auto* bytes = reinterpret_cast<const unsigned char*>(points_S.data());
   const std::size_t n = points_S.size() * sizeof(Vec3f);
   std::size_t i = 0;
+  for (; i + 32 <= n; i += 32) {
+    std::uint64_t w[4];
+    std::memcpy(w, bytes + i, 32);
+    for (int k = 0; k < 4; ++k) lane[k] = round(lane[k], w[k]);
+  }
+  std::uint64_t h = (lane[0] << 1 | lane[0] >> 63) + (lane[1] << 7 | lane[1] >> 57) + (lane[2] << 12 | lane[2] >> 52) +
+                    (lane[3] << 18 | lane[3] >> 46) + n;
   for (; i + 8 <= n; i += 8) {
     std::uint64_t w;
     std::memcpy(&w, bytes + i, 8);
-    mix(w);
+    h = round(h, w);
   }
   std::uint64_t tail = 0;
   std::memcpy(&tail, bytes + i, n - i);
-  mix(tail);
+  h = round(h, tail);
   for (int k = 0; k < 16; ++k) {
     std::uint64_t w;
     const double v = T_W_S.matrix().data()[k];
     std::memcpy(&w, &v, 8);
-    mix(w);
+    h = round(h, w);
   }
+  h ^= h >> 30;
+  h *= 0xbf58476d1ce4e5b9ULL;
+  h ^= h >> 27;
+  h *= 0x94d049bb133111ebULL;
+  h ^= h >> 31;
   return h;
 }
 

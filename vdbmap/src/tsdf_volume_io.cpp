@@ -13,7 +13,8 @@
 namespace vdbmap {
 namespace {
 
-constexpr int kFormatVersion = 1;
+/// 2: frame fingerprints by a faster hash (version 1 companions cannot de-integrate their frames).
+constexpr int kFormatVersion = 2;
 
 openvdb::MetaMap configMetadata(const TsdfConfig& c, const IntegratorConfig& in, std::size_t frames) {
   openvdb::MetaMap meta;
@@ -133,6 +134,11 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
       openvdb::io::File ef(exact.string());
       ef.open();
       const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
+      const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(*emeta, "vdbmap_format_version", exact);
+      if (version != kFormatVersion)
+        throw std::runtime_error(exact.string() + ": exact state of format version " + std::to_string(version) +
+                                 ", this build reads version " + std::to_string(kFormatVersion) +
+                                 " (remove the .exact.vdb file to load the map approximately)");
       if (requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "weight_scale", exact) != kWeightScale ||
           requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "sdf_scale", exact) != kSdfScale)
         throw std::runtime_error(exact.string() + ": fixed-point scales differ from this build's");

@@ -21,11 +21,12 @@ class EncodedFrame {
  public:
   EncodedFrame() = default;
   /// Depth in metres quantized to `depth_unit_m` (depths beyond 65535 units are clamped there,
-  /// which keeps them beyond any sensible max range); invalid pixels stay invalid.
+  /// which keeps them beyond any sensible max range); invalid pixels stay invalid. `compress`
+  /// false skips zlib (for frames decoded once and not stored); decode() gives the same points.
   static EncodedFrame fromDepth(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
-                                double depth_unit_m = 0.001, int stride = 1);
+                                double depth_unit_m = 0.001, int stride = 1, bool compress = true);
   /// Points in the sensor frame quantized to `unit_m`; NaN points are kept as invalid.
-  static EncodedFrame fromPoints(const PointCloud& points_S, double unit_m = 0.001);
+  static EncodedFrame fromPoints(const PointCloud& points_S, double unit_m = 0.001, bool compress = true);
 
   /// The frame's points in the sensor frame, exactly as every other decode of this frame.
   PointCloud decode() const;
@@ -40,6 +41,7 @@ class EncodedFrame {
   double unit_m_ = 0.001;
   int stride_ = 1;
   std::uint32_t count_ = 0;  ///< pixels or points
+  bool compressed_ = true;   ///< payload_ is zlib-compressed (else the raw codes)
   std::vector<std::uint8_t> payload_;
 };
 
