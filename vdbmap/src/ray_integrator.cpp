@@ -171,14 +171,18 @@ struct ChunkResult {
 
 // ---- per-thread accumulation of voxel updates -------------------------------------------------
 
-/// One leaf's worth (8^3 voxels, OpenVDB's leaf layout) of pending (W, WD) updates.
+/// One leaf's worth (8^3 voxels, OpenVDB's leaf layout) of pending updates. Free-space updates
+/// (sdf clamped to +truncation) all have the form (w, w * kSdfScale), so they only sum their
+/// weight, in an array of their own: most updates are free space, and this halves their memory
+/// traffic. Band updates keep (W, WD) interleaved, one cache line per update.
 struct Block {
   struct Cell {
     std::int64_t w, wd;
   };
   openvdb::Coord origin;
-  std::array<std::uint64_t, Int64Leaf::SIZE / 64> touched;  // bit n: cells[n] holds an update
-  std::array<Cell, Int64Leaf::SIZE> cells;                  // interleaved: one cache line per update
+  std::array<std::uint64_t, Int64Leaf::SIZE / 64> touched;  // bit n: voxel n holds an update
+  std::array<std::int64_t, Int64Leaf::SIZE> free_w;         // summed free-space weights
+  std::array<Cell, Int64Leaf::SIZE> band;                   // summed band updates
 };
 
 /// Blocks are recycled between frames: a frame at 0.05 m touches thousands of them, and zeroing
@@ -196,7 +200,8 @@ class BlockPool {
     }
     auto b = std::make_unique<Block>();
     b->touched.fill(0);
-    std::memset(b->cells.data(), 0, sizeof(b->cells));
+    b->free_w.fill(0);
+    std::memset(b->band.data(), 0, sizeof(b->band));
     return b;
   }
   void release(std::vector<std::unique_ptr<Block>>& blocks) {
@@ -207,7 +212,7 @@ class BlockPool {
   }
 
  private:
-  static constexpr std::size_t kMaxPooled = 8192;  // 64 MiB
+  static constexpr std::size_t kMaxPooled = 6144;  // 72 MiB
   std::mutex mutex_;
   std::vector<std::unique_ptr<Block>> free_;
 };
@@ -256,8 +261,15 @@ class VoxelCursor {
     block_ = acc_.blockAt(origin_);
     n_ = Int64Leaf::coordToOffset(openvdb::Coord(ijk[0], ijk[1], ijk[2]));
   }
-  void add(std::int64_t dw, std::int64_t dwd) {
-    Block::Cell& cell = block_->cells[n_];
+  /// A free-space update: (dw, dw * kSdfScale).
+  void addFree(std::int64_t dw) {
+    block_->free_w[n_] += dw;
+    block_->touched[n_ >> 6] |= std::uint64_t(1) << (n_ & 63);
+    ++acc_.updates;
+  }
+  /// A band update (dw, dwd).
+  void addBand(std::int64_t dw, std::int64_t dwd) {
+    Block::Cell& cell = block_->band[n_];
     cell.w += dw;
     cell.wd += dwd;
     block_->touched[n_ >> 6] |= std::uint64_t(1) << (n_ & 63);
@@ -319,9 +331,14 @@ void castOne(const RayBundle& b, const Vec3d& origin_W, const TsdfConfig& tsdf, 
     }
   }
   VoxelCursor cursor(out, ijk);
-  auto advance = [&]() {  // false when the ray ends in the current voxel
-    const int a = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
-    if (t_max[a] > t_end) return false;
+  // One DDA step: to the next voxel along the axis whose boundary comes first; false when the ray
+  // ends in the current voxel. `t_exit` gets the ray parameter where the current voxel is left.
+  double t_exit = 0.0;
+  auto advance = [&]() {
+    int a = t_max[1] < t_max[0] ? 1 : 0;
+    a = t_max[2] < t_max[a] ? 2 : a;
+    t_exit = t_max[a];
+    if (t_exit > t_end) return false;
     ijk[a] += step[a];
     t_max[a] += t_delta[a];
     cursor.move(a, step[a]);
@@ -332,12 +349,10 @@ void castOne(const RayBundle& b, const Vec3d& origin_W, const TsdfConfig& tsdf, 
   // voxel entered at ray parameter t has its centre's projection within t + sqrt(3) voxels, so
   // while t < dist - delta - sqrt(3) voxels its sdf is certainly >= delta. Carve-only rays (beyond
   // max range) are free all along.
-  const std::int64_t free_w = b.weight_q, free_wd = b.weight_q * kSdfScale;
+  const std::int64_t free_w = b.weight_q;
   const double t_free = b.surface ? dist - delta - std::sqrt(3.0) * vs : std::numeric_limits<double>::infinity();
-  double t_entry = 0.0;
-  while (t_entry < t_free) {
-    cursor.add(free_w, free_wd);
-    t_entry = std::min(t_max[0], std::min(t_max[1], t_max[2]));
+  while (t_exit < t_free) {  // t_exit of the previous voxel = t at which this one was entered
+    cursor.addFree(free_w);
     if (!advance()) return;
   }
 
@@ -350,14 +365,14 @@ void castOne(const RayBundle& b, const Vec3d& origin_W, const TsdfConfig& tsdf, 
   do {
     const double sdf = base - (ijk[0] * step_dir[0] + ijk[1] * step_dir[1] + ijk[2] * step_dir[2]);
     if (sdf >= delta) {
-      cursor.add(free_w, free_wd);
+      cursor.addFree(free_w);
     } else if (sdf >= -delta) {
       std::int64_t w = b.weight_q;
       if (drop_off && sdf < -epsilon) {
         const double f = delta > epsilon ? (delta + sdf) / (delta - epsilon) : 0.0;
         w = (w * roundToInt64(f * kFractionScale)) / kFractionScale;
       }
-      if (w > 0) cursor.add(w, w * roundToInt64(sdf * inv_delta * double(kSdfScale)));
+      if (w > 0) cursor.addBand(w, w * roundToInt64(sdf * inv_delta * double(kSdfScale)));
     }
   } while (advance());
 }
@@ -406,10 +421,12 @@ void applyBlocks(tbb::enumerable_thread_specific<BlockAccumulator>& locals, Int6
           while (bits) {
             const openvdb::Index n = openvdb::Index(word * 64 + std::size_t(__builtin_ctzll(bits)));
             bits &= bits - 1;
-            Block::Cell& cell = block.cells[n];
-            const std::int64_t w = w_data[n] + sign * cell.w;
-            const std::int64_t wd = wd_data[n] + sign * cell.wd;
-            cell = {0, 0};  // back to the pool zeroed
+            Block::Cell& band = block.band[n];
+            std::int64_t& free = block.free_w[n];
+            const std::int64_t w = w_data[n] + sign * (band.w + free);
+            const std::int64_t wd = wd_data[n] + sign * (band.wd + free * kSdfScale);
+            band = {0, 0};  // back to the pool zeroed
+            free = 0;
             if (w == 0) {   // every contribution to this voxel is gone: remove it
               w_data[n] = 0;
               wd_data[n] = 0;
