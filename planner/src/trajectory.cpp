@@ -72,6 +72,13 @@ void Trajectory::geometry(double s, Vec3d& p, Vec3d& tangent, Vec3d& curvature) 
   curvature = -radial / pc.radius;
 }
 
+Vec3d Trajectory::startVelocity() const {
+  if (pieces_.empty()) return Vec3d::Zero();
+  Vec3d p, tangent, curvature;
+  geometry(0.0, p, tangent, curvature);
+  return node_v_.front() * tangent;
+}
+
 void Trajectory::sampleYaw(double t, double& yaw, double& rate) const {
   const double sign = yaw_delta_ < 0.0 ? -1.0 : 1.0;
   const double total = std::abs(yaw_delta_);
@@ -134,27 +141,31 @@ class TrajectoryBuilder {
     for (std::size_t i = 1; i < pts.size(); ++i)
       if (!probe_.isSegmentClear(pts[i - 1], pts[i], p_.clearance_m, step_)) return result;  // PathNotClear
 
-    // The path as it is first; when the vehicle moves and that cannot start at its speed, lead-ins
-    // along the current velocity, shortest first, until one can (else the fastest start wins).
-    const double v0 = start.velocity_W.norm() > kMovingSpeed_m_s ? start.velocity_W.norm() : 0.0;
-    auto startSpeed = [](const Trajectory& t) { return t.node_v_.empty() ? 0.0 : t.node_v_.front(); };
-    auto matches = [v0](double v) { return v >= v0 * (1.0 - 1e-9); };
-    Trajectory best = assemble(pts, v0);
-    if (!matches(startSpeed(best))) {
-      const double brake_m = v0 * v0 / (2.0 * p_.a_max_m_s2);
+    // The path as it is first, starting with the part of the vehicle's velocity along it; when
+    // that does not reproduce the velocity (other direction, or braking needs more room),
+    // lead-ins along the current velocity, shortest first, until one does. Else the candidate
+    // whose start velocity is nearest the vehicle's wins.
+    const Vec3d v0 = start.velocity_W.norm() > kMovingSpeed_m_s ? start.velocity_W : Vec3d::Zero();
+    const double speed0 = v0.norm();
+    auto mismatch = [&v0](const Trajectory& t) { return (t.startVelocity() - v0).norm(); };
+    auto matches = [&](const Trajectory& t) { return mismatch(t) <= 1e-9 * std::max(1.0, speed0); };
+    const double along = pts.size() > 1 ? std::max(0.0, v0.dot((pts[1] - pts[0]).normalized())) : 0.0;
+    Trajectory best = assemble(pts, along);
+    if (!matches(best)) {
+      const double brake_m = speed0 * speed0 / (2.0 * p_.a_max_m_s2);
       for (const double f : {0.6, 1.2, 2.0, 3.0}) {
-        const Vec3d q = pts.front() + start.velocity_W / v0 * std::max(f * brake_m, 2.0 * step_);
+        const Vec3d q = pts.front() + v0 / speed0 * std::max(f * brake_m, 2.0 * step_);
         std::vector<Vec3d> with_lead = pts.size() == 1 ? std::vector<Vec3d>{pts[0], q, pts[0]} : pts;
         if (pts.size() > 1) with_lead.insert(with_lead.begin() + 1, q);
         if (!probe_.isSegmentClear(with_lead[0], with_lead[1], p_.clearance_m, step_) ||
             !probe_.isSegmentClear(with_lead[1], with_lead[2], p_.clearance_m, step_))
           continue;
-        Trajectory t = assemble(cleanPolyline(with_lead), v0);
-        if (startSpeed(t) > startSpeed(best)) best = std::move(t);
-        if (matches(startSpeed(best))) break;
+        Trajectory t = assemble(cleanPolyline(with_lead), speed0);
+        if (mismatch(t) < mismatch(best)) best = std::move(t);
+        if (matches(best)) break;
       }
     }
-    const bool matched = matches(startSpeed(best));
+    const bool matched = matches(best);
     fitYaw(best, start.yaw_rad, goal_yaw);
     result.trajectory = std::move(best);
     result.status = matched ? TrajectoryStatus::Ok : TrajectoryStatus::StartVelocityReduced;

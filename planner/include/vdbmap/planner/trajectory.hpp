@@ -18,9 +18,10 @@
 // The cost: acceleration may jump where a straight piece meets an arc (no jerk limit), and the
 // motion is time-optimal along the rounded path, not over all paths.
 //
-// Start state: when the vehicle is moving, a short lead-in along its current velocity is put in
-// front of the path (if clear) so the trajectory starts with exactly that velocity; it then curves
-// onto the path. The trajectory ends at rest at the last waypoint. Yaw follows a trapezoidal
+// Start state: when the vehicle is moving, the trajectory starts with exactly its velocity when it
+// can: along the path if the velocity points along it and there is room to brake, else through a
+// short lead-in along the current velocity (if clear), curving onto the path. When neither works
+// (e.g. flying at a wall) the status says the start velocity was reduced. The trajectory ends at rest at the last waypoint. Yaw follows a trapezoidal
 // yaw-rate profile from the current yaw to the goal yaw (|yaw rate| <= yaw_rate_max, |yaw
 // acceleration| <= yaw_acc_max), spread over the whole motion; if turning takes longer than moving,
 // the vehicle waits at the goal until it has turned (this also turns it on the spot).
@@ -79,6 +80,8 @@ class Trajectory {
   double length_m() const { return node_s_.empty() ? 0.0 : node_s_.back(); }
   /// The polyline the rounded path was built on (the lead-in point included, if any).
   const std::vector<Vec3d>& corners() const { return corners_; }
+  /// The velocity at t = 0.
+  Vec3d startVelocity() const;
   /// Number of corners that could not be rounded and are taken stopping.
   int stopCorners() const { return stop_corners_; }
 
