@@ -82,6 +82,8 @@ class PairCostTable {
   double cost(ClusterId from, ClusterId to) const;
   bool reachable(ClusterId from, ClusterId to) const;
   std::size_t pairCount() const { return pairs_.size(); }
+  const CostParams& costParams() const { return cost_; }
+  const PathParams& pathParams() const { return path_; }
 
  private:
   struct Entry {
