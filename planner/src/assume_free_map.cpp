@@ -17,6 +17,24 @@ class AssumeFreeReader : public MapReader {
     return o;
   }
 
+  void readBox(const openvdb::CoordBBox& box, Occupancy* out) override {
+    base_->readBox(box, out);
+    const openvdb::Coord dim = box.dim();
+    for (const openvdb::CoordBBox& b : boxes_) {
+      openvdb::CoordBBox overlap = b;
+      overlap.intersect(box);
+      if (overlap.empty()) continue;
+      for (int x = overlap.min().x(); x <= overlap.max().x(); ++x)
+        for (int y = overlap.min().y(); y <= overlap.max().y(); ++y)
+          for (int z = overlap.min().z(); z <= overlap.max().z(); ++z) {
+            Occupancy& o = out[(std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
+                                   std::size_t(dim.z()) +
+                               std::size_t(z - box.min().z())];
+            if (o == Occupancy::Unknown) o = Occupancy::Free;
+          }
+    }
+  }
+
  private:
   std::unique_ptr<MapReader> base_;
   const std::vector<openvdb::CoordBBox>& boxes_;

@@ -23,7 +23,14 @@ std::vector<openvdb::Coord> allNeighbours() {
         if (x || y || z) n.emplace_back(x, y, z);
   return n;
 }
-const std::vector<openvdb::Coord> kAllNeighbours = allNeighbours();
+/// The 13 of the 26 neighbours that come before a voxel in Coord order (x, then y, then z).
+std::vector<openvdb::Coord> earlierNeighbours() {
+  std::vector<openvdb::Coord> n;
+  for (const openvdb::Coord& d : allNeighbours())
+    if (d < openvdb::Coord(0)) n.push_back(d);
+  return n;
+}
+const std::vector<openvdb::Coord> kEarlierNeighbours = earlierNeighbours();
 
 bool overlaps(const openvdb::CoordBBox& a, const openvdb::CoordBBox& b) { return !a.empty() && !b.empty() && a.hasOverlap(b); }
 
@@ -149,21 +156,43 @@ openvdb::CoordBBox FrontierMap::boundsIndex(const MapQuery& map) const {
 std::vector<openvdb::Coord> FrontierMap::scanFrontiers(const MapQuery& map, const openvdb::CoordBBox& box) const {
   if (box.empty()) return {};
   const openvdb::CoordBBox bounds = boundsIndex(map);
-  const openvdb::CoordBBox* bounds_ptr = params_.bounds_W ? &bounds : nullptr;
-  // One x-slab per task, each with its own reader; slabs are concatenated in order, so the
-  // result does not depend on the thread count.
-  const int x0 = box.min().x();
+  // Chunks of x-slabs, each read as one block (with a one-voxel margin for the neighbours) by its
+  // own reader; chunks are concatenated in order, so the result does not depend on the threads.
+  constexpr int kSlabsPerChunk = 8;
   const int slabs = box.dim().x();
-  std::vector<std::vector<openvdb::Coord>> found(static_cast<std::size_t>(slabs));
-  tbb::parallel_for(tbb::blocked_range<int>(0, slabs, 4), [&](const tbb::blocked_range<int>& r) {
+  const int chunks = (slabs + kSlabsPerChunk - 1) / kSlabsPerChunk;
+  std::vector<std::vector<openvdb::Coord>> found(static_cast<std::size_t>(chunks));
+  tbb::parallel_for(tbb::blocked_range<int>(0, chunks, 1), [&](const tbb::blocked_range<int>& r) {
     std::unique_ptr<MapReader> reader = map.reader();
-    for (int i = r.begin(); i < r.end(); ++i) {
-      const int x = x0 + i;
-      for (int y = box.min().y(); y <= box.max().y(); ++y)
-        for (int z = box.min().z(); z <= box.max().z(); ++z) {
-          const openvdb::Coord c(x, y, z);
-          if (isFrontierVoxel(*reader, c, bounds_ptr)) found[std::size_t(i)].push_back(c);
-        }
+    std::vector<Occupancy> block;
+    for (int chunk = r.begin(); chunk < r.end(); ++chunk) {
+      const int x0 = box.min().x() + chunk * kSlabsPerChunk;
+      const int x1 = std::min(box.max().x(), x0 + kSlabsPerChunk - 1);
+      const openvdb::CoordBBox inner(openvdb::Coord(x0, box.min().y(), box.min().z()),
+                                     openvdb::Coord(x1, box.max().y(), box.max().z()));
+      const openvdb::CoordBBox outer = inner.expandBy(1);
+      const openvdb::Coord dim = outer.dim();
+      block.resize(std::size_t(outer.volume()));
+      reader->readBox(outer, block.data());
+      auto at = [&](int x, int y, int z) -> Occupancy& {
+        return block[(std::size_t(x - outer.min().x()) * std::size_t(dim.y()) + std::size_t(y - outer.min().y())) *
+                         std::size_t(dim.z()) +
+                     std::size_t(z - outer.min().z())];
+      };
+      // Outside the exploration box nothing is a frontier, nor makes one.
+      if (params_.bounds_W)
+        for (auto it = outer.begin(); it; ++it)
+          if (!bounds.isInside(*it)) at((*it).x(), (*it).y(), (*it).z()) = Occupancy::Occupied;
+      std::vector<openvdb::Coord>& out = found[std::size_t(chunk)];
+      for (int x = x0; x <= x1; ++x)
+        for (int y = inner.min().y(); y <= inner.max().y(); ++y)
+          for (int z = inner.min().z(); z <= inner.max().z(); ++z) {
+            if (at(x, y, z) != Occupancy::Free) continue;
+            if (at(x - 1, y, z) == Occupancy::Unknown || at(x + 1, y, z) == Occupancy::Unknown ||
+                at(x, y - 1, z) == Occupancy::Unknown || at(x, y + 1, z) == Occupancy::Unknown ||
+                at(x, y, z - 1) == Occupancy::Unknown || at(x, y, z + 1) == Occupancy::Unknown)
+              out.emplace_back(x, y, z);
+          }
     }
   });
   std::vector<openvdb::Coord> all;
@@ -172,35 +201,39 @@ std::vector<openvdb::Coord> FrontierMap::scanFrontiers(const MapQuery& map, cons
 }
 
 void FrontierMap::floodComponents(std::vector<openvdb::Coord> pending) {
-  // Pending voxels are in owner_ with component 0 ("unassigned"); flood 26-connected components
-  // over them, seeded in sorted order so that the result is deterministic.
+  // Union-find over the pending voxels: each voxel is joined with its 13 neighbours that come
+  // before it in Coord order (the other 13 see it from their side). Components are numbered in
+  // the order of their smallest voxel, and their voxels come out sorted: deterministic.
   std::sort(pending.begin(), pending.end());
-  for (const openvdb::Coord& c : pending) owner_[c] = 0;
-  std::vector<openvdb::Coord> stack;
-  for (const openvdb::Coord& seed : pending) {
-    if (owner_[seed] != 0) continue;
-    const ComponentId id = next_component_++;
-    std::vector<openvdb::Coord> voxels;
-    owner_[seed] = id;
-    stack.assign(1, seed);
-    while (!stack.empty()) {
-      const openvdb::Coord c = stack.back();
-      stack.pop_back();
-      voxels.push_back(c);
-      for (const openvdb::Coord& d : kAllNeighbours) {
-        const auto it = owner_.find(c + d);
-        // A neighbour owned by another component would mean an untouched component is adjacent
-        // to a changed voxel, which the dirty-region argument (see the header) rules out.
-        if (it == owner_.end() || it->second != 0) continue;
-        it->second = id;
-        stack.push_back(it->first);
-      }
+  const std::size_t n = pending.size();
+  std::unordered_map<openvdb::Coord, std::uint32_t, CoordHash> index;
+  index.reserve(2 * n);
+  for (std::size_t i = 0; i < n; ++i) index.emplace(pending[i], std::uint32_t(i));
+  std::vector<std::uint32_t> parent(n);
+  for (std::size_t i = 0; i < n; ++i) parent[i] = std::uint32_t(i);
+  auto root = [&parent](std::uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (std::size_t i = 0; i < n; ++i)
+    for (const openvdb::Coord& d : kEarlierNeighbours) {
+      const auto it = index.find(pending[i] + d);
+      if (it == index.end()) continue;
+      const std::uint32_t a = root(std::uint32_t(i)), b = root(it->second);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the root is the smallest index
     }
-    std::sort(voxels.begin(), voxels.end());
-    Component comp;
-    for (const openvdb::Coord& c : voxels) comp.bbox.expand(c);
-    comp.voxels = std::move(voxels);
-    components_.emplace(id, std::move(comp));
+  std::unordered_map<std::uint32_t, ComponentId> id_of_root;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t r = root(std::uint32_t(i));
+    auto [it, fresh] = id_of_root.emplace(r, 0);
+    if (fresh) {
+      it->second = next_component_++;
+      components_.emplace(it->second, Component{});
+    }
+    Component& comp = components_.at(it->second);
+    comp.voxels.push_back(pending[i]);
+    comp.bbox.expand(pending[i]);
+    owner_[pending[i]] = it->second;
   }
 }
 

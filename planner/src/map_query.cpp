@@ -24,6 +24,13 @@ const char* toString(Occupancy o) {
   return "?";
 }
 
+void MapReader::readBox(const openvdb::CoordBBox& box, Occupancy* out) {
+  std::size_t i = 0;
+  for (int x = box.min().x(); x <= box.max().x(); ++x)
+    for (int y = box.min().y(); y <= box.max().y(); ++y)
+      for (int z = box.min().z(); z <= box.max().z(); ++z) out[i++] = at(openvdb::Coord(x, y, z));
+}
+
 openvdb::Coord MapQuery::worldToVoxel(const Vec3d& p_W) const {
   const double inv = 1.0 / voxelSize();
   return openvdb::Coord(int(std::floor(p_W.x() * inv + 0.5)), int(std::floor(p_W.y() * inv + 0.5)),

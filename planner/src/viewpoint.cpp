@@ -1,5 +1,7 @@
 #include "vdbmap/planner/viewpoint.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -96,6 +98,14 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
   std::stable_sort(viewpoints.begin(), viewpoints.end(),
                    [](const Viewpoint& a, const Viewpoint& b) { return a.visible_samples > b.visible_samples; });
   return viewpoints;
+}
+
+std::vector<std::vector<Viewpoint>> computeViewpoints(const std::vector<const FrontierCluster*>& clusters,
+                                                      const MapQuery& map, const ViewpointParams& params) {
+  params.validate();
+  std::vector<std::vector<Viewpoint>> views(clusters.size());
+  tbb::parallel_for(std::size_t(0), clusters.size(), [&](std::size_t i) { views[i] = computeViewpoints(*clusters[i], map, params); });
+  return views;
 }
 
 }  // namespace vdbmap::planner

@@ -162,6 +162,21 @@ TEST_CASE("TsdfMapQuery agrees with TsdfVolume::state on every voxel of an integ
     REQUIRE(got == want);
     ++counts[int(got)];
   }
+  // readBox (leaf by leaf) reads the same states, also through the assume-free wrapper.
+  const AssumeFreeMap wrapped(query, {boxAround(Vec3d(0, 0, 0.5), Vec3d(0.3, 0.3, 0.3))});
+  auto wrapped_reader = wrapped.reader();
+  for (const CoordBBox& box : {query.knownBounds().expandBy(3), CoordBBox(Coord(-5, -3, 2), Coord(4, 9, 30))}) {
+    std::vector<Occupancy> block(box.volume()), wrapped_block(box.volume());
+    reader->readBox(box, block.data());
+    wrapped_reader->readBox(box, wrapped_block.data());
+    std::size_t i = 0;
+    for (int x = box.min().x(); x <= box.max().x(); ++x)
+      for (int y = box.min().y(); y <= box.max().y(); ++y)
+        for (int z = box.min().z(); z <= box.max().z(); ++z, ++i) {
+          REQUIRE(block[i] == reader->at(Coord(x, y, z)));
+          REQUIRE(wrapped_block[i] == wrapped_reader->at(Coord(x, y, z)));
+        }
+  }
   CHECK(counts[int(Occupancy::Free)] > 1000);
   CHECK(counts[int(Occupancy::Occupied)] > 100);
   CHECK(counts[int(Occupancy::Unknown)] > 100);

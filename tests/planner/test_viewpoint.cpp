@@ -91,6 +91,19 @@ TEST_CASE("Every viewpoint is clear, sees its cluster, and looks at it", "[plann
     }
   }
   CHECK(total > 20);
+  // The parallel overload gives the same viewpoints.
+  std::vector<const FrontierCluster*> all;
+  for (const FrontierCluster& c : frontiers.clusters()) all.push_back(&c);
+  const auto parallel = computeViewpoints(all, map, params);
+  REQUIRE(parallel.size() == all.size());
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const auto single = computeViewpoints(*all[i], map, params);
+    REQUIRE(parallel[i].size() == single.size());
+    for (std::size_t k = 0; k < single.size(); ++k) {
+      CHECK(parallel[i][k].position_W == single[k].position_W);
+      CHECK(parallel[i][k].visible_samples == single[k].visible_samples);
+    }
+  }
 }
 
 TEST_CASE("Viewpoints respect the exploration box and the clearance", "[planner][viewpoint]") {

@@ -109,7 +109,7 @@ class FrontierMap {
 
   openvdb::CoordBBox boundsIndex(const MapQuery& map) const;
   std::vector<openvdb::Coord> scanFrontiers(const MapQuery& map, const openvdb::CoordBBox& box) const;
-  /// Floods the 26-connected components of `pending` into components_ with fresh ids.
+  /// Groups `pending` (voxels not in owner_) into 26-connected components with fresh ids.
   void floodComponents(std::vector<openvdb::Coord> pending);
   /// Clusters being taken apart, by their first voxel (an id set to 0 once reused).
   using ReusableClusters = std::map<openvdb::Coord, std::vector<ClusterId>>;

@@ -36,6 +36,10 @@ class MapReader {
  public:
   virtual ~MapReader() = default;
   virtual Occupancy at(const openvdb::Coord& ijk) = 0;
+  /// The states of every voxel of a non-empty `box`, z fastest: voxel (x, y, z) goes to
+  /// out[((x - min.x) * dim.y + (y - min.y)) * dim.z + (z - min.z)]. The default calls at() per
+  /// voxel; maps override it to read whole blocks at once (frontier scans read boxes).
+  virtual void readBox(const openvdb::CoordBBox& box, Occupancy* out);
 };
 
 /// A map as the planner sees it. Implementations are read-only and safe to share between threads.

@@ -65,6 +65,11 @@ struct Viewpoint {
 std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const MapQuery& map,
                                          const ViewpointParams& params = {});
 
+/// computeViewpoints for several clusters in parallel (one task per cluster); results in the
+/// order of `clusters`, identical to calling computeViewpoints on each.
+std::vector<std::vector<Viewpoint>> computeViewpoints(const std::vector<const FrontierCluster*>& clusters,
+                                                      const MapQuery& map, const ViewpointParams& params = {});
+
 /// Yaw toward a set of voxels from `eye_W`: the circular mean of the horizontal directions.
 double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, const MapQuery& map);
 
