@@ -58,6 +58,17 @@ Eigen::AlignedBox3d MapQuery::worldBox(const openvdb::CoordBBox& box) const {
 
 MapProbe::MapProbe(const MapQuery& map) : map_(&map), reader_(map.reader()), voxel_size_m_(map.voxelSize()) {}
 
+void MapProbe::cacheBox(const openvdb::CoordBBox& box) {
+  cache_box_ = box;
+  if (box.empty()) {
+    cache_.clear();
+    return;
+  }
+  cache_dim_ = box.dim();
+  cache_.resize(std::size_t(box.volume()));
+  reader_->readBox(box, cache_.data());
+}
+
 const std::vector<MapProbe::Offset>& MapProbe::offsetsFor(double radius_m) {
   const double radius_vox = radius_m / voxel_size_m_;
   if (!(radius_vox >= 0.0) || radius_vox > kMaxRadiusVox)
@@ -96,21 +107,21 @@ bool MapProbe::isClear(const Vec3d& p_W, double radius_m) {
       const Vec3d d = Vec3d(o.d.x(), o.d.y(), o.d.z()) - local;
       if (d.squaredNorm() > r2) continue;
     }
-    if (reader_->at(c + o.d) != Occupancy::Free) return false;
+    if (at(c + o.d) != Occupancy::Free) return false;
   }
   return true;
 }
 
 double MapProbe::clearance(const Vec3d& p_W, double max_m) {
   const openvdb::Coord c = map_->worldToVoxel(p_W);
-  if (reader_->at(c) != Occupancy::Free) return 0.0;
+  if (at(c) != Occupancy::Free) return 0.0;
   const std::vector<Offset>& offsets = offsetsFor(max_m);
   const Vec3d local = p_W / voxel_size_m_ - Vec3d(c.x(), c.y(), c.z());
   double best_vox = max_m / voxel_size_m_;
   for (const Offset& o : offsets) {
     // Offsets are sorted by |d|; a voxel centre is at least |d| - half diagonal from p.
     if (o.dist_vox - kHalfDiagonalVox > best_vox) break;
-    if (reader_->at(c + o.d) == Occupancy::Free) continue;
+    if (at(c + o.d) == Occupancy::Free) continue;
     const double d = (Vec3d(o.d.x(), o.d.y(), o.d.z()) - local).norm();
     best_vox = std::min(best_vox, d);
   }
@@ -144,26 +155,51 @@ bool MapProbe::isVisible(const Vec3d& a_W, const Vec3d& b_W) {
   // At most one voxel per crossed boundary plus the first: a hard bound against rounding.
   const int max_steps = std::abs(last[0] - ijk[0]) + std::abs(last[1] - ijk[1]) + std::abs(last[2] - ijk[2]) + 1;
   for (int n = 0; n < max_steps; ++n) {
-    if (reader_->at(openvdb::Coord(ijk[0], ijk[1], ijk[2])) != Occupancy::Free) return false;
+    if (at(openvdb::Coord(ijk[0], ijk[1], ijk[2])) != Occupancy::Free) return false;
     if (ijk[0] == last[0] && ijk[1] == last[1] && ijk[2] == last[2]) break;
     const int k = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
     if (t_max[k] > 1.0) break;  // rounding: the end voxel is reached
     ijk[k] += step[k];
     t_max[k] += t_delta[k];
   }
-  return reader_->at(openvdb::Coord(last[0], last[1], last[2])) == Occupancy::Free;
+  return at(openvdb::Coord(last[0], last[1], last[2])) == Occupancy::Free;
 }
 
-bool MapProbe::isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_m, double step_m) {
-  if (step_m <= 0.0) step_m = 0.5 * voxel_size_m_;
-  const double length = (b_W - a_W).norm();
-  const int intervals = std::max(1, int(std::ceil(length / step_m)));
-  // Inflate by half the largest spacing (not the actual one) so one offset table serves all segments.
-  const double r = radius_m + 0.5 * step_m;
-  // Ends first (the usual reason for failure), then the inside.
-  if (!isClear(a_W, r) || !isClear(b_W, r)) return false;
-  for (int i = 1; i < intervals; ++i)
-    if (!isClear(a_W + (b_W - a_W) * (double(i) / intervals), r)) return false;
+bool MapProbe::isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_m) {
+  // Endpoints first (the usual reason for failure); they also validate the radius.
+  if (!isClear(a_W, radius_m) || !isClear(b_W, radius_m)) return false;
+  const double r = radius_m / voxel_size_m_;
+  // A thin capsule may slip between voxel centres: the voxels the segment crosses count too.
+  if (r < kHalfDiagonalVox && !isVisible(a_W, b_W)) return false;
+  // In voxel units voxel centres are the integer points.
+  const Vec3d a = a_W / voxel_size_m_, b = b_W / voxel_size_m_, d = b - a;
+  const double len2 = d.squaredNorm();
+  if (len2 < 1e-18) return true;
+  int k = 0;  // the main axis: every layer perpendicular to it meets the capsule in a small box
+  for (int j = 1; j < 3; ++j)
+    if (std::abs(d[j]) > std::abs(d[k])) k = j;
+  const int u = (k + 1) % 3, v = (k + 2) % 3;
+  const double r2 = r * r;
+  const int layer_lo = int(std::ceil(std::min(a[k], b[k]) - r)), layer_hi = int(std::floor(std::max(a[k], b[k]) + r));
+  int c[3];
+  for (int layer = layer_lo; layer <= layer_hi; ++layer) {
+    // The part of the segment within r of this layer (in the k axis) bounds the other two axes.
+    double t0 = (layer - r - a[k]) / d[k], t1 = (layer + r - a[k]) / d[k];
+    if (t0 > t1) std::swap(t0, t1);
+    t0 = std::clamp(t0, 0.0, 1.0);
+    t1 = std::clamp(t1, 0.0, 1.0);
+    const Vec3d p0 = a + d * t0, p1 = a + d * t1;
+    const int u_lo = int(std::ceil(std::min(p0[u], p1[u]) - r)), u_hi = int(std::floor(std::max(p0[u], p1[u]) + r));
+    const int v_lo = int(std::ceil(std::min(p0[v], p1[v]) - r)), v_hi = int(std::floor(std::max(p0[v], p1[v]) + r));
+    c[k] = layer;
+    for (c[u] = u_lo; c[u] <= u_hi; ++c[u])
+      for (c[v] = v_lo; c[v] <= v_hi; ++c[v]) {
+        const Vec3d centre(c[0], c[1], c[2]);
+        const double t = std::clamp((centre - a).dot(d) / len2, 0.0, 1.0);
+        if ((a + d * t - centre).squaredNorm() > r2) continue;
+        if (at(openvdb::Coord(c[0], c[1], c[2])) != Occupancy::Free) return false;
+      }
+  }
   return true;
 }
 

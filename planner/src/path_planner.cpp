@@ -103,10 +103,9 @@ struct PathPlanner::Checker {
 
   Checker(const MapQuery& map, double clearance, double step, const Eigen::AlignedBox3d& bounds)
       : probe(map), clearance_m(clearance), step_m(step), bounds_W(bounds) {}
-  // isClear() asks the radius that isSegmentClear() asks of every point it checks.
-  bool isClear(const Vec3d& p) { return bounds_W.contains(p) && probe.isClear(p, clearance_m + 0.5 * step_m); }
+  bool isClear(const Vec3d& p) { return bounds_W.contains(p) && probe.isClear(p, clearance_m); }
   bool isSegmentClear(const Vec3d& a, const Vec3d& b) {
-    return bounds_W.contains(a) && bounds_W.contains(b) && probe.isSegmentClear(a, b, clearance_m, step_m);
+    return bounds_W.contains(a) && bounds_W.contains(b) && probe.isSegmentClear(a, b, clearance_m);
   }
 };
 
@@ -132,13 +131,13 @@ struct PathPlanner::Ompl {
       return ok;
     }
     bool checkMotion(const ob::State* s1, const ob::State* s2, std::pair<ob::State*, double>& last_valid) const override {
-      // Walk in check steps; report the last clear point.
+      // Walk in check steps, each an exact capsule test; report the last clear point.
       const Vec3d a = toVec(s1), b = toVec(s2);
       const double length = (b - a).norm();
       const int steps = std::max(1, int(std::ceil(length / owner_.step_m)));
       for (int i = 1; i <= steps; ++i) {
         const double f = double(i) / steps;
-        if (!owner_.isClear(a + (b - a) * f) || !si_->satisfiesBounds(s2)) {
+        if (!owner_.isSegmentClear(a + (b - a) * (double(i - 1) / steps), a + (b - a) * f)) {
           const double f_ok = double(i - 1) / steps;
           if (last_valid.first) si_->getStateSpace()->interpolate(s1, s2, f_ok, last_valid.first);
           last_valid.second = f_ok;

@@ -139,7 +139,7 @@ class TrajectoryBuilder {
     TrajectoryResult result;
     std::vector<Vec3d> pts = cleanPolyline(path);
     for (std::size_t i = 1; i < pts.size(); ++i)
-      if (!probe_.isSegmentClear(pts[i - 1], pts[i], p_.clearance_m, step_)) return result;  // PathNotClear
+      if (!probe_.isSegmentClear(pts[i - 1], pts[i], p_.clearance_m)) return result;  // PathNotClear
 
     // The path as it is first, starting with the part of the vehicle's velocity along it; when
     // that does not reproduce the velocity (other direction, or braking needs more room),
@@ -157,8 +157,8 @@ class TrajectoryBuilder {
         const Vec3d q = pts.front() + v0 / speed0 * std::max(f * brake_m, 2.0 * step_);
         std::vector<Vec3d> with_lead = pts.size() == 1 ? std::vector<Vec3d>{pts[0], q, pts[0]} : pts;
         if (pts.size() > 1) with_lead.insert(with_lead.begin() + 1, q);
-        if (!probe_.isSegmentClear(with_lead[0], with_lead[1], p_.clearance_m, step_) ||
-            !probe_.isSegmentClear(with_lead[1], with_lead[2], p_.clearance_m, step_))
+        if (!probe_.isSegmentClear(with_lead[0], with_lead[1], p_.clearance_m) ||
+            !probe_.isSegmentClear(with_lead[1], with_lead[2], p_.clearance_m))
           continue;
         Trajectory t = assemble(cleanPolyline(with_lead), speed0);
         if (mismatch(t) < mismatch(best)) best = std::move(t);

@@ -76,6 +76,17 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
   std::vector<Viewpoint> viewpoints;
   if (cluster.samples.empty()) return viewpoints;
   MapProbe probe(map);
+  // Every check below stays within the outer ring, the samples, and the clearance around them:
+  // read that region once.
+  {
+    const double reach = params.ring_radius_max_m + params.min_clearance_m + map.voxelSize();
+    double dz_lo = 0.0, dz_hi = 0.0;
+    for (const double h : params.height_offsets_m) dz_lo = std::min(dz_lo, h), dz_hi = std::max(dz_hi, h);
+    Eigen::AlignedBox3d region(cluster.centroid_W - Vec3d(reach, reach, params.min_clearance_m + map.voxelSize() - dz_lo),
+                               cluster.centroid_W + Vec3d(reach, reach, params.min_clearance_m + map.voxelSize() + dz_hi));
+    for (const openvdb::Coord& c : cluster.samples) region.extend(map.voxelCenter(c));
+    probe.cacheBox(map.voxelsIn(region).expandBy(1));
+  }
   const double step = params.angle_step_deg * M_PI / 180.0;
   const int angles = std::max(1, int(std::ceil(2.0 * M_PI / step - 1e-9)));
   for (const double dz : params.height_offsets_m) {

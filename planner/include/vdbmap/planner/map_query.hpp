@@ -71,8 +71,19 @@ class MapProbe {
   const MapQuery& map() const { return *map_; }
   double voxelSize() const { return voxel_size_m_; }
 
-  Occupancy at(const openvdb::Coord& ijk) { return reader_->at(ijk); }
-  Occupancy atWorld(const Vec3d& p_W) { return reader_->at(map_->worldToVoxel(p_W)); }
+  Occupancy at(const openvdb::Coord& ijk) {
+    if (!cache_box_.isInside(ijk)) return reader_->at(ijk);
+    const openvdb::Coord d = ijk - cache_box_.min();
+    return cache_[(std::size_t(d.x()) * std::size_t(cache_dim_.y()) + std::size_t(d.y())) * std::size_t(cache_dim_.z()) +
+                  std::size_t(d.z())];
+  }
+  Occupancy atWorld(const Vec3d& p_W) { return at(map_->worldToVoxel(p_W)); }
+
+  /// Reads `box` into a dense block at once (MapReader::readBox) and answers from it from now on;
+  /// voxels outside it are still read one by one. Worth it before many checks in one region
+  /// (viewpoint scoring does this per cluster). The block is a snapshot: call again (or with an
+  /// empty box, to drop it) after the map changed.
+  void cacheBox(const openvdb::CoordBBox& box);
   bool isFree(const Vec3d& p_W) { return atWorld(p_W) == Occupancy::Free; }
 
   /// True when the voxel containing p_W and every voxel whose centre lies within radius_m of p_W
@@ -87,11 +98,11 @@ class MapProbe {
   /// voxels included) is known-free: the ray a-b is not blocked by occupied or unknown space.
   bool isVisible(const Vec3d& a_W, const Vec3d& b_W);
 
-  /// True when every voxel whose centre lies within radius_m of *any* point of the segment a-b is
-  /// known-free. Checked as isClear(radius_m + step/2) at points spaced step <= step_m, which is
-  /// conservative: every point of the segment is within step/2 of a checked point. step_m <= 0
-  /// means half a voxel.
-  bool isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_m, double step_m = 0.0);
+  /// True when every voxel whose centre lies within radius_m of any point of the segment a-b (the
+  /// capsule around it), and every voxel the segment passes through, is known-free. Exact: the
+  /// capsule's voxels are enumerated layer by layer along the segment's main axis, each once.
+  /// For a = b it is isClear(a, radius_m).
+  bool isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_m);
 
  private:
   struct Offset {
@@ -106,6 +117,9 @@ class MapProbe {
   std::unique_ptr<MapReader> reader_;
   double voxel_size_m_;
   std::map<std::int64_t, std::vector<Offset>> offsets_;  ///< by radius in micro-voxels
+  openvdb::CoordBBox cache_box_;  ///< empty: no block
+  openvdb::Coord cache_dim_;
+  std::vector<Occupancy> cache_;
 };
 
 }  // namespace vdbmap::planner

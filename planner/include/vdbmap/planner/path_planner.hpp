@@ -3,11 +3,11 @@
 // First the straight segment, when it is clear; otherwise OMPL's RRTConnect, then OMPL's
 // PathSimplifier (vertex reduction and shortcutting, no B-spline smoothing: the trajectory module
 // rounds corners itself). The search space is the map's known bounds (a path can only run through
-// known-free voxels) intersected with an optional box. Collision checks are MapProbe's
-// conservative segment test: every voxel whose centre lies within clearance_m of any point of the
-// path is known-free, checked every check_step_m metres (OMPL's validity-check resolution is set
-// from metres, not from its default fraction of the space's extent). Every returned path is
-// re-checked with that test before it is returned.
+// known-free voxels) intersected with an optional box. Collision checks are MapProbe's exact
+// capsule test: every voxel whose centre lies within clearance_m of any point of the path is
+// known-free. OMPL's own validity-check resolution (used where OMPL interpolates by itself) is set
+// from metres, not from its default fraction of the space's extent. Every returned path is
+// re-checked with the capsule test before it is returned.
 //
 // Determinism: each query seeds the sampler and the simplifier from (seed, query_seed), so the
 // same map, query and seed give the same path whatever ran before, as long as the planner does
@@ -32,7 +32,7 @@ struct PathParams {
   /// Every voxel within this distance of the path is known-free: the vehicle's radius plus a
   /// margin (FUEL inflates obstacles by 0.2 m); [0, 5]
   double clearance_m = 0.25;
-  /// Spacing of collision checks along segments (also OMPL's validity resolution), metres;
+  /// OMPL's validity-check resolution in metres (segments themselves are checked exactly);
   /// 0 = half a voxel; [0, 1]
   double check_step_m = 0.0;
   /// Wall-clock budget of one RRTConnect search; (0, 60]
@@ -86,10 +86,9 @@ class PathPlanner {
   PathResult plan(const Vec3d& start_W, const Vec3d& goal_W, std::uint64_t query_seed = 0);
 
   /// The collision test paths are held to: the point is in the search space and every voxel
-  /// within clearance_m + check_step/2 of it is known-free (what isSegmentClear asks of each
-  /// point it checks).
+  /// within clearance_m of it is known-free.
   bool isClear(const Vec3d& p_W);
-  /// MapProbe::isSegmentClear with clearance_m and the check step, inside the search space.
+  /// MapProbe::isSegmentClear with clearance_m, inside the search space.
   bool isSegmentClear(const Vec3d& a_W, const Vec3d& b_W);
   /// The search space: the map's known bounds (at construction) intersected with bounds_W.
   const Eigen::AlignedBox3d& searchBounds() const;
