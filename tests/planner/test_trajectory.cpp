@@ -133,6 +133,12 @@ TEST_CASE("A single-point path turns on the spot within the yaw-rate limit", "[p
   CHECK(yawDistance(r.trajectory.sample(r.trajectory.duration()).yaw_rad, -3.0) < 1e-9);
   checkTrajectory(r.trajectory, tp, &map);
   for (double t = 0; t < r.trajectory.duration(); t += 0.1) CHECK(r.trajectory.sample(t).position_W == start.position_W);
+  // Holding still: no time, no motion.
+  const Trajectory still = Trajectory::hold(start.position_W, 1.0);
+  CHECK(still.duration() == 0.0);
+  CHECK(still.sample(5.0).position_W == start.position_W);
+  CHECK(still.sample(5.0).yaw_rad == 1.0);
+  CHECK(still.sample(5.0).velocity_W.norm() == 0.0);
   // A half turn takes at least pi / 0.9 s.
   const TrajectoryResult half = planTrajectory({start.position_W}, start, 3.0 - M_PI, map, tp);
   CHECK(half.trajectory.duration() >= M_PI / tp.yaw_rate_max_rad_s);

@@ -9,10 +9,10 @@
 //    "friction circle") into a normal part <= normal_acc_share * a_max (speed capped by
 //    v^2 / radius) and a tangential part <= sqrt(1 - share^2) * a_max, so |a| <= a_max; speed is
 //    piecewise linear in time between grid nodes, so |v| <= v_max between samples too;
-//  - it stays collision-free by construction: straight pieces are parts of the path's segments,
-//    each arc is checked with the same clearance test as the path and tightened (halved) until it
-//    passes; a corner that cannot be rounded becomes a stop-and-turn corner through the vertex.
-//    Every piece is checked again before the trajectory is returned;
+//  - it stays collision-free by construction: the path's segments (and any lead-in) are checked
+//    with the path planner's capsule test, straight pieces are parts of them, and each arc is
+//    checked densely with the same clearance and tightened (halved) until it passes; a corner that
+//    cannot be rounded becomes a stop-and-turn corner through the vertex;
 //  - it needs no distance field, no gradient and no solver tuning, it is deterministic, and it
 //    takes well under a millisecond.
 // The cost: acceleration may jump where a straight piece meets an arc (no jerk limit), and the
