@@ -1,0 +1,110 @@
+// Travel costs between vehicle poses, in seconds (FUEL, Zhou et al. 2021, Eq. 5-6).
+//
+//   cost = max(path_length / v_max + w_dir * angle(v_now, first path direction),
+//              |yaw change| / yaw_rate_max)
+//
+// The direction term (FUEL's ViewNode::computeCost) penalises leaving in a direction away from the
+// current velocity; it applies only from the vehicle's current state (viewpoint-to-viewpoint legs
+// start at rest). As in FUEL it is added to the position time inside the max. Path length is the
+// straight segment when it is clear, else OMPL's (path_planner.hpp). A pair without a path gets a
+// large finite cost (unreachable_cost_s), so the tour solver still returns a permutation and such
+// legs come last.
+#pragma once
+
+#include "vdbmap/planner/atsp.hpp"
+#include "vdbmap/planner/frontier.hpp"
+#include "vdbmap/planner/path_planner.hpp"
+#include "vdbmap/planner/vehicle_state.hpp"
+
+#include <cstdint>
+#include <map>
+#include <utility>
+#include <vector>
+
+namespace vdbmap::planner {
+
+struct CostParams {
+  double v_max_m_s = 2.0;            ///< (0, 100]
+  double yaw_rate_max_rad_s = 0.9;   ///< (0, 100]
+  double w_dir = 1.5;                ///< FUEL's w_dir, seconds per radian; [0, 1e3]
+  double unreachable_cost_s = 1000.0;  ///< cost of a pair without a path; (0, 1e9]
+  void validate() const;
+};
+
+/// The cost formula on its own: path length, yaw change, and the angle between the current
+/// velocity and the direction of departure (0 when at rest).
+double motionCost(double path_length_m, double yaw_change_rad, double departure_angle_rad, const CostParams& params);
+
+/// One evaluated leg.
+struct LegCost {
+  double cost_s = 0.0;
+  bool reachable = false;
+  PathResult path;
+};
+
+/// Costs of legs on one map, for one thread (it owns a PathPlanner).
+class CostEvaluator {
+ public:
+  CostEvaluator(const MapQuery& map, const CostParams& cost = {}, const PathParams& path = {});
+
+  /// From the vehicle's state (the direction term applies when it moves).
+  LegCost cost(const VehicleState& from, const PoseTarget& to, std::uint64_t query_seed = 0);
+  /// Between two poses at rest.
+  LegCost cost(const PoseTarget& from, const PoseTarget& to, std::uint64_t query_seed = 0);
+
+  PathPlanner& planner() { return planner_; }
+  const CostParams& params() const { return params_; }
+
+ private:
+  CostParams params_;
+  PathPlanner planner_;
+};
+
+/// A tour target: one cluster and the pose it is visited from (usually its best viewpoint).
+struct TourTarget {
+  ClusterId cluster = 0;
+  PoseTarget pose;
+};
+
+/// Costs between the targets of the global tour, kept across replanning: FUEL recomputes only the
+/// pairs that involve new clusters. update() drops pairs of targets that are gone, and computes
+/// the missing ones (or those whose pose moved) in parallel, one CostEvaluator per task, each leg
+/// seeded by its cluster ids so the result does not depend on the thread count. Legs between
+/// targets are symmetric (both at rest), so each pair is planned once.
+class PairCostTable {
+ public:
+  explicit PairCostTable(const CostParams& cost = {}, const PathParams& path = {});
+
+  /// Returns how many pairs were computed.
+  std::size_t update(const MapQuery& map, const std::vector<TourTarget>& targets);
+  /// The cost from one target to another (0 for a == b); throws std::out_of_range for a pair that
+  /// update() has not seen.
+  double cost(ClusterId from, ClusterId to) const;
+  bool reachable(ClusterId from, ClusterId to) const;
+  std::size_t pairCount() const { return pairs_.size(); }
+  const CostParams& costParams() const { return cost_; }
+  const PathParams& pathParams() const { return path_; }
+
+ private:
+  struct Entry {
+    double cost_s = 0.0;
+    bool reachable = false;
+  };
+  CostParams cost_;
+  PathParams path_;
+  std::map<ClusterId, PoseTarget> poses_;
+  std::map<std::pair<ClusterId, ClusterId>, Entry> pairs_;  ///< key (low id, high id)
+};
+
+/// The open-tour matrix for the ATSP solver: node 0 is the vehicle, node i + 1 is targets[i].
+/// Row 0 holds the costs from the vehicle's state (`from_vehicle[i]`), column 0 is zero (the tour
+/// does not return), the rest comes from the table. Solve it with AtspOptions::open_from = 0.
+RealCostMatrix buildTourCostMatrix(const std::vector<double>& from_vehicle, const std::vector<TourTarget>& targets,
+                                   const PairCostTable& table);
+
+/// Costs from the vehicle to every target (in parallel, seeded by cluster id).
+std::vector<LegCost> costsFromVehicle(const MapQuery& map, const VehicleState& vehicle,
+                                      const std::vector<TourTarget>& targets, const CostParams& cost = {},
+                                      const PathParams& path = {});
+
+}  // namespace vdbmap::planner

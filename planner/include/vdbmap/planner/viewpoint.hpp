@@ -1,0 +1,81 @@
+// Viewpoints: where the vehicle should stand, and which way it should look, to observe a frontier
+// cluster (FUEL, Zhou et al. 2021, Sect. IV-B).
+//
+// Candidates lie on horizontal rings around the cluster's centroid (FUEL: radii 1.5-2.5 m in four
+// rings, 15 deg apart, at the centroid's height). A candidate is kept when it is clear (every
+// voxel within min_clearance_m known-free: neither occupied nor unknown space nearby) and sees
+// more than min_visible_samples of the cluster's sample voxels. Yaw points at the cluster: the
+// circular mean of the horizontal directions to its samples. A sample is seen when it lies in
+// the camera's frustum at that yaw (zero pitch) within range, and the ray from it to the
+// viewpoint crosses only known-free voxels (occupied and unknown space both occlude).
+#pragma once
+
+#include "vdbmap/planner/frontier.hpp"
+#include "vdbmap/planner/map_query.hpp"
+
+#include <Eigen/Geometry>
+
+#include <optional>
+#include <vector>
+
+namespace vdbmap::planner {
+
+/// The depth camera as the planner models it: a frustum looking along the vehicle's yaw.
+/// Defaults are FUEL's: a 640 x 480 image with fx = fy = 387.229 px, planning range 4.5 m
+/// (FUEL's perception max_dist; the sensor itself reaches 5 m).
+struct CameraFrustum {
+  double tan_half_fov_x = 320.0 / 387.229;  ///< half image width / fx; (0, 100]
+  double tan_half_fov_y = 240.0 / 387.229;  ///< half image height / fy; (0, 100]
+  double min_range_m = 0.0;                 ///< [0, max_range_m)
+  double max_range_m = 4.5;                 ///< (min_range_m, 1e3]
+
+  /// True when p_W is inside the frustum of a camera at `eye_W` looking along `yaw_rad`.
+  bool contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_W) const;
+  void validate() const;
+};
+
+struct ViewpointParams {
+  double ring_radius_min_m = 1.5;  ///< FUEL candidate_rmin; (0, ring_radius_max_m]
+  double ring_radius_max_m = 2.5;  ///< FUEL candidate_rmax; [ring_radius_min_m, 100]
+  int ring_count = 4;              ///< radii evenly spaced from min to max (FUEL: rnum 3 steps = 4 rings); [1, 100]
+  double angle_step_deg = 15.0;    ///< FUEL candidate_dphi; (0, 180]
+  /// Heights of the rings relative to the cluster's centroid (FUEL: only 0); each in [-100, 100].
+  std::vector<double> height_offsets_m = {0.0};
+  /// Every voxel within this distance of a viewpoint is known-free (FUEL rejects candidates within
+  /// 0.2 m of occupied and ~0.2 m of unknown space). Keep it >= the path clearance so that
+  /// viewpoints are valid path goals; [0, 10]
+  double min_clearance_m = 0.3;
+  /// FUEL min_visib_num: a viewpoint must see more than this many cluster samples; [0, 1e6]
+  int min_visible_samples = 15;
+  CameraFrustum camera;
+  /// The exploration box: viewpoints outside are rejected. Unset: no limit.
+  std::optional<Eigen::AlignedBox3d> bounds_W;
+
+  void validate() const;
+};
+
+struct Viewpoint {
+  Vec3d position_W = Vec3d::Zero();
+  double yaw_rad = 0.0;
+  int visible_samples = 0;  ///< cluster samples seen from here (the score)
+};
+
+/// The viewpoints of one cluster, best first (most samples seen; ties by ring order, which is
+/// deterministic). Empty when no candidate passes: the cluster cannot be observed for now.
+std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const MapQuery& map,
+                                         const ViewpointParams& params = {});
+
+/// computeViewpoints for several clusters in parallel (one task per cluster); results in the
+/// order of `clusters`, identical to calling computeViewpoints on each.
+std::vector<std::vector<Viewpoint>> computeViewpoints(const std::vector<const FrontierCluster*>& clusters,
+                                                      const MapQuery& map, const ViewpointParams& params = {});
+
+/// Yaw toward a set of voxels from `eye_W`: the circular mean of the horizontal directions.
+double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, const MapQuery& map);
+
+/// How many of `voxels` a camera at eye_W with yaw sees (frustum, range, and no occupied or
+/// unknown voxel on the ray from the voxel's centre to the eye).
+int countVisible(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
+                 const CameraFrustum& camera);
+
+}  // namespace vdbmap::planner

@@ -1,0 +1,65 @@
+#include "vdbmap/planner/assume_free_map.hpp"
+
+
+namespace vdbmap::planner {
+
+namespace {
+class AssumeFreeReader : public MapReader {
+ public:
+  AssumeFreeReader(std::unique_ptr<MapReader> base, const std::vector<openvdb::CoordBBox>& boxes)
+      : base_(std::move(base)), boxes_(boxes) {}
+
+  Occupancy at(const openvdb::Coord& ijk) override {
+    const Occupancy o = base_->at(ijk);
+    if (o != Occupancy::Unknown) return o;
+    for (const openvdb::CoordBBox& b : boxes_)
+      if (b.isInside(ijk)) return Occupancy::Free;
+    return o;
+  }
+
+  void readBox(const openvdb::CoordBBox& box, Occupancy* out) override {
+    base_->readBox(box, out);
+    const openvdb::Coord dim = box.dim();
+    for (const openvdb::CoordBBox& b : boxes_) {
+      openvdb::CoordBBox overlap = b;
+      overlap.intersect(box);
+      if (overlap.empty()) continue;
+      for (int x = overlap.min().x(); x <= overlap.max().x(); ++x)
+        for (int y = overlap.min().y(); y <= overlap.max().y(); ++y)
+          for (int z = overlap.min().z(); z <= overlap.max().z(); ++z) {
+            Occupancy& o = out[(std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
+                                   std::size_t(dim.z()) +
+                               std::size_t(z - box.min().z())];
+            if (o == Occupancy::Unknown) o = Occupancy::Free;
+          }
+    }
+  }
+
+ private:
+  std::unique_ptr<MapReader> base_;
+  const std::vector<openvdb::CoordBBox>& boxes_;
+};
+}  // namespace
+
+AssumeFreeMap::AssumeFreeMap(const MapQuery& base, std::vector<Eigen::AlignedBox3d> free_boxes_W) : base_(&base) {
+  for (const Eigen::AlignedBox3d& b : free_boxes_W) {
+    const openvdb::CoordBBox box = base.voxelsIn(b);
+    if (!box.empty()) boxes_.push_back(box);
+  }
+}
+
+openvdb::CoordBBox AssumeFreeMap::knownBounds() const {
+  openvdb::CoordBBox bounds = base_->knownBounds();
+  for (const openvdb::CoordBBox& b : boxes_) bounds.expand(b);
+  return bounds;
+}
+
+std::unique_ptr<MapReader> AssumeFreeMap::reader() const {
+  return std::make_unique<AssumeFreeReader>(base_->reader(), boxes_);
+}
+
+Eigen::AlignedBox3d boxAround(const Vec3d& centre_W, const Vec3d& half_size_m) {
+  return Eigen::AlignedBox3d(centre_W - half_size_m, centre_W + half_size_m);
+}
+
+}  // namespace vdbmap::planner

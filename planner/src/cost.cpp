@@ -1,0 +1,139 @@
+#include "vdbmap/planner/cost.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace vdbmap::planner {
+
+namespace {
+constexpr double kMovingSpeed_m_s = 1e-3;  ///< below this the vehicle counts as at rest (FUEL's test)
+
+std::uint64_t pairSeed(ClusterId a, ClusterId b) { return (std::uint64_t(a) << 32) ^ std::uint64_t(b) ^ 0x5bd1e995ULL; }
+}  // namespace
+
+void CostParams::validate() const {
+  auto fail = [](const std::string& field, const std::string& range) {
+    throw std::invalid_argument("CostParams." + field + " must be in " + range);
+  };
+  if (!(v_max_m_s > 0.0 && v_max_m_s <= 100.0)) fail("v_max_m_s", "(0, 100]");
+  if (!(yaw_rate_max_rad_s > 0.0 && yaw_rate_max_rad_s <= 100.0)) fail("yaw_rate_max_rad_s", "(0, 100]");
+  if (!(w_dir >= 0.0 && w_dir <= 1e3)) fail("w_dir", "[0, 1000]");
+  if (!(unreachable_cost_s > 0.0 && unreachable_cost_s <= 1e9)) fail("unreachable_cost_s", "(0, 1e9]");
+}
+
+double motionCost(double path_length_m, double yaw_change_rad, double departure_angle_rad, const CostParams& p) {
+  const double position_s = path_length_m / p.v_max_m_s + p.w_dir * departure_angle_rad;
+  const double yaw_s = std::abs(yaw_change_rad) / p.yaw_rate_max_rad_s;
+  return std::max(position_s, yaw_s);
+}
+
+CostEvaluator::CostEvaluator(const MapQuery& map, const CostParams& cost, const PathParams& path)
+    : params_(cost), planner_(map, path) {
+  params_.validate();
+}
+
+LegCost CostEvaluator::cost(const VehicleState& from, const PoseTarget& to, std::uint64_t query_seed) {
+  LegCost leg;
+  leg.path = planner_.plan(from.position_W, to.position_W, query_seed);
+  leg.reachable = leg.path.ok();
+  if (!leg.reachable) {
+    leg.cost_s = params_.unreachable_cost_s;
+    return leg;
+  }
+  double departure = 0.0;
+  if (from.velocity_W.norm() > kMovingSpeed_m_s && leg.path.waypoints.size() >= 2) {
+    const Vec3d dir = leg.path.waypoints[1] - leg.path.waypoints[0];
+    if (dir.norm() > 1e-9)
+      departure = std::acos(std::clamp(from.velocity_W.normalized().dot(dir.normalized()), -1.0, 1.0));
+  }
+  leg.cost_s = motionCost(leg.path.length_m, yawDistance(from.yaw_rad, to.yaw_rad), departure, params_);
+  return leg;
+}
+
+LegCost CostEvaluator::cost(const PoseTarget& from, const PoseTarget& to, std::uint64_t query_seed) {
+  VehicleState rest;
+  rest.position_W = from.position_W;
+  rest.yaw_rad = from.yaw_rad;
+  return cost(rest, to, query_seed);
+}
+
+PairCostTable::PairCostTable(const CostParams& cost, const PathParams& path) : cost_(cost), path_(path) {
+  cost_.validate();
+  path_.validate();
+}
+
+std::size_t PairCostTable::update(const MapQuery& map, const std::vector<TourTarget>& targets) {
+  // Forget targets that are gone or whose pose changed.
+  std::map<ClusterId, PoseTarget> now;
+  for (const TourTarget& t : targets) now[t.cluster] = t.pose;
+  auto same = [](const PoseTarget& a, const PoseTarget& b) {
+    return a.position_W == b.position_W && a.yaw_rad == b.yaw_rad;
+  };
+  for (auto it = pairs_.begin(); it != pairs_.end();) {
+    const auto a = now.find(it->first.first), b = now.find(it->first.second);
+    const bool keep = a != now.end() && b != now.end() && same(a->second, poses_.at(a->first)) &&
+                      same(b->second, poses_.at(b->first));
+    it = keep ? std::next(it) : pairs_.erase(it);
+  }
+  poses_ = now;
+
+  std::vector<std::pair<ClusterId, ClusterId>> missing;
+  for (auto a = now.begin(); a != now.end(); ++a)
+    for (auto b = std::next(a); b != now.end(); ++b)
+      if (!pairs_.count({a->first, b->first})) missing.emplace_back(a->first, b->first);
+
+  std::vector<Entry> results(missing.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, missing.size(), 8), [&](const tbb::blocked_range<std::size_t>& r) {
+    CostEvaluator evaluator(map, cost_, path_);
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      const auto [a, b] = missing[i];
+      const LegCost leg = evaluator.cost(now.at(a), now.at(b), pairSeed(a, b));
+      results[i] = Entry{leg.cost_s, leg.reachable};
+    }
+  });
+  for (std::size_t i = 0; i < missing.size(); ++i) pairs_[missing[i]] = results[i];
+  return missing.size();
+}
+
+double PairCostTable::cost(ClusterId from, ClusterId to) const {
+  if (from == to) return 0.0;
+  return pairs_.at({std::min(from, to), std::max(from, to)}).cost_s;
+}
+
+bool PairCostTable::reachable(ClusterId from, ClusterId to) const {
+  if (from == to) return true;
+  return pairs_.at({std::min(from, to), std::max(from, to)}).reachable;
+}
+
+RealCostMatrix buildTourCostMatrix(const std::vector<double>& from_vehicle, const std::vector<TourTarget>& targets,
+                                   const PairCostTable& table) {
+  if (from_vehicle.size() != targets.size())
+    throw std::invalid_argument("buildTourCostMatrix: from_vehicle has " + std::to_string(from_vehicle.size()) +
+                                " costs for " + std::to_string(targets.size()) + " targets");
+  const std::size_t n = targets.size() + 1;
+  RealCostMatrix m(n, 0.0);
+  for (std::size_t j = 0; j < targets.size(); ++j) m(0, j + 1) = from_vehicle[j];
+  for (std::size_t i = 0; i < targets.size(); ++i)
+    for (std::size_t j = 0; j < targets.size(); ++j)
+      m(i + 1, j + 1) = i == j ? 0.0 : table.cost(targets[i].cluster, targets[j].cluster);
+  // Column 0 stays zero: returning to the vehicle is free, which makes the closed tour an open path.
+  return m;
+}
+
+std::vector<LegCost> costsFromVehicle(const MapQuery& map, const VehicleState& vehicle,
+                                      const std::vector<TourTarget>& targets, const CostParams& cost,
+                                      const PathParams& path) {
+  std::vector<LegCost> legs(targets.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, targets.size(), 4), [&](const tbb::blocked_range<std::size_t>& r) {
+    CostEvaluator evaluator(map, cost, path);
+    for (std::size_t i = r.begin(); i < r.end(); ++i)
+      legs[i] = evaluator.cost(vehicle, targets[i].pose, pairSeed(0, targets[i].cluster));
+  });
+  return legs;
+}
+
+}  // namespace vdbmap::planner

@@ -1,0 +1,358 @@
+#include "vdbmap/planner/trajectory.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace vdbmap::planner {
+
+namespace {
+constexpr double kMovingSpeed_m_s = 1e-3;     ///< slower than this counts as at rest
+constexpr double kMinTurn_rad = 1e-6;         ///< straighter corners are dropped
+constexpr double kReversal_rad = M_PI - 1e-3; ///< sharper corners are taken stopping
+constexpr double kStartTolerance_m = 1e-3;
+
+/// A corner of the polyline and how it is taken.
+struct Corner {
+  double tangent_m = 0.0;  ///< distance from the vertex where the arc starts (0: stop at the vertex)
+  bool stop = false;
+};
+}  // namespace
+
+const char* toString(TrajectoryStatus s) {
+  switch (s) {
+    case TrajectoryStatus::Ok: return "ok";
+    case TrajectoryStatus::StartVelocityReduced: return "start_velocity_reduced";
+    case TrajectoryStatus::PathNotClear: return "path_not_clear";
+  }
+  return "?";
+}
+
+void TrajectoryParams::validate() const {
+  auto fail = [](const std::string& field, const std::string& range) {
+    throw std::invalid_argument("TrajectoryParams." + field + " must be in " + range);
+  };
+  if (!(v_max_m_s > 0.0 && v_max_m_s <= 100.0)) fail("v_max_m_s", "(0, 100]");
+  if (!(a_max_m_s2 > 0.0 && a_max_m_s2 <= 100.0)) fail("a_max_m_s2", "(0, 100]");
+  if (!(yaw_rate_max_rad_s > 0.0 && yaw_rate_max_rad_s <= 100.0)) fail("yaw_rate_max_rad_s", "(0, 100]");
+  if (!(yaw_acc_max_rad_s2 > 0.0 && yaw_acc_max_rad_s2 <= 1000.0)) fail("yaw_acc_max_rad_s2", "(0, 1000]");
+  if (!(normal_acc_share > 0.0 && normal_acc_share < 1.0)) fail("normal_acc_share", "(0, 1)");
+  if (!(corner_fraction > 0.0 && corner_fraction <= 0.5)) fail("corner_fraction", "(0, 0.5]");
+  if (!(ds_m > 0.0 && ds_m <= 1.0)) fail("ds_m", "(0, 1]");
+  if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) fail("clearance_m", "[0, 5]");
+  if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) fail("check_step_m", "[0, 1]");
+  if (corner_shrink_steps < 0 || corner_shrink_steps > 30) fail("corner_shrink_steps", "[0, 30]");
+}
+
+// ---- sampling ----------------------------------------------------------------------------------
+
+Trajectory Trajectory::hold(const Vec3d& p_W, double yaw_rad) {
+  Trajectory t;
+  t.end_W_ = p_W;
+  t.corners_ = {p_W};
+  t.yaw0_ = yaw_rad;
+  return t;
+}
+
+void Trajectory::geometry(double s, Vec3d& p, Vec3d& tangent, Vec3d& curvature) const {
+  auto it = std::upper_bound(pieces_.begin(), pieces_.end(), s, [](double v, const Piece& pc) { return v < pc.s0; });
+  const Piece& pc = it == pieces_.begin() ? pieces_.front() : *std::prev(it);
+  const double u = std::clamp(s - pc.s0, 0.0, pc.length);
+  if (!pc.arc) {
+    p = pc.p0 + pc.dir * u;
+    tangent = pc.dir;
+    curvature.setZero();
+    return;
+  }
+  const double phi = u / pc.radius;
+  const Vec3d radial = pc.e0 * std::cos(phi) + pc.e1 * std::sin(phi);
+  p = pc.centre + pc.radius * radial;
+  tangent = -pc.e0 * std::sin(phi) + pc.e1 * std::cos(phi);
+  curvature = -radial / pc.radius;
+}
+
+Vec3d Trajectory::startVelocity() const {
+  if (pieces_.empty()) return Vec3d::Zero();
+  Vec3d p, tangent, curvature;
+  geometry(0.0, p, tangent, curvature);
+  return node_v_.front() * tangent;
+}
+
+void Trajectory::sampleYaw(double t, double& yaw, double& rate) const {
+  const double sign = yaw_delta_ < 0.0 ? -1.0 : 1.0;
+  const double total = std::abs(yaw_delta_);
+  double angle = 0.0, w = 0.0;
+  if (total > 0.0) {
+    const double T = duration_s_, tr = yaw_ramp_s_;
+    if (t < tr) {
+      angle = 0.5 * yaw_acc_ * t * t;
+      w = yaw_acc_ * t;
+    } else if (t < T - tr) {
+      angle = 0.5 * yaw_acc_ * tr * tr + yaw_peak_rate_ * (t - tr);
+      w = yaw_peak_rate_;
+    } else {
+      const double left = std::max(0.0, T - t);
+      angle = total - 0.5 * yaw_acc_ * left * left;
+      w = yaw_acc_ * left;
+    }
+    angle = std::clamp(angle, 0.0, total);
+  }
+  yaw = wrapAngle(yaw0_ + sign * angle);
+  rate = sign * w;
+}
+
+TrajectoryState Trajectory::sample(double t_s) const {
+  TrajectoryState st;
+  const double t = std::clamp(t_s, 0.0, duration_s_);
+  sampleYaw(t, st.yaw_rad, st.yaw_rate_rad_s);
+  if (pieces_.empty() || t >= motion_s_) {
+    st.position_W = end_W_;
+    return st;
+  }
+  // The grid interval holding t: constant tangential acceleration inside it.
+  const std::size_t i =
+      std::min<std::size_t>(std::upper_bound(node_t_.begin(), node_t_.end(), t) - node_t_.begin(), node_t_.size() - 1) - 1;
+  const double ds = node_s_[i + 1] - node_s_[i];
+  const double v0 = node_v_[i], v1 = node_v_[i + 1];
+  const double a = (v1 * v1 - v0 * v0) / (2.0 * ds);
+  const double tau = t - node_t_[i];
+  const double v = std::clamp(v0 + a * tau, std::min(v0, v1), std::max(v0, v1));
+  const double s = std::clamp(node_s_[i] + v0 * tau + 0.5 * a * tau * tau, node_s_[i], node_s_[i + 1]);
+  Vec3d p, tangent, curvature;
+  geometry(s, p, tangent, curvature);
+  st.position_W = p;
+  st.velocity_W = v * tangent;
+  st.acceleration_W = a * tangent + v * v * curvature;
+  return st;
+}
+
+// ---- construction ------------------------------------------------------------------------------
+
+/// Builds a Trajectory: lead-in, corner rounding with clearance checks, speed profile, yaw.
+class TrajectoryBuilder {
+ public:
+  TrajectoryBuilder(const MapQuery& map, const TrajectoryParams& p)
+      : p_(p), probe_(map), step_(p.check_step_m > 0.0 ? p.check_step_m : 0.5 * map.voxelSize()) {}
+
+  TrajectoryResult build(const std::vector<Vec3d>& path, const VehicleState& start, double goal_yaw) {
+    TrajectoryResult result;
+    std::vector<Vec3d> pts = cleanPolyline(path);
+    for (std::size_t i = 1; i < pts.size(); ++i)
+      if (!probe_.isSegmentClear(pts[i - 1], pts[i], p_.clearance_m)) return result;  // PathNotClear
+
+    // The path as it is first, starting with the part of the vehicle's velocity along it; when
+    // that does not reproduce the velocity (other direction, or braking needs more room),
+    // lead-ins along the current velocity, shortest first, until one does. Else the candidate
+    // whose start velocity is nearest the vehicle's wins.
+    const Vec3d v0 = start.velocity_W.norm() > kMovingSpeed_m_s ? start.velocity_W : Vec3d::Zero();
+    const double speed0 = v0.norm();
+    auto mismatch = [&v0](const Trajectory& t) { return (t.startVelocity() - v0).norm(); };
+    auto matches = [&](const Trajectory& t) { return mismatch(t) <= 1e-9 * std::max(1.0, speed0); };
+    const double along = pts.size() > 1 ? std::max(0.0, v0.dot((pts[1] - pts[0]).normalized())) : 0.0;
+    Trajectory best = assemble(pts, along);
+    if (!matches(best)) {
+      const double brake_m = speed0 * speed0 / (2.0 * p_.a_max_m_s2);
+      for (const double f : {0.6, 1.2, 2.0, 3.0}) {
+        const Vec3d q = pts.front() + v0 / speed0 * std::max(f * brake_m, 2.0 * step_);
+        std::vector<Vec3d> with_lead = pts.size() == 1 ? std::vector<Vec3d>{pts[0], q, pts[0]} : pts;
+        if (pts.size() > 1) with_lead.insert(with_lead.begin() + 1, q);
+        if (!probe_.isSegmentClear(with_lead[0], with_lead[1], p_.clearance_m) ||
+            !probe_.isSegmentClear(with_lead[1], with_lead[2], p_.clearance_m))
+          continue;
+        Trajectory t = assemble(cleanPolyline(with_lead), speed0);
+        if (mismatch(t) < mismatch(best)) best = std::move(t);
+        if (matches(best)) break;
+      }
+    }
+    const bool matched = matches(best);
+    fitYaw(best, start.yaw_rad, goal_yaw);
+    result.trajectory = std::move(best);
+    result.status = matched ? TrajectoryStatus::Ok : TrajectoryStatus::StartVelocityReduced;
+    return result;
+  }
+
+ private:
+  /// Drops repeated points and points on a straight line between their neighbours.
+  static std::vector<Vec3d> cleanPolyline(const std::vector<Vec3d>& in) {
+    std::vector<Vec3d> out;
+    for (const Vec3d& p : in)
+      if (out.empty() || (p - out.back()).norm() > 1e-9) out.push_back(p);
+    for (std::size_t i = 1; i + 1 < out.size();) {
+      const Vec3d a = (out[i] - out[i - 1]).normalized(), b = (out[i + 1] - out[i]).normalized();
+      if (std::acos(std::clamp(a.dot(b), -1.0, 1.0)) < kMinTurn_rad)
+        out.erase(out.begin() + std::ptrdiff_t(i));
+      else
+        ++i;
+    }
+    return out;
+  }
+
+  bool arcClear(const Trajectory::Piece& arc) {
+    const int n = std::max(1, int(std::ceil(arc.length / step_)));
+    for (int k = 0; k <= n; ++k) {
+      const double phi = arc.length * k / n / arc.radius;
+      const Vec3d p = arc.centre + arc.radius * (arc.e0 * std::cos(phi) + arc.e1 * std::sin(phi));
+      if (!probe_.isClear(p, p_.clearance_m + 0.5 * step_)) return false;
+    }
+    return true;
+  }
+
+  /// The arc that rounds corner `i` with tangent length T (unit directions in/out, turn theta).
+  static Trajectory::Piece makeArc(const Vec3d& vertex, const Vec3d& u_in, const Vec3d& u_out, double theta, double T) {
+    Trajectory::Piece arc;
+    arc.arc = true;
+    arc.radius = T / std::tan(0.5 * theta);
+    const Vec3d inward = (u_out - u_out.dot(u_in) * u_in).normalized();
+    const Vec3d a = vertex - u_in * T;
+    arc.centre = a + inward * arc.radius;
+    arc.e0 = -inward;
+    arc.e1 = u_in;
+    arc.length = arc.radius * theta;
+    return arc;
+  }
+
+  /// Geometry (rounded corners, checked) and the time-optimal speed profile from speed v0.
+  Trajectory assemble(const std::vector<Vec3d>& pts, double v0) {
+    Trajectory traj;
+    traj.corners_ = pts;
+    traj.end_W_ = pts.back();
+    if (pts.size() < 2) return traj;
+
+    // Corners: rounded if the arc is clear, else halved, else a stop at the vertex.
+    std::vector<Corner> corners(pts.size());
+    std::vector<Trajectory::Piece> arcs(pts.size());
+    for (std::size_t i = 1; i + 1 < pts.size(); ++i) {
+      const Vec3d d_in = pts[i] - pts[i - 1], d_out = pts[i + 1] - pts[i];
+      const Vec3d u_in = d_in.normalized(), u_out = d_out.normalized();
+      const double theta = std::acos(std::clamp(u_in.dot(u_out), -1.0, 1.0));
+      corners[i].stop = true;
+      if (theta >= kReversal_rad) continue;
+      double T = p_.corner_fraction * std::min(d_in.norm(), d_out.norm());
+      for (int attempt = 0; attempt <= p_.corner_shrink_steps; ++attempt, T *= 0.5) {
+        const Trajectory::Piece arc = makeArc(pts[i], u_in, u_out, theta, T);
+        if (arcClear(arc)) {
+          corners[i] = Corner{T, false};
+          arcs[i] = arc;
+          break;
+        }
+      }
+    }
+
+    // Pieces: line, arc, line, ... ; a stop corner splits two lines at the vertex.
+    std::vector<bool> stop_after;  // per piece: the vehicle stops at its end
+    auto addLine = [&](const Vec3d& a, const Vec3d& b, bool stop) {
+      const double len = (b - a).norm();
+      if (len <= 1e-9) {
+        if (stop && !stop_after.empty()) stop_after.back() = true;
+        return;
+      }
+      Trajectory::Piece line;
+      line.p0 = a;
+      line.dir = (b - a) / len;
+      line.length = len;
+      traj.pieces_.push_back(line);
+      stop_after.push_back(stop);
+    };
+    Vec3d cursor = pts.front();
+    for (std::size_t i = 1; i < pts.size(); ++i) {
+      const bool last = i + 1 == pts.size();
+      if (last || corners[i].stop) {
+        addLine(cursor, pts[i], true);
+        cursor = pts[i];
+        if (!last) ++traj.stop_corners_;
+        continue;
+      }
+      const Vec3d u_in = (pts[i] - pts[i - 1]).normalized(), u_out = (pts[i + 1] - pts[i]).normalized();
+      addLine(cursor, pts[i] - u_in * corners[i].tangent_m, false);
+      traj.pieces_.push_back(arcs[i]);
+      stop_after.push_back(false);
+      cursor = pts[i] + u_out * corners[i].tangent_m;
+    }
+    double s = 0.0;
+    for (Trajectory::Piece& pc : traj.pieces_) {
+      pc.s0 = s;
+      s += pc.length;
+    }
+    profile(traj, stop_after, v0);
+    return traj;
+  }
+
+  /// Time-optimal speed on a grid (nodes at piece ends): forward pass accelerating, backward
+  /// pass braking, each limited per interval; then node times.
+  void profile(Trajectory& traj, const std::vector<bool>& stop_after, double v0) {
+    const double a_max = p_.a_max_m_s2;
+    const double a_n = p_.normal_acc_share * a_max;
+    const double a_t_arc = std::sqrt(1.0 - p_.normal_acc_share * p_.normal_acc_share) * a_max;
+    std::vector<double> s_nodes{0.0}, limit2{v0 * v0}, a_t;  // limit2: upper bound of v^2 per node
+    for (std::size_t k = 0; k < traj.pieces_.size(); ++k) {
+      const Trajectory::Piece& pc = traj.pieces_[k];
+      const int n = std::max(2, int(std::ceil(pc.length / p_.ds_m)));
+      const double cap2 = pc.arc ? std::min(p_.v_max_m_s * p_.v_max_m_s, a_n * pc.radius) : p_.v_max_m_s * p_.v_max_m_s;
+      limit2.back() = std::min(limit2.back(), cap2);  // the node before this piece bounds its first interval
+      for (int j = 1; j <= n; ++j) {
+        s_nodes.push_back(pc.s0 + pc.length * j / n);
+        limit2.push_back(cap2);
+        a_t.push_back(pc.arc ? a_t_arc : a_max);
+      }
+      if (stop_after[k]) limit2.back() = 0.0;
+    }
+    limit2.back() = 0.0;  // rest at the goal
+    const std::size_t m = s_nodes.size();
+    std::vector<double> v2(limit2);
+    for (std::size_t i = 0; i + 1 < m; ++i)
+      v2[i + 1] = std::min(v2[i + 1], v2[i] + 2.0 * a_t[i] * (s_nodes[i + 1] - s_nodes[i]));
+    for (std::size_t i = m - 1; i > 0; --i)
+      v2[i - 1] = std::min(v2[i - 1], v2[i] + 2.0 * a_t[i - 1] * (s_nodes[i] - s_nodes[i - 1]));
+    traj.node_s_ = s_nodes;
+    traj.node_v_.resize(m);
+    traj.node_t_.assign(m, 0.0);
+    for (std::size_t i = 0; i < m; ++i) traj.node_v_[i] = std::sqrt(std::max(0.0, v2[i]));
+    for (std::size_t i = 0; i + 1 < m; ++i) {
+      const double sum = traj.node_v_[i] + traj.node_v_[i + 1];
+      // Both ends at rest cannot happen: every piece has >= 2 intervals and only piece ends stop.
+      traj.node_t_[i + 1] = traj.node_t_[i] + (sum > 0.0 ? 2.0 * (s_nodes[i + 1] - s_nodes[i]) / sum : 0.0);
+    }
+    traj.motion_s_ = traj.node_t_.back();
+    traj.duration_s_ = traj.motion_s_;
+  }
+
+  /// Trapezoidal yaw-rate profile over max(motion time, shortest turn time).
+  void fitYaw(Trajectory& traj, double yaw0, double goal_yaw) const {
+    const double delta = wrapAngle(goal_yaw - yaw0);
+    const double total = std::abs(delta);
+    const double w = p_.yaw_rate_max_rad_s, alpha = p_.yaw_acc_max_rad_s2;
+    const double turn_s = total >= w * w / alpha ? total / w + w / alpha : 2.0 * std::sqrt(total / alpha);
+    const double T = std::max(traj.motion_s_, turn_s);
+    traj.duration_s_ = T;
+    traj.yaw0_ = yaw0;
+    traj.yaw_delta_ = delta;
+    traj.yaw_acc_ = alpha;
+    if (total <= 0.0 || T <= 0.0) return;
+    // The slowest trapezoid with acceleration alpha that turns `total` in T: peak rate
+    // w_c = (alpha T - sqrt(alpha^2 T^2 - 4 alpha total)) / 2 <= w because T >= turn_s.
+    const double disc = std::max(0.0, alpha * alpha * T * T - 4.0 * alpha * total);
+    traj.yaw_peak_rate_ = std::min(w, 0.5 * (alpha * T - std::sqrt(disc)));
+    traj.yaw_ramp_s_ = traj.yaw_peak_rate_ / alpha;
+  }
+
+  TrajectoryParams p_;
+  MapProbe probe_;
+  double step_;
+};
+
+TrajectoryResult planTrajectory(const std::vector<Vec3d>& path_W, const VehicleState& start, double goal_yaw_rad,
+                                const MapQuery& map, const TrajectoryParams& params) {
+  params.validate();
+  if (path_W.empty()) throw std::invalid_argument("planTrajectory: the path is empty");
+  if ((path_W.front() - start.position_W).norm() > kStartTolerance_m)
+    throw std::invalid_argument("planTrajectory: the path starts " +
+                                std::to_string((path_W.front() - start.position_W).norm()) +
+                                " m from the vehicle (at most 1 mm allowed)");
+  std::vector<Vec3d> path = path_W;
+  path.front() = start.position_W;
+  TrajectoryBuilder builder(map, params);
+  return builder.build(path, start, goal_yaw_rad);
+}
+
+}  // namespace vdbmap::planner

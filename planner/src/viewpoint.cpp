@@ -1,0 +1,122 @@
+#include "vdbmap/planner/viewpoint.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace vdbmap::planner {
+
+namespace {
+[[noreturn]] void fail(const char* type, const std::string& field, const std::string& range) {
+  throw std::invalid_argument(std::string(type) + "." + field + " must be in " + range);
+}
+}  // namespace
+
+void CameraFrustum::validate() const {
+  if (!(tan_half_fov_x > 0.0 && tan_half_fov_x <= 100.0)) fail("CameraFrustum", "tan_half_fov_x", "(0, 100]");
+  if (!(tan_half_fov_y > 0.0 && tan_half_fov_y <= 100.0)) fail("CameraFrustum", "tan_half_fov_y", "(0, 100]");
+  if (!(max_range_m > 0.0 && max_range_m <= 1e3)) fail("CameraFrustum", "max_range_m", "(0, 1000]");
+  if (!(min_range_m >= 0.0 && min_range_m < max_range_m)) fail("CameraFrustum", "min_range_m", "[0, max_range_m)");
+}
+
+bool CameraFrustum::contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_W) const {
+  const Vec3d d = p_W - eye_W;
+  const double range2 = d.squaredNorm();
+  if (range2 > max_range_m * max_range_m || range2 < min_range_m * min_range_m) return false;
+  // Camera axes at zero pitch: forward along yaw, left, up.
+  const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
+  const double forward = c * d.x() + s * d.y();
+  const double left = -s * d.x() + c * d.y();
+  if (forward <= 0.0) return false;
+  return std::abs(left) <= tan_half_fov_x * forward && std::abs(d.z()) <= tan_half_fov_y * forward;
+}
+
+void ViewpointParams::validate() const {
+  camera.validate();
+  if (!(ring_radius_min_m > 0.0)) fail("ViewpointParams", "ring_radius_min_m", "(0, ring_radius_max_m]");
+  if (!(ring_radius_max_m >= ring_radius_min_m && ring_radius_max_m <= 100.0))
+    fail("ViewpointParams", "ring_radius_max_m", "[ring_radius_min_m, 100]");
+  if (ring_count < 1 || ring_count > 100) fail("ViewpointParams", "ring_count", "[1, 100]");
+  if (!(angle_step_deg > 0.0 && angle_step_deg <= 180.0)) fail("ViewpointParams", "angle_step_deg", "(0, 180]");
+  if (height_offsets_m.empty()) fail("ViewpointParams", "height_offsets_m", "non-empty lists");
+  for (const double h : height_offsets_m)
+    if (!(h >= -100.0 && h <= 100.0)) fail("ViewpointParams", "height_offsets_m[]", "[-100, 100]");
+  if (!(min_clearance_m >= 0.0 && min_clearance_m <= 10.0)) fail("ViewpointParams", "min_clearance_m", "[0, 10]");
+  if (min_visible_samples < 0 || min_visible_samples > 1000000)
+    fail("ViewpointParams", "min_visible_samples", "[0, 1e6]");
+  if (bounds_W && bounds_W->isEmpty()) fail("ViewpointParams", "bounds_W", "non-empty boxes");
+}
+
+double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, const MapQuery& map) {
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  for (const openvdb::Coord& c : voxels) {
+    const Eigen::Vector2d d = (map.voxelCenter(c) - eye_W).head<2>();
+    const double n = d.norm();
+    if (n > 1e-9) sum += d / n;
+  }
+  return sum.squaredNorm() > 0.0 ? std::atan2(sum.y(), sum.x()) : 0.0;
+}
+
+int countVisible(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
+                 const CameraFrustum& camera) {
+  int seen = 0;
+  for (const openvdb::Coord& c : voxels) {
+    const Vec3d p = probe.map().voxelCenter(c);
+    if (camera.contains(eye_W, yaw_rad, p) && probe.isVisible(p, eye_W)) ++seen;
+  }
+  return seen;
+}
+
+std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const MapQuery& map,
+                                         const ViewpointParams& params) {
+  params.validate();
+  std::vector<Viewpoint> viewpoints;
+  if (cluster.samples.empty()) return viewpoints;
+  MapProbe probe(map);
+  // Every check below stays within the outer ring, the samples, and the clearance around them:
+  // read that region once.
+  {
+    const double reach = params.ring_radius_max_m + params.min_clearance_m + map.voxelSize();
+    double dz_lo = 0.0, dz_hi = 0.0;
+    for (const double h : params.height_offsets_m) dz_lo = std::min(dz_lo, h), dz_hi = std::max(dz_hi, h);
+    Eigen::AlignedBox3d region(cluster.centroid_W - Vec3d(reach, reach, params.min_clearance_m + map.voxelSize() - dz_lo),
+                               cluster.centroid_W + Vec3d(reach, reach, params.min_clearance_m + map.voxelSize() + dz_hi));
+    for (const openvdb::Coord& c : cluster.samples) region.extend(map.voxelCenter(c));
+    probe.cacheBox(map.voxelsIn(region).expandBy(1));
+  }
+  const double step = params.angle_step_deg * M_PI / 180.0;
+  const int angles = std::max(1, int(std::ceil(2.0 * M_PI / step - 1e-9)));
+  for (const double dz : params.height_offsets_m) {
+    for (int ring = 0; ring < params.ring_count; ++ring) {
+      const double radius = params.ring_count == 1
+                                ? params.ring_radius_min_m
+                                : params.ring_radius_min_m + (params.ring_radius_max_m - params.ring_radius_min_m) *
+                                                                 ring / (params.ring_count - 1);
+      for (int k = 0; k < angles; ++k) {
+        const double phi = -M_PI + k * step;
+        const Vec3d p = cluster.centroid_W + Vec3d(radius * std::cos(phi), radius * std::sin(phi), dz);
+        if (params.bounds_W && !params.bounds_W->contains(p)) continue;
+        if (!probe.isClear(p, params.min_clearance_m)) continue;
+        const double yaw = yawToward(p, cluster.samples, map);
+        const int seen = countVisible(probe, p, yaw, cluster.samples, params.camera);
+        if (seen > params.min_visible_samples) viewpoints.push_back({p, yaw, seen});
+      }
+    }
+  }
+  std::stable_sort(viewpoints.begin(), viewpoints.end(),
+                   [](const Viewpoint& a, const Viewpoint& b) { return a.visible_samples > b.visible_samples; });
+  return viewpoints;
+}
+
+std::vector<std::vector<Viewpoint>> computeViewpoints(const std::vector<const FrontierCluster*>& clusters,
+                                                      const MapQuery& map, const ViewpointParams& params) {
+  params.validate();
+  std::vector<std::vector<Viewpoint>> views(clusters.size());
+  tbb::parallel_for(std::size_t(0), clusters.size(), [&](std::size_t i) { views[i] = computeViewpoints(*clusters[i], map, params); });
+  return views;
+}
+
+}  // namespace vdbmap::planner

@@ -1,0 +1,87 @@
+// Synthetic maps and brute-force references shared by the planner tests.
+#pragma once
+
+#include "vdbmap/planner/dense_map.hpp"
+
+#include <cmath>
+#include <vector>
+
+namespace vdbmap::planner::test {
+
+/// A room of `size_m` (x, y, z) at 0.1 m voxels: occupied walls, floor and ceiling one voxel
+/// thick, free inside, unknown outside. Voxel coordinates of the inside: [1, n-2] per axis.
+inline DenseMap makeRoom(const Eigen::Vector3i& size_vox, double voxel_m = 0.1) {
+  const openvdb::CoordBBox all(openvdb::Coord(-2), openvdb::Coord(size_vox.x() + 1, size_vox.y() + 1, size_vox.z() + 1));
+  DenseMap map(voxel_m, all);
+  map.fill(openvdb::CoordBBox(openvdb::Coord(0), openvdb::Coord(size_vox.x() - 1, size_vox.y() - 1, size_vox.z() - 1)),
+           Occupancy::Occupied);
+  map.fill(openvdb::CoordBBox(openvdb::Coord(1), openvdb::Coord(size_vox.x() - 2, size_vox.y() - 2, size_vox.z() - 2)),
+           Occupancy::Free);
+  return map;
+}
+
+/// Distance from p to the segment a-b.
+inline double pointSegmentDistance(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
+  const Vec3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+
+/// Brute force: every voxel of `map` whose centre is within r of p is free (scans a box).
+inline bool bruteClear(const DenseMap& map, const Vec3d& p, double r) {
+  if (map.get(map.worldToVoxel(p)) != Occupancy::Free) return false;
+  const double s = map.voxelSize();
+  const openvdb::Coord lo = map.worldToVoxel(p - Vec3d::Constant(r + s)), hi = map.worldToVoxel(p + Vec3d::Constant(r + s));
+  for (int x = lo.x(); x <= hi.x(); ++x)
+    for (int y = lo.y(); y <= hi.y(); ++y)
+      for (int z = lo.z(); z <= hi.z(); ++z) {
+        const openvdb::Coord c(x, y, z);
+        if ((map.voxelCenter(c) - p).norm() <= r && map.get(c) != Occupancy::Free) return false;
+      }
+  return true;
+}
+
+/// Brute force: every voxel whose centre is within r of the segment a-b is free.
+inline bool bruteSegmentClear(const DenseMap& map, const Vec3d& a, const Vec3d& b, double r) {
+  const double s = map.voxelSize();
+  const Vec3d lo = a.cwiseMin(b) - Vec3d::Constant(r + s), hi = a.cwiseMax(b) + Vec3d::Constant(r + s);
+  const openvdb::Coord l = map.worldToVoxel(lo), h = map.worldToVoxel(hi);
+  for (int x = l.x(); x <= h.x(); ++x)
+    for (int y = l.y(); y <= h.y(); ++y)
+      for (int z = l.z(); z <= h.z(); ++z) {
+        const openvdb::Coord c(x, y, z);
+        if (pointSegmentDistance(map.voxelCenter(c), a, b) <= r && map.get(c) != Occupancy::Free) return false;
+      }
+  return true;
+}
+
+/// Brute force: every voxel the segment a-b intersects (slab test against each voxel's cube) is free.
+inline bool bruteVisible(const DenseMap& map, const Vec3d& a, const Vec3d& b) {
+  const double s = map.voxelSize();
+  const openvdb::Coord l = map.worldToVoxel(a.cwiseMin(b)), h = map.worldToVoxel(a.cwiseMax(b));
+  const Vec3d d = b - a;
+  for (int x = l.x(); x <= h.x(); ++x)
+    for (int y = l.y(); y <= h.y(); ++y)
+      for (int z = l.z(); z <= h.z(); ++z) {
+        const openvdb::Coord c(x, y, z);
+        const Vec3d lo = map.voxelCenter(c) - Vec3d::Constant(0.5 * s), hi = lo + Vec3d::Constant(s);
+        double t0 = 0.0, t1 = 1.0;
+        bool hit = true;
+        for (int k = 0; k < 3 && hit; ++k) {
+          if (std::abs(d[k]) < 1e-15) {
+            hit = a[k] >= lo[k] && a[k] < hi[k];
+            continue;
+          }
+          double ta = (lo[k] - a[k]) / d[k], tb = (hi[k] - a[k]) / d[k];
+          if (ta > tb) std::swap(ta, tb);
+          t0 = std::max(t0, ta);
+          t1 = std::min(t1, tb);
+          hit = t0 <= t1;
+        }
+        if (hit && map.get(c) != Occupancy::Free) return false;
+      }
+  return true;
+}
+
+}  // namespace vdbmap::planner::test

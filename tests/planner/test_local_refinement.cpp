@@ -1,0 +1,102 @@
+// Local refinement: the layered shortest path matches brute force; layers follow FUEL's rules.
+#include "planner/planner_test_maps.hpp"
+
+#include "vdbmap/planner/local_refinement.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <random>
+
+using namespace vdbmap;
+using namespace vdbmap::planner;
+
+namespace {
+Viewpoint vp(double x, double y, int seen) { return Viewpoint{Vec3d(x, y, 1.0), 0.0, seen}; }
+}  // namespace
+
+TEST_CASE("The layered shortest path equals brute-force enumeration", "[planner][refinement]") {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(0.0, 10.0);
+  std::uniform_int_distribution<int> size(1, 5);
+  for (int trial = 0; trial < 50; ++trial) {
+    const int layers = 1 + trial % 5;
+    std::vector<int> sizes(layers);
+    for (int& s : sizes) s = size(rng);
+    LayeredCosts c;
+    for (int j = 0; j < sizes[0]; ++j) c.first.push_back(u(rng));
+    for (int l = 1; l < layers; ++l) {
+      Eigen::MatrixXd m(sizes[l - 1], sizes[l]);
+      for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = u(rng);
+      c.between.push_back(m);
+    }
+    const RefinementResult r = shortestLayeredPath(c);
+    REQUIRE(r.choice.size() == std::size_t(layers));
+    // Brute force over every combination.
+    double best = 1e300;
+    std::vector<int> pick(layers, 0);
+    while (true) {
+      double cost = c.first[pick[0]];
+      for (int l = 1; l < layers; ++l) cost += c.between[l - 1](pick[l - 1], pick[l]);
+      best = std::min(best, cost);
+      int l = layers - 1;
+      while (l >= 0 && ++pick[l] == sizes[l]) pick[l--] = 0;
+      if (l < 0) break;
+    }
+    double chosen = c.first[r.choice[0]];
+    for (int l = 1; l < layers; ++l) chosen += c.between[l - 1](r.choice[l - 1], r.choice[l]);
+    REQUIRE(chosen == Approx(r.cost_s));
+    REQUIRE(r.cost_s == Approx(best));
+  }
+  LayeredCosts bad;
+  bad.first = {1.0, 2.0};
+  bad.between.push_back(Eigen::MatrixXd::Zero(3, 1));
+  CHECK_THROWS_AS(shortestLayeredPath(bad), std::invalid_argument);
+  CHECK(shortestLayeredPath(LayeredCosts{}).choice.empty());
+}
+
+TEST_CASE("refinementLayers follows FUEL: top viewpoints, decay, distance, radius, anchor", "[planner][refinement]") {
+  VehicleState vehicle;
+  vehicle.position_W = Vec3d(0, 0, 1);
+  RefinementParams p;
+  p.max_clusters = 3;
+  p.radius_m = 5.0;
+  p.top_viewpoints = 2;
+  p.max_decay = 0.8;
+  p.min_distance_m = 0.75;
+  const std::vector<std::vector<Viewpoint>> tour{
+      {vp(0.5, 0, 100), vp(2, 0, 90), vp(3, 0, 85), vp(4, 0, 70)},  // the first is too close
+      {vp(4, 0, 50), vp(4, 1, 45), vp(4, 2, 30)},                     // the third decays below 0.8
+      {vp(4.5, 0, 30), vp(4.5, 1, 29)},
+      {vp(3, 0, 30)}};                                                // beyond max_clusters
+  const auto layers = refinementLayers(vehicle, tour, p);
+  REQUIRE(layers.size() == 3);
+  CHECK(layers[0].size() == 2);  // (2,0) and (3,0): top 2 after skipping the close one
+  CHECK(layers[0][0].position_W.x() == 2.0);
+  CHECK(layers[0][1].position_W.x() == 3.0);
+  CHECK(layers[1].size() == 2);
+  CHECK(layers[2].size() == 1);  // the anchor keeps its best only
+  CHECK(layers[2][0].position_W.x() == 4.5);
+
+  // Beyond the radius after two layers: stop there.
+  p.max_clusters = 7;
+  const std::vector<std::vector<Viewpoint>> far{{vp(2, 0, 10)}, {vp(3, 0, 10)}, {vp(20, 0, 10)}, {vp(3, 1, 10)}};
+  CHECK(refinementLayers(vehicle, far, p).size() == 2);
+  // Only close viewpoints: the best is kept anyway.
+  const std::vector<std::vector<Viewpoint>> close{{vp(0.2, 0, 10), vp(0.3, 0, 9)}};
+  const auto l2 = refinementLayers(vehicle, close, p);
+  REQUIRE(l2.size() == 1);
+  CHECK(l2[0].size() == 1);
+  CHECK(l2[0][0].position_W.x() == 0.2);
+}
+
+TEST_CASE("refineLocalTour on a map picks the cheapest chain of viewpoints", "[planner][refinement]") {
+  const DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
+  VehicleState vehicle;
+  vehicle.position_W = Vec3d(1, 3, 1.0);
+  // Layer 0: a near and a far viewpoint; layer 1: a single anchor. The near one is on the way.
+  const std::vector<std::vector<Viewpoint>> layers{{vp(5, 5.5, 20), vp(3, 3, 20)}, {vp(6, 3, 20)}};
+  const RefinementResult r = refineLocalTour(map, vehicle, layers);
+  REQUIRE(r.choice.size() == 2);
+  CHECK(r.choice[0] == 1);
+  CHECK(r.cost_s == Approx((2.0 + 3.0) / 2.0));  // straight legs of 2 m and 3 m at 2 m/s
+}

@@ -1,0 +1,201 @@
+// The planner's map interface: synthetic maps, the TSDF adapter, the assume-free wrapper, and
+// MapProbe's clearance, segment and visibility checks against brute force.
+#include "planner/planner_test_maps.hpp"
+
+#include "vdbmap/planner/assume_free_map.hpp"
+#include "vdbmap/planner/dense_map.hpp"
+#include "vdbmap/planner/map_query.hpp"
+#include "vdbmap/planner/tsdf_map_query.hpp"
+#include "vdbmap/tsdf_volume.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <random>
+
+using namespace vdbmap;
+using namespace vdbmap::planner;
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+namespace {
+/// A 3 x 3 x 1.5 m map at 0.1 m: free with ~8% occupied and ~4% unknown voxels at random.
+DenseMap randomMap(std::uint32_t seed) {
+  DenseMap map(0.1, CoordBBox(Coord(0), Coord(29, 29, 14)));
+  map.fill(map.extent(), Occupancy::Free);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (auto it = map.extent().begin(); it; ++it) {
+    const double x = u(rng);
+    if (x < 0.08) map.set(*it, Occupancy::Occupied);
+    else if (x < 0.12) map.set(*it, Occupancy::Unknown);
+  }
+  return map;
+}
+}  // namespace
+
+TEST_CASE("DenseMap stores states, is unknown outside its extent and reports known bounds", "[planner][map]") {
+  DenseMap map(0.1, CoordBBox(Coord(-5), Coord(5)));
+  CHECK(map.knownBounds().empty());
+  CHECK(map.get(Coord(0)) == Occupancy::Unknown);
+  map.set(Coord(1, 2, 3), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(-2), Coord(-1)), Occupancy::Free);
+  CHECK(map.get(Coord(1, 2, 3)) == Occupancy::Occupied);
+  CHECK(map.get(Coord(-2, -1, -2)) == Occupancy::Free);
+  CHECK(map.get(Coord(100)) == Occupancy::Unknown);
+  CHECK(map.knownBounds() == CoordBBox(Coord(-2), Coord(1, 2, 3)));
+  CHECK_THROWS_AS(map.set(Coord(6), Occupancy::Free), std::out_of_range);
+  // World boxes select voxels by centre: [0.05, 0.25] holds the centres 0.1 and 0.2.
+  const CoordBBox b = map.voxelsIn(Eigen::AlignedBox3d(Vec3d::Constant(0.05), Vec3d::Constant(0.25)));
+  CHECK(b == CoordBBox(Coord(1), Coord(2)));
+  CHECK(map.worldToVoxel(Vec3d(0.049, -0.051, 0.15)) == Coord(0, -1, 2));
+}
+
+TEST_CASE("MapProbe::isClear and clearance match brute force", "[planner][map]") {
+  const DenseMap map = randomMap(7);
+  MapProbe probe(map);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> pos(0.3, 2.6), posz(0.3, 1.1), rad(0.0, 0.35);
+  int clear_count = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3d p(pos(rng), pos(rng), posz(rng));
+    const double r = rad(rng);
+    const bool clear = probe.isClear(p, r);
+    REQUIRE(clear == test::bruteClear(map, p, r));
+    clear_count += clear;
+    // clearance(): the distance to the nearest non-free voxel centre (capped).
+    const double c = probe.clearance(p, 0.5);
+    double brute = map.get(map.worldToVoxel(p)) == Occupancy::Free ? 0.5 : 0.0;
+    if (brute > 0.0)
+      for (auto it = map.extent().expandBy(6).begin(); it; ++it)  // unknown beyond the extent counts
+        if (map.get(*it) != Occupancy::Free) brute = std::min(brute, (map.voxelCenter(*it) - p).norm());
+    REQUIRE(c == Approx(brute).margin(1e-12));
+  }
+  CHECK(clear_count > 100);  // both outcomes are exercised
+}
+
+TEST_CASE("MapProbe::isVisible equals a brute-force slab test of every voxel the segment crosses", "[planner][map]") {
+  const DenseMap map = randomMap(3);
+  MapProbe probe(map);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> pos(0.05, 2.85), posz(0.05, 1.35), len(0.0, 1.0);
+  int visible = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3d a(pos(rng), pos(rng), posz(rng));
+    // Mostly short segments (long ones are nearly always blocked in this clutter).
+    const Vec3d b = a + (Vec3d(pos(rng), pos(rng), posz(rng)) - a) * len(rng) * len(rng);
+    const bool v = probe.isVisible(a, b);
+    REQUIRE(v == test::bruteVisible(map, a, b));
+    visible += v;
+  }
+  CHECK(visible > 200);
+}
+
+TEST_CASE("MapProbe::isSegmentClear is the exact capsule test", "[planner][map]") {
+  const DenseMap map = randomMap(9);
+  MapProbe probe(map);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> pos(0.3, 2.6), posz(0.3, 1.1), len(0.0, 0.8);
+  for (const double r : {0.12, 0.08, 0.03}) {
+    int clear = 0;
+    for (int i = 0; i < 3000; ++i) {
+      const Vec3d a(pos(rng), pos(rng), posz(rng));
+      const Vec3d b = a + (Vec3d(pos(rng), pos(rng), posz(rng)) - a).normalized() * len(rng);
+      const bool ok = probe.isSegmentClear(a, b, r);
+      // Every voxel centre within r of the segment is free (and, for radii thinner than a voxel,
+      // every voxel the segment crosses); a hair of tolerance for rounding at the boundary.
+      const bool thin = r < 0.0866;
+      if (ok) REQUIRE(test::bruteSegmentClear(map, a, b, r * (1 - 1e-9)));
+      if (ok && thin) REQUIRE(test::bruteVisible(map, a, b));
+      if (test::bruteSegmentClear(map, a, b, r * (1 + 1e-9)) && (!thin || test::bruteVisible(map, a, b)) &&
+          test::bruteClear(map, a, r) && test::bruteClear(map, b, r))
+        REQUIRE(ok);
+      clear += ok;
+    }
+    CHECK(clear > 20);
+  }
+}
+
+TEST_CASE("A MapProbe with a cached block answers as without", "[planner][map]") {
+  const DenseMap map = randomMap(21);
+  MapProbe plain(map), cached(map);
+  cached.cacheBox(CoordBBox(Coord(5, 5, 2), Coord(20, 25, 12)));  // part of the map only
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> pos(0.0, 2.9), posz(0.0, 1.4);
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3d a(pos(rng), pos(rng), posz(rng)), b(pos(rng), pos(rng), posz(rng));
+    REQUIRE(plain.isVisible(a, b) == cached.isVisible(a, b));
+    REQUIRE(plain.isClear(a, 0.15) == cached.isClear(a, 0.15));
+    REQUIRE(plain.isSegmentClear(a, a + (b - a) * 0.1, 0.1) == cached.isSegmentClear(a, a + (b - a) * 0.1, 0.1));
+  }
+}
+
+TEST_CASE("MapProbe rejects radii beyond 100 voxels", "[planner][map]") {
+  const DenseMap map = randomMap(1);
+  MapProbe probe(map);
+  CHECK_THROWS_AS(probe.isClear(Vec3d(1, 1, 1), 10.5), std::invalid_argument);
+  CHECK_THROWS_AS(probe.isClear(Vec3d(1, 1, 1), -0.1), std::invalid_argument);
+}
+
+TEST_CASE("AssumeFreeMap reads unknown voxels in its boxes as free and keeps occupied ones", "[planner][map]") {
+  DenseMap map(0.1, CoordBBox(Coord(-10), Coord(10)));
+  map.set(Coord(0), Occupancy::Occupied);
+  map.set(Coord(5, 0, 0), Occupancy::Free);
+  const AssumeFreeMap wrapped(map, {boxAround(Vec3d::Zero(), Vec3d::Constant(0.25))});
+  auto reader = wrapped.reader();
+  CHECK(reader->at(Coord(0)) == Occupancy::Occupied);
+  CHECK(reader->at(Coord(1, 2, -2)) == Occupancy::Free);  // centre (0.1, 0.2, -0.2) is inside
+  CHECK(reader->at(Coord(3, 0, 0)) == Occupancy::Unknown);  // centre 0.3 is outside
+  CHECK(reader->at(Coord(5, 0, 0)) == Occupancy::Free);
+  CHECK(wrapped.knownBounds() == CoordBBox(Coord(-2), Coord(5, 2, 2)));
+  // The start problem it solves: in unknown space the vehicle can turn in place.
+  MapProbe raw(map), assumed(wrapped);
+  CHECK_FALSE(raw.isClear(Vec3d(0.0, 0.0, 0.15), 0.05));
+  CHECK(assumed.isClear(Vec3d(0.0, 0.0, 0.15), 0.05));
+}
+
+TEST_CASE("TsdfMapQuery agrees with TsdfVolume::state on every voxel of an integrated map", "[planner][map]") {
+  TsdfConfig config;
+  config.voxel_size_m = 0.1;
+  TsdfVolume volume(config);
+  // A wall 2 m ahead of the camera (z forward), 2 x 1.5 m, seen from two poses.
+  PointCloud wall_S;
+  for (double u = -1.0; u <= 1.0; u += 0.02)
+    for (double v = -0.75; v <= 0.75; v += 0.02) wall_S.emplace_back(float(u), float(v), 2.0f);
+  volume.integrate(1, wall_S, Pose3d::Identity());
+  Pose3d T = Pose3d::Identity();
+  T.translation() = Vec3d(0.3, 0.1, -0.2);
+  volume.integrate(2, wall_S, T);
+
+  const TsdfMapQuery query(volume);
+  CHECK(query.voxelSize() == 0.1);
+  CHECK(query.knownBounds() == volume.activeBoundingBox());
+  auto reader = query.reader();
+  std::size_t counts[3] = {0, 0, 0};
+  for (auto it = query.knownBounds().expandBy(1).begin(); it; ++it) {
+    const VoxelState expected = volume.state(*it);
+    const Occupancy got = reader->at(*it);
+    const Occupancy want = expected == VoxelState::Free       ? Occupancy::Free
+                           : expected == VoxelState::Occupied ? Occupancy::Occupied
+                                                              : Occupancy::Unknown;
+    REQUIRE(got == want);
+    ++counts[int(got)];
+  }
+  // readBox (leaf by leaf) reads the same states, also through the assume-free wrapper.
+  const AssumeFreeMap wrapped(query, {boxAround(Vec3d(0, 0, 0.5), Vec3d(0.3, 0.3, 0.3))});
+  auto wrapped_reader = wrapped.reader();
+  for (const CoordBBox& box : {query.knownBounds().expandBy(3), CoordBBox(Coord(-5, -3, 2), Coord(4, 9, 30))}) {
+    std::vector<Occupancy> block(box.volume()), wrapped_block(box.volume());
+    reader->readBox(box, block.data());
+    wrapped_reader->readBox(box, wrapped_block.data());
+    std::size_t i = 0;
+    for (int x = box.min().x(); x <= box.max().x(); ++x)
+      for (int y = box.min().y(); y <= box.max().y(); ++y)
+        for (int z = box.min().z(); z <= box.max().z(); ++z, ++i) {
+          REQUIRE(block[i] == reader->at(Coord(x, y, z)));
+          REQUIRE(wrapped_block[i] == wrapped_reader->at(Coord(x, y, z)));
+        }
+  }
+  CHECK(counts[int(Occupancy::Free)] > 1000);
+  CHECK(counts[int(Occupancy::Occupied)] > 100);
+  CHECK(counts[int(Occupancy::Unknown)] > 100);
+}

@@ -1,0 +1,131 @@
+// Paths: straight when clear, RRTConnect + simplification otherwise; every path is checked
+// densely against the map by brute force; failures are statuses; results repeat for a seed.
+#include "planner/planner_test_maps.hpp"
+
+#include "vdbmap/planner/path_planner.hpp"
+
+#include <catch2/catch.hpp>
+
+using namespace vdbmap;
+using namespace vdbmap::planner;
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+namespace {
+/// A 10 x 6 x 3 m room split by a one-voxel wall at x = 5 m, with a door (y 2.5-3.5 m,
+/// z up to 2 m) unless `door` is false.
+DenseMap wallRoom(bool door) {
+  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
+  map.fill(CoordBBox(Coord(50, 1, 1), Coord(50, 58, 28)), Occupancy::Occupied);
+  if (door) map.fill(CoordBBox(Coord(50, 25, 1), Coord(50, 35, 20)), Occupancy::Free);
+  return map;
+}
+
+/// Every point of the path, every 5 mm, has only free voxel centres within r (brute force).
+bool denselyClear(const DenseMap& map, const std::vector<Vec3d>& path, double r) {
+  for (std::size_t i = 1; i < path.size(); ++i) {
+    const double len = (path[i] - path[i - 1]).norm();
+    const int n = std::max(1, int(std::ceil(len / 0.005)));
+    for (int k = 0; k <= n; ++k)
+      if (!test::bruteClear(map, path[i - 1] + (path[i] - path[i - 1]) * (double(k) / n), r)) return false;
+  }
+  return true;
+}
+}  // namespace
+
+TEST_CASE("A clear straight segment is the path", "[planner][path]") {
+  const DenseMap map = wallRoom(true);
+  PathPlanner planner(map);
+  const PathResult r = planner.plan(Vec3d(1, 1, 1), Vec3d(4, 4, 1.5));
+  REQUIRE(r.status == PathStatus::Straight);
+  CHECK(r.waypoints == (std::vector<Vec3d>{Vec3d(1, 1, 1), Vec3d(4, 4, 1.5)}));
+  CHECK(r.length_m == Approx((Vec3d(3, 3, 0.5)).norm()));
+}
+
+TEST_CASE("Through the door: RRTConnect paths are collision-free against the map", "[planner][path]") {
+  const DenseMap map = wallRoom(true);
+  PathParams params;
+  params.clearance_m = 0.25;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    params.seed = seed;
+    PathPlanner planner(map, params);
+    const Vec3d start(2, 1, 1), goal(8, 1.2, 1.4);
+    const PathResult r = planner.plan(start, goal);
+    REQUIRE(r.status == PathStatus::Planned);
+    REQUIRE(r.waypoints.size() >= 3);
+    CHECK(r.waypoints.front() == start);
+    CHECK(r.waypoints.back() == goal);
+    CHECK(denselyClear(map, r.waypoints, params.clearance_m));
+    CHECK(r.length_m == Approx(polylineLength(r.waypoints)));
+    // It goes through the door: the shortest way is about 2 x hypot(3, 2) = 7.2 m.
+    CHECK(r.length_m > 7.0);
+    CHECK(r.length_m < 9.5);
+    bool through_door = false;
+    for (std::size_t i = 1; i < r.waypoints.size(); ++i) {
+      const Vec3d a = r.waypoints[i - 1], b = r.waypoints[i];
+      if ((a.x() - 5.0) * (b.x() - 5.0) <= 0.0) {
+        const Vec3d c = a + (b - a) * ((5.0 - a.x()) / (b.x() - a.x()));
+        through_door = c.y() > 2.5 && c.y() < 3.5 && c.z() < 2.05;
+      }
+    }
+    CHECK(through_door);
+  }
+}
+
+TEST_CASE("A closed one-voxel wall gives the status NoPath within the time limit", "[planner][path]") {
+  const DenseMap map = wallRoom(false);
+  PathParams params;
+  params.time_limit_s = 0.05;
+  PathPlanner planner(map, params);
+  const PathResult r = planner.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1));
+  CHECK(r.status == PathStatus::NoPath);
+  CHECK_FALSE(r.ok());
+  CHECK(r.waypoints.empty());
+  CHECK(r.time_s < 1.0);  // the limit (0.05 s) plus set-up, with a generous margin
+}
+
+TEST_CASE("Starts and goals near obstacles or in unknown space are statuses", "[planner][path]") {
+  const DenseMap map = wallRoom(true);
+  PathPlanner planner(map);
+  CHECK(planner.plan(Vec3d(4.9, 1, 1), Vec3d(2, 2, 1)).status == PathStatus::StartInvalid);  // 0.1 m from the wall
+  CHECK(planner.plan(Vec3d(2, 2, 1), Vec3d(20, 2, 1)).status == PathStatus::GoalInvalid);    // outside the map
+  CHECK(planner.plan(Vec3d(2, 2, 1), Vec3d(2, 2, 0.15)).status == PathStatus::GoalInvalid);  // near the floor
+}
+
+TEST_CASE("Paths repeat for a seed, whatever ran before", "[planner][path]") {
+  const DenseMap map = wallRoom(true);
+  PathParams params;
+  params.seed = 17;
+  PathPlanner a(map, params), b(map, params);
+  const PathResult first = a.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1.5), 3);
+  b.plan(Vec3d(8, 1, 1), Vec3d(2, 1.5, 1.5), 99);  // an unrelated query first
+  const PathResult second = b.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1.5), 3);
+  const PathResult again = a.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1.5), 3);
+  REQUIRE(first.status == PathStatus::Planned);
+  CHECK(first.waypoints == second.waypoints);
+  CHECK(first.waypoints == again.waypoints);
+}
+
+TEST_CASE("The search space is the map's known bounds cut by the optional box", "[planner][path]") {
+  const DenseMap map = wallRoom(true);
+  PathParams params;
+  params.bounds_W = Eigen::AlignedBox3d(Vec3d(-1, -1, -1), Vec3d(6, 3, 4));  // cuts the door at y = 3 m
+  params.time_limit_s = 1.0;  // the passage left is narrow
+  PathPlanner planner(map, params);
+  CHECK(planner.searchBounds().max().isApprox(Vec3d(6, 3, 2.95)));
+  CHECK(planner.searchBounds().min().isApprox(Vec3d(-0.05, -0.05, -0.05)));
+  const PathResult r = planner.plan(Vec3d(2, 1, 1), Vec3d(5.5, 1, 1));
+  REQUIRE(r.ok());
+  for (const Vec3d& p : r.waypoints) CHECK(p.y() <= 3.0);
+  CHECK(planner.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1)).status == PathStatus::GoalInvalid);
+}
+
+TEST_CASE("PathParams::validate names the field", "[planner][path]") {
+  PathParams p;
+  p.time_limit_s = 0.0;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("time_limit_s"));
+  p = PathParams{};
+  p.clearance_m = -1.0;
+  const DenseMap map = wallRoom(true);
+  CHECK_THROWS_WITH(PathPlanner(map, p), Catch::Contains("clearance_m"));
+}

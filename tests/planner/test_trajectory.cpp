@@ -1,0 +1,184 @@
+// Trajectories: limits hold at every sample (dense sampling), the trajectory stays in free space
+// (brute force), it is consistent (position derivatives match velocity), starts from the vehicle's
+// state and ends at rest at the goal with the goal yaw.
+#include "planner/planner_test_maps.hpp"
+
+#include "vdbmap/planner/path_planner.hpp"
+#include "vdbmap/planner/trajectory.hpp"
+
+#include <catch2/catch.hpp>
+
+using namespace vdbmap;
+using namespace vdbmap::planner;
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+namespace {
+DenseMap wallRoom() {
+  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
+  map.fill(CoordBBox(Coord(50, 1, 1), Coord(50, 58, 28)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(50, 25, 1), Coord(50, 35, 20)), Occupancy::Free);
+  return map;
+}
+
+/// Checks every limit at samples 1 ms apart, continuity between samples, that position
+/// differences match velocity, and (when `map` is given) clearance by brute force.
+void checkTrajectory(const Trajectory& traj, const TrajectoryParams& p, const DenseMap* map) {
+  const double dt = 1e-3;
+  const double tol = 1e-9;
+  TrajectoryState prev = traj.sample(0.0);
+  for (double t = dt; t <= traj.duration() + 0.5 * dt; t += dt) {
+    const TrajectoryState s = traj.sample(t);
+    REQUIRE(s.velocity_W.norm() <= p.v_max_m_s * (1 + tol));
+    REQUIRE(s.acceleration_W.norm() <= p.a_max_m_s2 * (1 + 1e-6));
+    REQUIRE(std::abs(s.yaw_rate_rad_s) <= p.yaw_rate_max_rad_s * (1 + tol));
+    // Continuity: no jumps in position, velocity or yaw between samples.
+    REQUIRE((s.position_W - prev.position_W).norm() <= p.v_max_m_s * dt * (1 + 1e-6) + 1e-12);
+    REQUIRE((s.velocity_W - prev.velocity_W).norm() <= p.a_max_m_s2 * dt * (1 + 1e-6) + 1e-12);
+    REQUIRE(yawDistance(prev.yaw_rad, s.yaw_rad) <= p.yaw_rate_max_rad_s * dt * (1 + 1e-6) + 1e-12);
+    // The derivatives are those of the sampled motion (midpoint rule, O(dt^2)).
+    const Vec3d mid_velocity = (s.position_W - prev.position_W) / dt;
+    REQUIRE((mid_velocity - 0.5 * (s.velocity_W + prev.velocity_W)).norm() <= p.a_max_m_s2 * dt + 1e-9);
+    if (map) REQUIRE(test::bruteClear(*map, s.position_W, p.clearance_m));
+    prev = s;
+  }
+}
+}  // namespace
+
+TEST_CASE("A straight 10 m leg from rest takes exactly the bang-cruise-bang time", "[planner][trajectory]") {
+  DenseMap map = test::makeRoom(Eigen::Vector3i(140, 40, 30));
+  TrajectoryParams p;
+  VehicleState start;
+  start.position_W = Vec3d(2, 2, 1.5);
+  const TrajectoryResult r = planTrajectory({start.position_W, Vec3d(12, 2, 1.5)}, start, 0.0, map, p);
+  REQUIRE(r.status == TrajectoryStatus::Ok);
+  // 1 s to reach 2 m/s (1 m), 4 s cruising 8 m, 1 s braking (1 m).
+  CHECK(r.trajectory.duration() == Approx(6.0).epsilon(1e-9));
+  CHECK(r.trajectory.sample(0.5).velocity_W.isApprox(Vec3d(1, 0, 0), 1e-9));
+  CHECK(r.trajectory.sample(3.0).velocity_W.isApprox(Vec3d(2, 0, 0), 1e-9));
+  CHECK(r.trajectory.sample(3.0).position_W.isApprox(Vec3d(7, 2, 1.5), 1e-9));
+  CHECK(r.trajectory.sample(6.0).position_W.isApprox(Vec3d(12, 2, 1.5), 1e-12));
+  CHECK(r.trajectory.sample(6.0).velocity_W.norm() == Approx(0.0).margin(1e-9));
+  checkTrajectory(r.trajectory, p, &map);
+}
+
+TEST_CASE("Along a planned path: limits at every sample, clear of the map, from rest to rest at the goal yaw",
+          "[planner][trajectory]") {
+  const DenseMap map = wallRoom();
+  PathParams pp;
+  TrajectoryParams tp;
+  tp.clearance_m = pp.clearance_m;
+  PathPlanner planner(map, pp);
+  VehicleState start;
+  start.position_W = Vec3d(2, 1, 1);
+  start.yaw_rad = 0.3;
+  const Vec3d goal(8, 1.2, 1.4);
+  const PathResult path = planner.plan(start.position_W, goal);
+  REQUIRE(path.status == PathStatus::Planned);
+  const TrajectoryResult r = planTrajectory(path.waypoints, start, -2.5, map, tp);
+  REQUIRE(r.status == TrajectoryStatus::Ok);
+  const Trajectory& traj = r.trajectory;
+  checkTrajectory(traj, tp, &map);
+  const TrajectoryState s0 = traj.sample(0.0), s1 = traj.sample(traj.duration());
+  CHECK(s0.position_W == start.position_W);
+  CHECK(s0.velocity_W.norm() == 0.0);
+  CHECK(s0.yaw_rad == Approx(0.3));
+  CHECK(s1.position_W.isApprox(goal, 1e-12));
+  CHECK(s1.velocity_W.norm() == 0.0);
+  CHECK(yawDistance(s1.yaw_rad, -2.5) < 1e-9);
+  // Corners are rounded, not stopped at, and the time is near the length at v_max.
+  CHECK(traj.stopCorners() == 0);
+  CHECK(traj.duration() > path.length_m / tp.v_max_m_s);
+  CHECK(traj.duration() < path.length_m / tp.v_max_m_s + 6.0);
+}
+
+TEST_CASE("A moving start keeps the vehicle's velocity through a clear lead-in", "[planner][trajectory]") {
+  const DenseMap map = wallRoom();
+  TrajectoryParams tp;
+  VehicleState start;
+  start.position_W = Vec3d(2, 3, 1.2);
+  start.velocity_W = Vec3d(0, 1.5, 0.2);  // sideways to the path
+  const std::vector<Vec3d> path{start.position_W, Vec3d(4, 3, 1.2)};
+  const TrajectoryResult r = planTrajectory(path, start, 0.0, map, tp);
+  REQUIRE(r.status == TrajectoryStatus::Ok);
+  CHECK(r.trajectory.sample(0.0).velocity_W.isApprox(start.velocity_W, 1e-9));
+  CHECK(r.trajectory.corners().size() == 3);  // start, lead-in, goal
+  checkTrajectory(r.trajectory, tp, &map);
+  CHECK(r.trajectory.sample(r.trajectory.duration()).position_W.isApprox(Vec3d(4, 3, 1.2), 1e-12));
+}
+
+TEST_CASE("Moving straight at a wall: the start is slowed and the status says so", "[planner][trajectory]") {
+  const DenseMap map = wallRoom();
+  TrajectoryParams tp;
+  VehicleState start;
+  start.position_W = Vec3d(4.5, 1.0, 1.2);  // 0.5 m before the wall, flying at it
+  start.velocity_W = Vec3d(2.0, 0, 0);
+  const TrajectoryResult r = planTrajectory({start.position_W, Vec3d(3, 1, 1.2)}, start, 0.0, map, tp);
+  REQUIRE(r.status == TrajectoryStatus::StartVelocityReduced);
+  CHECK(r.trajectory.sample(0.0).velocity_W.norm() < 2.0);
+  checkTrajectory(r.trajectory, tp, &map);
+}
+
+TEST_CASE("A single-point path turns on the spot within the yaw-rate limit", "[planner][trajectory]") {
+  const DenseMap map = wallRoom();
+  TrajectoryParams tp;
+  VehicleState start;
+  start.position_W = Vec3d(2, 2, 1);
+  start.yaw_rad = 3.0;
+  const TrajectoryResult r = planTrajectory({start.position_W}, start, -3.0, map, tp);  // 0.28 rad the short way
+  REQUIRE(r.status == TrajectoryStatus::Ok);
+  // Triangle profile (peak rate sqrt(2 * 0.283) < 0.9): 2 sqrt(0.283 / 2) s.
+  const double turn = 2.0 * M_PI - 6.0;
+  CHECK(r.trajectory.duration() == Approx(2.0 * std::sqrt(turn / tp.yaw_acc_max_rad_s2)));
+  CHECK(yawDistance(r.trajectory.sample(r.trajectory.duration()).yaw_rad, -3.0) < 1e-9);
+  checkTrajectory(r.trajectory, tp, &map);
+  for (double t = 0; t < r.trajectory.duration(); t += 0.1) CHECK(r.trajectory.sample(t).position_W == start.position_W);
+  // Holding still: no time, no motion.
+  const Trajectory still = Trajectory::hold(start.position_W, 1.0);
+  CHECK(still.duration() == 0.0);
+  CHECK(still.sample(5.0).position_W == start.position_W);
+  CHECK(still.sample(5.0).yaw_rad == 1.0);
+  CHECK(still.sample(5.0).velocity_W.norm() == 0.0);
+  // A half turn takes at least pi / 0.9 s.
+  const TrajectoryResult half = planTrajectory({start.position_W}, start, 3.0 - M_PI, map, tp);
+  CHECK(half.trajectory.duration() >= M_PI / tp.yaw_rate_max_rad_s);
+}
+
+TEST_CASE("A corner whose arc would clip an obstacle is tightened or stopped, never cut", "[planner][trajectory]") {
+  // An L-shaped corridor 0.8 m wide: the path hugs the inner corner.
+  DenseMap map(0.1, CoordBBox(Coord(-2), Coord(62, 62, 22)));
+  map.fill(CoordBBox(Coord(0), Coord(60, 60, 20)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(1, 1, 1), Coord(59, 8, 19)), Occupancy::Free);   // along x, y 0.1-0.8
+  map.fill(CoordBBox(Coord(52, 1, 1), Coord(59, 59, 19)), Occupancy::Free); // along y, x 5.2-5.9
+  TrajectoryParams tp;
+  tp.clearance_m = 0.25;
+  VehicleState start;
+  start.position_W = Vec3d(1.0, 0.45, 1.0);
+  const std::vector<Vec3d> path{start.position_W, Vec3d(5.55, 0.45, 1.0), Vec3d(5.55, 5.0, 1.0)};
+  MapProbe probe(map);
+  REQUIRE(probe.isSegmentClear(path[0], path[1], 0.25));
+  REQUIRE(probe.isSegmentClear(path[1], path[2], 0.25));
+  const TrajectoryResult r = planTrajectory(path, start, M_PI / 2, map, tp);
+  REQUIRE(r.ok());
+  checkTrajectory(r.trajectory, tp, &map);
+  CHECK(r.trajectory.sample(r.trajectory.duration()).position_W.isApprox(path.back(), 1e-12));
+}
+
+TEST_CASE("A path through an obstacle is refused", "[planner][trajectory]") {
+  const DenseMap map = wallRoom();
+  VehicleState start;
+  start.position_W = Vec3d(2, 1, 1);
+  const TrajectoryResult r = planTrajectory({start.position_W, Vec3d(8, 1, 1)}, start, 0.0, map);
+  CHECK(r.status == TrajectoryStatus::PathNotClear);
+  CHECK_FALSE(r.ok());
+  CHECK_THROWS_AS(planTrajectory({Vec3d(3, 3, 1)}, start, 0.0, map), std::invalid_argument);  // not at the vehicle
+}
+
+TEST_CASE("TrajectoryParams::validate names the field", "[planner][trajectory]") {
+  TrajectoryParams p;
+  p.normal_acc_share = 1.0;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("normal_acc_share"));
+  p = TrajectoryParams{};
+  p.corner_fraction = 0.6;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("corner_fraction"));
+}

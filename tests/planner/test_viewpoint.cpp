@@ -1,0 +1,146 @@
+// Viewpoints: every viewpoint returned is clear and sees its cluster (recounted by brute force),
+// yaw points at the cluster, and occlusion by occupied and unknown voxels.
+#include "planner/planner_test_maps.hpp"
+
+#include "vdbmap/planner/frontier.hpp"
+#include "vdbmap/planner/vehicle_state.hpp"
+#include "vdbmap/planner/viewpoint.hpp"
+
+#include <catch2/catch.hpp>
+
+using namespace vdbmap;
+using namespace vdbmap::planner;
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+namespace {
+/// An 8 x 6 x 3 m room whose half x < 4 m is known (walls occupied, inside free); the rest is
+/// unknown, so the plane x = 3.9 m is one big frontier. A pillar stands in the known half.
+DenseMap halfKnownRoom() {
+  DenseMap map(0.1, CoordBBox(Coord(-2), Coord(82, 62, 32)));
+  map.fill(CoordBBox(Coord(0), Coord(39, 59, 29)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(1), Coord(39, 58, 28)), Occupancy::Free);
+  map.fill(CoordBBox(Coord(20, 25, 1), Coord(23, 28, 28)), Occupancy::Occupied);  // pillar
+  return map;
+}
+}  // namespace
+
+TEST_CASE("CameraFrustum::contains follows the pinhole frustum, range and yaw", "[planner][viewpoint]") {
+  const CameraFrustum cam;  // tan x 0.826, tan y 0.620, 4.5 m
+  const Vec3d eye(0, 0, 0);
+  CHECK(cam.contains(eye, 0.0, Vec3d(2, 0, 0)));
+  CHECK(cam.contains(eye, 0.0, Vec3d(2, 1.6, 0)));
+  CHECK_FALSE(cam.contains(eye, 0.0, Vec3d(2, 1.7, 0)));
+  CHECK(cam.contains(eye, 0.0, Vec3d(2, 0, 1.2)));
+  CHECK_FALSE(cam.contains(eye, 0.0, Vec3d(2, 0, 1.3)));
+  CHECK_FALSE(cam.contains(eye, 0.0, Vec3d(-1, 0, 0)));
+  CHECK_FALSE(cam.contains(eye, 0.0, Vec3d(4.6, 0, 0)));
+  CHECK(cam.contains(eye, M_PI / 2, Vec3d(0, 2, 0)));
+  CHECK_FALSE(cam.contains(eye, M_PI / 2, Vec3d(2, 0, 0)));
+}
+
+TEST_CASE("Occupied and unknown voxels occlude; free space does not", "[planner][viewpoint]") {
+  DenseMap map(0.1, CoordBBox(Coord(-5), Coord(40, 5, 5)));
+  map.fill(map.extent(), Occupancy::Free);
+  MapProbe probe(map);
+  const std::vector<Coord> target{Coord(30, 0, 0)};
+  const CameraFrustum cam;
+  CHECK(countVisible(probe, Vec3d(0.5, 0, 0), 0.0, target, cam) == 1);
+  CHECK(countVisible(probe, Vec3d(0.5, 0, 0), M_PI, target, cam) == 0);  // looking away
+  map.set(Coord(20, 0, 0), Occupancy::Occupied);
+  CHECK(countVisible(probe, Vec3d(0.5, 0, 0), 0.0, target, cam) == 0);
+  map.set(Coord(20, 0, 0), Occupancy::Unknown);
+  CHECK(countVisible(probe, Vec3d(0.5, 0, 0), 0.0, target, cam) == 0);
+  map.set(Coord(20, 0, 0), Occupancy::Free);
+  CHECK(countVisible(probe, Vec3d(0.5, 0, 0), 0.0, target, cam) == 1);
+}
+
+TEST_CASE("Every viewpoint is clear, sees its cluster, and looks at it", "[planner][viewpoint]") {
+  const DenseMap map = halfKnownRoom();
+  FrontierMap frontiers;  // FUEL defaults: min 100 voxels, split beyond 2 m
+  frontiers.rebuild(map);
+  REQUIRE(frontiers.clusters().size() == 2);  // the 5.8 m wide plane is split in halves of 2.9 m
+
+  const ViewpointParams params;
+  const double radii[] = {1.5, 1.5 + 1.0 / 3.0, 1.5 + 2.0 / 3.0, 2.5};
+  std::size_t total = 0;
+  for (const FrontierCluster& cluster : frontiers.clusters()) {
+    const std::vector<Viewpoint> views = computeViewpoints(cluster, map, params);
+    total += views.size();
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      const Viewpoint& v = views[i];
+      // Clear: every voxel centre within the clearance is free (brute force).
+      REQUIRE(test::bruteClear(map, v.position_W, params.min_clearance_m));
+      // Sees its cluster: recount with the brute-force ray test.
+      int seen = 0;
+      for (const Coord& s : cluster.samples) {
+        const Vec3d p = map.voxelCenter(s);
+        seen += params.camera.contains(v.position_W, v.yaw_rad, p) && test::bruteVisible(map, p, v.position_W);
+      }
+      REQUIRE(seen == v.visible_samples);
+      REQUIRE(seen > params.min_visible_samples);
+      // On a ring around the centroid, at its height.
+      const double r = (v.position_W - cluster.centroid_W).head<2>().norm();
+      REQUIRE(std::any_of(std::begin(radii), std::end(radii), [&](double x) { return std::abs(x - r) < 1e-9; }));
+      REQUIRE(v.position_W.z() == Approx(cluster.centroid_W.z()));
+      // Looks at the cluster: the centroid is inside the horizontal field of view.
+      const Vec3d to = cluster.centroid_W - v.position_W;
+      REQUIRE(yawDistance(v.yaw_rad, std::atan2(to.y(), to.x())) < std::atan(params.camera.tan_half_fov_x));
+      // Best first.
+      if (i > 0) REQUIRE(views[i - 1].visible_samples >= v.visible_samples);
+    }
+  }
+  CHECK(total > 20);
+  // The parallel overload gives the same viewpoints.
+  std::vector<const FrontierCluster*> all;
+  for (const FrontierCluster& c : frontiers.clusters()) all.push_back(&c);
+  const auto parallel = computeViewpoints(all, map, params);
+  REQUIRE(parallel.size() == all.size());
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const auto single = computeViewpoints(*all[i], map, params);
+    REQUIRE(parallel[i].size() == single.size());
+    for (std::size_t k = 0; k < single.size(); ++k) {
+      CHECK(parallel[i][k].position_W == single[k].position_W);
+      CHECK(parallel[i][k].visible_samples == single[k].visible_samples);
+    }
+  }
+}
+
+TEST_CASE("Viewpoints respect the exploration box and the clearance", "[planner][viewpoint]") {
+  const DenseMap map = halfKnownRoom();
+  FrontierMap frontiers;
+  frontiers.rebuild(map);
+  REQUIRE_FALSE(frontiers.clusters().empty());
+  ViewpointParams params;
+  params.bounds_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(2.2, 6, 3));  // x <= 2.2 m only
+  params.min_clearance_m = 0.5;
+  for (const FrontierCluster& cluster : frontiers.clusters())
+    for (const Viewpoint& v : computeViewpoints(cluster, map, params)) {
+      REQUIRE(v.position_W.x() <= 2.2);
+      REQUIRE(test::bruteClear(map, v.position_W, 0.5));
+    }
+}
+
+TEST_CASE("A cluster seen only through unknown space gets no viewpoint", "[planner][viewpoint]") {
+  // A free pocket of 6 x 6 x 6 voxels in unknown space: every ring candidate is in unknown space.
+  DenseMap map(0.1, CoordBBox(Coord(-40), Coord(40)));
+  map.fill(CoordBBox(Coord(-3), Coord(2)), Occupancy::Free);
+  FrontierParams fp;
+  fp.min_cluster_size = 10;
+  FrontierMap frontiers(fp);
+  frontiers.rebuild(map);
+  REQUIRE(frontiers.clusters().size() == 1);
+  CHECK(computeViewpoints(frontiers.clusters()[0], map).empty());
+}
+
+TEST_CASE("ViewpointParams::validate names the field", "[planner][viewpoint]") {
+  ViewpointParams p;
+  p.ring_radius_max_m = 1.0;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("ring_radius_max_m"));
+  p = ViewpointParams{};
+  p.camera.max_range_m = 0.0;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("max_range_m"));
+  p = ViewpointParams{};
+  p.height_offsets_m.clear();
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("height_offsets_m"));
+}
