@@ -1,12 +1,15 @@
 // Iterated local search for the ATSP on an array tour (tour[position] = node, pos[node]).
 //
-// Move: the orientation-preserving 3-opt "segment swap". With a, b, c in tour order and the
-// segments S1 = a+..b, S2 = b+..c, the arcs (a,a+), (b,b+), (c,c+) are replaced by (a,b+),
-// (c,a+), (b,c+): a S1 S2 c+ becomes a S2 S1 c+. No segment is reversed, so it suits asymmetric
-// costs; Or-opt (moving a short segment elsewhere) is the special case of a short S1 or S2.
-// The search from a node a tries the new arc (a, b+) over a's candidate successors, then closes
-// either with (c, a+) over a+'s candidate predecessors or with (b, c+) over b's candidate
-// successors, keeping the partial gain positive (the Lin-Kernighan gain criterion).
+// Moves, both tried from every node a whose don't-look bit is off:
+// - the orientation-preserving 3-opt "segment swap". With a, b, c in tour order and the
+//   segments S1 = a+..b, S2 = b+..c, the arcs (a,a+), (b,b+), (c,c+) are replaced by (a,b+),
+//   (c,a+), (b,c+): a S1 S2 c+ becomes a S2 S1 c+. No segment is reversed, so it suits
+//   asymmetric costs; Or-opt (moving a short segment elsewhere) is the case of a short S1 or S2.
+//   From a it tries the new arc (a, b+) over a's candidate successors, then closes either with
+//   (c, a+) over a+'s candidate predecessors or with (b, c+) over b's candidate successors,
+//   keeping the partial gain positive (the Lin-Kernighan gain criterion);
+// - the segment reversal (2-opt), priced exactly with prefix sums of the per-arc cost change of
+//   reversing; it matters on nearly symmetric costs such as the planner's travel times.
 //
 // Kick: a random local double bridge A B C D -> A D C B (B, C, D short and adjacent), which
 // changes four arcs and cannot be undone by one segment swap. Acceptance: better or equal, so
@@ -49,9 +52,15 @@ constexpr int kRejectionsPerWalkStepDivisor = 4;
 class TourSearch {
  public:
   TourSearch(const AtspInstance& instance, const CandidateLists& candidates)
-      : n_(instance.n), costs_(instance.costs.data()), candidates_(candidates), tour_(std::size_t(n_)),
-        pos_(std::size_t(n_)), reversal_change_(std::size_t(n_)), reversal_prefix_(std::size_t(n_) + 1),
-        queue_(std::size_t(n_)), queued_(std::size_t(n_), 0) {}
+      : n_(instance.n),
+        costs_(instance.costs.data()),
+        candidates_(candidates),
+        tour_(std::size_t(n_)),
+        pos_(std::size_t(n_)),
+        reversal_change_(std::size_t(n_)),
+        reversal_prefix_(std::size_t(n_) + 1),
+        queue_(std::size_t(n_)),
+        queued_(std::size_t(n_), 0) {}
 
   void setTour(const std::vector<int>& order) {
     for (int p = 0; p < n_; ++p) {
@@ -202,8 +211,8 @@ class TourSearch {
       const int length = offset(a, b);  // nodes a+..b
       if (gain1 <= 0 || length < 2) continue;
       const int b_next = succ(b);
-      const std::int64_t gain = gain1 + arc(b, b_next) - arc(a_next, b_next) -
-                                reversalChange(pos_[std::size_t(a_next)], length - 1);
+      const std::int64_t gain =
+          gain1 + arc(b, b_next) - arc(a_next, b_next) - reversalChange(pos_[std::size_t(a_next)], length - 1);
       if (gain > 0) {
         applyReversal(a, length, gain);
         return true;
@@ -216,8 +225,7 @@ class TourSearch {
       const int length = offset(z, a) + 1;  // nodes z..a
       if (gain1 <= 0 || length < 2 || length > n_ - 1) continue;
       const int y = pred(z);
-      const std::int64_t gain =
-          gain1 + arc(y, z) - arc(y, a) - reversalChange(pos_[std::size_t(z)], length - 1);
+      const std::int64_t gain = gain1 + arc(y, z) - arc(y, a) - reversalChange(pos_[std::size_t(z)], length - 1);
       if (gain > 0) {
         applyReversal(y, length, gain);
         return true;
@@ -229,12 +237,14 @@ class TourSearch {
   /// Cost change of reversing the `count` consecutive arcs from tour position `start` on.
   std::int64_t reversalChange(int start, int count) {
     if (!prefix_valid_) {
-      for (int p = 0; p < n_; ++p) reversal_prefix_[std::size_t(p) + 1] = reversal_prefix_[std::size_t(p)] + reversal_change_[std::size_t(p)];
+      for (int p = 0; p < n_; ++p)
+        reversal_prefix_[std::size_t(p) + 1] = reversal_prefix_[std::size_t(p)] + reversal_change_[std::size_t(p)];
       prefix_valid_ = true;
     }
     const int end = start + count;
     if (end <= n_) return reversal_prefix_[std::size_t(end)] - reversal_prefix_[std::size_t(start)];
-    return reversal_prefix_[std::size_t(n_)] - reversal_prefix_[std::size_t(start)] + reversal_prefix_[std::size_t(end - n_)];
+    return reversal_prefix_[std::size_t(n_)] - reversal_prefix_[std::size_t(start)] +
+           reversal_prefix_[std::size_t(end - n_)];
   }
 
   /// Reverses the `length` nodes after `before` in place.
@@ -267,7 +277,8 @@ class TourSearch {
   void applySegmentSwap(int a, int b, int c, std::int64_t gain) {
     const int a_next = succ(a), b_next = succ(b), c_next = succ(c);
     const int len1 = offset(a, b), len2 = offset(b, c), len3 = n_ - len1 - len2;
-    const int start1 = pos_[std::size_t(a_next)], start2 = pos_[std::size_t(b_next)], start3 = pos_[std::size_t(c_next)];
+    const int start1 = pos_[std::size_t(a_next)], start2 = pos_[std::size_t(b_next)],
+              start3 = pos_[std::size_t(c_next)];
     if (len3 >= len1 && len3 >= len2)
       swapBlocks(start1, len1, len2);
     else if (len1 >= len2)

@@ -78,9 +78,12 @@ CostMatrix euclideanCosts(std::size_t n, std::uint64_t seed) {
 /// Three kinds of small instances by seed: distinct asymmetric costs, heavy ties, symmetric.
 CostMatrix mixedCosts(std::size_t n, std::uint64_t seed) {
   switch (seed % 3) {
-    case 0: return randomCosts(n, 1000, seed);
-    case 1: return randomCosts(n, 3, seed);
-    default: return euclideanCosts(n, seed);
+    case 0:
+      return randomCosts(n, 1000, seed);
+    case 1:
+      return randomCosts(n, 3, seed);
+    default:
+      return euclideanCosts(n, seed);
   }
 }
 
@@ -101,7 +104,8 @@ TEST_CASE("exact DP matches brute force on random instances, closed and open, n 
   for (std::size_t n = 1; n <= 9; ++n) {
     for (std::uint64_t seed = 0; seed < 6; ++seed) {
       const CostMatrix costs = mixedCosts(n, 99 * n + seed);
-      for (const std::optional<std::size_t> open_from : {std::optional<std::size_t>(), std::optional<std::size_t>(n - 1)}) {
+      for (const std::optional<std::size_t> open_from :
+           {std::optional<std::size_t>(), std::optional<std::size_t>(n - 1)}) {
         AtspOptions options;
         options.open_from = open_from;
         options.time_limit_s = 10.0;
@@ -116,12 +120,12 @@ TEST_CASE("exact DP matches brute force on random instances, closed and open, n 
   }
 }
 
-TEST_CASE("local search without the DP matches brute force on random instances, closed and open, n <= 9",
-          "[atsp]") {
+TEST_CASE("local search without the DP matches brute force on random instances, closed and open, n <= 9", "[atsp]") {
   for (std::size_t n = 4; n <= 9; ++n) {
     for (std::uint64_t seed = 0; seed < 9; ++seed) {
       const CostMatrix costs = mixedCosts(n, 999 * n + seed);
-      for (const std::optional<std::size_t> open_from : {std::optional<std::size_t>(), std::optional<std::size_t>(n / 2)}) {
+      for (const std::optional<std::size_t> open_from :
+           {std::optional<std::size_t>(), std::optional<std::size_t>(n / 2)}) {
         AtspOptions options;
         options.open_from = open_from;
         options.exact_max_n = 0;  // force the heuristic path
