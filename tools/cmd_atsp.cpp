@@ -32,7 +32,8 @@ nlohmann::json toJson(const planner::TsplibInstance& instance, const AtspArgs& a
                       {"seed", args.options.seed},
                       {"time_limit_s", args.options.time_limit_s},
                       {"order", r.order}};
-  j["lower_bound"] = r.lower_bound == std::numeric_limits<std::int64_t>::min() ? nlohmann::json() : nlohmann::json(r.lower_bound);
+  j["lower_bound"] =
+      r.lower_bound == std::numeric_limits<std::int64_t>::min() ? nlohmann::json() : nlohmann::json(r.lower_bound);
   if (args.options.open_from) j["open_from"] = *args.options.open_from;
   return j;
 }

@@ -23,8 +23,8 @@ constexpr std::uint64_t kRoundsBeforeExactPerNode = 8;
 
 std::int64_t clampArc(std::int64_t cost, std::size_t from, std::size_t to) {
   if (cost < -kMaxArcCost)
-    throw std::invalid_argument("solveAtsp: cost(" + std::to_string(from) + ", " + std::to_string(to) + ") = " +
-                                std::to_string(cost) + " is below -kMaxArcCost (-2^44)");
+    throw std::invalid_argument("solveAtsp: cost(" + std::to_string(from) + ", " + std::to_string(to) +
+                                ") = " + std::to_string(cost) + " is below -kMaxArcCost (-2^44)");
   return std::min(cost, kMaxArcCost);
 }
 
@@ -126,16 +126,20 @@ Search solveInstance(const AtspInstance& instance, const AtspOptions& options, c
 
 std::string toString(AtspStatus status) {
   switch (status) {
-    case AtspStatus::kOptimal: return "optimal";
-    case AtspStatus::kTimeLimit: return "time_limit";
-    case AtspStatus::kIterationLimit: return "iteration_limit";
+    case AtspStatus::kOptimal:
+      return "optimal";
+    case AtspStatus::kTimeLimit:
+      return "time_limit";
+    case AtspStatus::kIterationLimit:
+      return "iteration_limit";
   }
   return "unknown";
 }
 
 void AtspOptions::validate() const {
   if (!(time_limit_s > 0.0) || !std::isfinite(time_limit_s))
-    throw std::invalid_argument("AtspOptions::time_limit_s must be finite and > 0, got " + std::to_string(time_limit_s));
+    throw std::invalid_argument("AtspOptions::time_limit_s must be finite and > 0, got " +
+                                std::to_string(time_limit_s));
   if (exact_max_n > 18)
     throw std::invalid_argument("AtspOptions::exact_max_n must be in [0, 18], got " + std::to_string(exact_max_n));
   if (!(cost_resolution > 0.0) || !std::isfinite(cost_resolution))
@@ -200,7 +204,8 @@ AtspResult solveAtsp(const RealCostMatrix& costs, const AtspOptions& options) {
       if (i == j) continue;
       if (std::isnan(c) || c <= -max_real)
         throw std::invalid_argument("solveAtsp: cost(" + std::to_string(i) + ", " + std::to_string(j) + ") is " +
-                                    std::to_string(c) + "; costs must be numbers above -2^44 * cost_resolution, or +inf");
+                                    std::to_string(c) +
+                                    "; costs must be numbers above -2^44 * cost_resolution, or +inf");
       quantized(i, j) = c >= max_real ? kMaxArcCost : std::llround(c / options.cost_resolution);
     }
   }

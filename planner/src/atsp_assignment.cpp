@@ -97,8 +97,8 @@ std::vector<int> patchSubtours(const AtspInstance& instance, std::vector<int> su
   }
   // Grow the largest subtour: each step exchanges the successors of one of its nodes i and one
   // outside node j (i -> s(j), j -> s(i)), which splices j's subtour in, at the least extra cost.
-  const auto largest = std::max_element(cycles.begin(), cycles.end(),
-                                        [](const auto& a, const auto& b) { return a.size() < b.size(); });
+  const auto largest =
+      std::max_element(cycles.begin(), cycles.end(), [](const auto& a, const auto& b) { return a.size() < b.size(); });
   const int main_cycle = int(largest - cycles.begin());
   std::vector<int> members = cycles[std::size_t(main_cycle)];
   for (std::size_t merged = 1; merged < cycles.size(); ++merged) {

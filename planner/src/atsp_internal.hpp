@@ -3,6 +3,7 @@
 // back to the start cost nothing).
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <optional>
@@ -15,8 +16,11 @@ using Clock = std::chrono::steady_clock;
 /// The stop time of a solve. `passed()` is the only wall-clock decision the solver makes.
 class Deadline {
  public:
+  /// Limits beyond 10^9 s (31 years) are cut there, so the end time cannot overflow.
   Deadline(Clock::time_point start, double limit_s)
-      : start_(start), end_(start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(limit_s))) {}
+      : start_(start),
+        end_(start +
+             std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::min(limit_s, 1e9)))) {}
   bool passed() const { return Clock::now() >= end_; }
   double elapsedS() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
 
@@ -28,7 +32,9 @@ class Deadline {
 struct AtspInstance {
   int n = 0;
   std::vector<std::int64_t> costs;  // row-major n x n
-  std::int64_t operator()(int from, int to) const { return costs[std::size_t(from) * std::size_t(n) + std::size_t(to)]; }
+  std::int64_t operator()(int from, int to) const {
+    return costs[std::size_t(from) * std::size_t(n) + std::size_t(to)];
+  }
 };
 
 /// Cost of the closed tour visiting `order`.

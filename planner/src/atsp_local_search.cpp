@@ -1,12 +1,15 @@
 // Iterated local search for the ATSP on an array tour (tour[position] = node, pos[node]).
 //
-// Move: the orientation-preserving 3-opt "segment swap". With a, b, c in tour order and the
-// segments S1 = a+..b, S2 = b+..c, the arcs (a,a+), (b,b+), (c,c+) are replaced by (a,b+),
-// (c,a+), (b,c+): a S1 S2 c+ becomes a S2 S1 c+. No segment is reversed, so it suits asymmetric
-// costs; Or-opt (moving a short segment elsewhere) is the special case of a short S1 or S2.
-// The search from a node a tries the new arc (a, b+) over a's candidate successors, then closes
-// either with (c, a+) over a+'s candidate predecessors or with (b, c+) over b's candidate
-// successors, keeping the partial gain positive (the Lin-Kernighan gain criterion).
+// Moves, both tried from every node a whose don't-look bit is off:
+// - the orientation-preserving 3-opt "segment swap". With a, b, c in tour order and the
+//   segments S1 = a+..b, S2 = b+..c, the arcs (a,a+), (b,b+), (c,c+) are replaced by (a,b+),
+//   (c,a+), (b,c+): a S1 S2 c+ becomes a S2 S1 c+. No segment is reversed, so it suits
+//   asymmetric costs; Or-opt (moving a short segment elsewhere) is the case of a short S1 or S2.
+//   From a it tries the new arc (a, b+) over a's candidate successors, then closes either with
+//   (c, a+) over a+'s candidate predecessors or with (b, c+) over b's candidate successors,
+//   keeping the partial gain positive (the Lin-Kernighan gain criterion);
+// - the segment reversal (2-opt), priced exactly with prefix sums of the per-arc cost change of
+//   reversing; it matters on nearly symmetric costs such as the planner's travel times.
 //
 // Kick: a random local double bridge A B C D -> A D C B (B, C, D short and adjacent), which
 // changes four arcs and cannot be undone by one segment swap. Acceptance: better or equal, so
@@ -49,8 +52,15 @@ constexpr int kRejectionsPerWalkStepDivisor = 4;
 class TourSearch {
  public:
   TourSearch(const AtspInstance& instance, const CandidateLists& candidates)
-      : n_(instance.n), costs_(instance.costs.data()), candidates_(candidates), tour_(std::size_t(n_)),
-        pos_(std::size_t(n_)), queue_(std::size_t(n_)), queued_(std::size_t(n_), 0) {}
+      : n_(instance.n),
+        costs_(instance.costs.data()),
+        candidates_(candidates),
+        tour_(std::size_t(n_)),
+        pos_(std::size_t(n_)),
+        reversal_change_(std::size_t(n_)),
+        reversal_prefix_(std::size_t(n_) + 1),
+        queue_(std::size_t(n_)),
+        queued_(std::size_t(n_), 0) {}
 
   void setTour(const std::vector<int>& order) {
     for (int p = 0; p < n_; ++p) {
@@ -59,6 +69,7 @@ class TourSearch {
     }
     cost_ = 0;
     for (int p = 0; p < n_; ++p) cost_ += arc(tour_[std::size_t(p)], succ(tour_[std::size_t(p)]));
+    refreshArcs(0, n_);
     for (int p = 0; p < n_; ++p) activate(tour_[std::size_t(p)]);
   }
 
@@ -98,16 +109,20 @@ class TourSearch {
 
   struct Snapshot {
     std::vector<int> tour, pos;
+    std::vector<std::int64_t> reversal_change;
     std::int64_t cost = 0;
   };
   void save(Snapshot& snapshot) const {
     snapshot.tour = tour_;
     snapshot.pos = pos_;
+    snapshot.reversal_change = reversal_change_;
     snapshot.cost = cost_;
   }
   void restore(const Snapshot& snapshot) {
     tour_ = snapshot.tour;
     pos_ = snapshot.pos;
+    reversal_change_ = snapshot.reversal_change;
+    prefix_valid_ = false;
     cost_ = snapshot.cost;
     while (queue_size_ > 0) {  // an interrupted descent may leave nodes queued
       queued_[std::size_t(queue_[std::size_t(queue_head_)])] = 0;
@@ -134,8 +149,11 @@ class TourSearch {
     ++queue_size_;
   }
 
-  /// First improving segment swap with a as the tail of the first removed arc; applies it.
-  bool improveFrom(int a) {
+  /// First improving move that removes the arc (a, a+): a segment swap, else a reversal.
+  bool improveFrom(int a) { return trySegmentSwap(a) || tryReversal(a); }
+
+  /// Segment swaps with a as the tail of the first removed arc.
+  bool trySegmentSwap(int a) {
     const int a_next = succ(a);
     const std::int64_t removed_a = arc(a, a_next);
     const int k = candidates_.k;
@@ -178,12 +196,89 @@ class TourSearch {
     return false;
   }
 
+  /// Reversals of a segment next to (a, a+): either a+..b, adding (a, b) and (a+, b+), or z..a,
+  /// adding (pred z, a) and (z, a+). Reversing changes the cost of every arc inside (read from
+  /// the prefix sums), so these moves pay off on nearly symmetric costs (the planner's travel
+  /// times), where they are what 2-opt is to the symmetric TSP.
+  bool tryReversal(int a) {
+    const int a_next = succ(a);
+    const std::int64_t removed_a = arc(a, a_next);
+    const int k = candidates_.k;
+    const int* out_a = outCandidates(a);
+    for (int i = 0; i < k; ++i) {
+      const int b = out_a[i];
+      const std::int64_t gain1 = removed_a - arc(a, b);
+      const int length = offset(a, b);  // nodes a+..b
+      if (gain1 <= 0 || length < 2) continue;
+      const int b_next = succ(b);
+      const std::int64_t gain =
+          gain1 + arc(b, b_next) - arc(a_next, b_next) - reversalChange(pos_[std::size_t(a_next)], length - 1);
+      if (gain > 0) {
+        applyReversal(a, length, gain);
+        return true;
+      }
+    }
+    const int* in_a_next = inCandidates(a_next);
+    for (int i = 0; i < k; ++i) {
+      const int z = in_a_next[i];
+      const std::int64_t gain1 = removed_a - arc(z, a_next);
+      const int length = offset(z, a) + 1;  // nodes z..a
+      if (gain1 <= 0 || length < 2 || length > n_ - 1) continue;
+      const int y = pred(z);
+      const std::int64_t gain = gain1 + arc(y, z) - arc(y, a) - reversalChange(pos_[std::size_t(z)], length - 1);
+      if (gain > 0) {
+        applyReversal(y, length, gain);
+        return true;
+      }
+    }
+    return false;
+  }
+
+  /// Cost change of reversing the `count` consecutive arcs from tour position `start` on.
+  std::int64_t reversalChange(int start, int count) {
+    if (!prefix_valid_) {
+      for (int p = 0; p < n_; ++p)
+        reversal_prefix_[std::size_t(p) + 1] = reversal_prefix_[std::size_t(p)] + reversal_change_[std::size_t(p)];
+      prefix_valid_ = true;
+    }
+    const int end = start + count;
+    if (end <= n_) return reversal_prefix_[std::size_t(end)] - reversal_prefix_[std::size_t(start)];
+    return reversal_prefix_[std::size_t(n_)] - reversal_prefix_[std::size_t(start)] +
+           reversal_prefix_[std::size_t(end - n_)];
+  }
+
+  /// Reverses the `length` nodes after `before` in place.
+  void applyReversal(int before, int length, std::int64_t gain) {
+    const int first = pos_[std::size_t(before)] + 1;
+    const int after = at(first + length);
+    for (int i = 0, j = length - 1; i < j; ++i, --j) {
+      const int pi = wrap(first + i), pj = wrap(first + j);
+      std::swap(tour_[std::size_t(pi)], tour_[std::size_t(pj)]);
+      pos_[std::size_t(tour_[std::size_t(pi)])] = pi;
+      pos_[std::size_t(tour_[std::size_t(pj)])] = pj;
+    }
+    refreshArcs(first, length);
+    cost_ -= gain;
+    for (const int node : {before, at(first), at(first + length - 1), after}) activate(node);
+  }
+
+  /// Recomputes the reversal change of the arcs touching positions [start, start + length).
+  void refreshArcs(int start, int length) {
+    for (int i = -1; i < length && i < n_ - 1; ++i) {
+      const int p = wrap(start + i);
+      const int from = tour_[std::size_t(p)], to = at(p + 1);
+      reversal_change_[std::size_t(p)] = arc(to, from) - arc(from, to);
+    }
+    prefix_valid_ = false;
+  }
+
   /// a S1 S2 S3 -> a S2 S1 S3 (S3 ends with a). Any two of the three cyclically adjacent
   /// segments can be swapped for the same result; swapping the two shortest moves least.
   void applySegmentSwap(int a, int b, int c, std::int64_t gain) {
     const int a_next = succ(a), b_next = succ(b), c_next = succ(c);
     const int len1 = offset(a, b), len2 = offset(b, c), len3 = n_ - len1 - len2;
-    const int start1 = pos_[std::size_t(a_next)], start2 = pos_[std::size_t(b_next)], start3 = pos_[std::size_t(c_next)];
+    const int start1 = pos_[std::size_t(a_next)], start2 = pos_[std::size_t(b_next)],
+              start3 = pos_[std::size_t(c_next)];
     if (len3 >= len1 && len3 >= len2)
       swapBlocks(start1, len1, len2);
     else if (len1 >= len2)
@@ -208,6 +303,7 @@ class TourSearch {
       tour_[std::size_t(p)] = buffer_[i];
       pos_[std::size_t(buffer_[i])] = p;
     }
+    refreshArcs(start, int(buffer_.size()));
   }
 
   const int n_;
@@ -215,6 +311,10 @@ class TourSearch {
   const CandidateLists& candidates_;
   std::vector<int> tour_, pos_;
   std::int64_t cost_ = 0;
+  // reversal_change_[p]: cost(tour[p+1], tour[p]) - cost(tour[p], tour[p+1]), kept up to date
+  // at every change; its prefix sums are rebuilt lazily when a reversal is evaluated.
+  std::vector<std::int64_t> reversal_change_, reversal_prefix_;
+  bool prefix_valid_ = false;
   std::vector<int> queue_;  // ring buffer of active nodes (don't-look bit off)
   std::vector<char> queued_;
   int queue_head_ = 0, queue_size_ = 0;

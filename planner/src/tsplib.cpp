@@ -62,7 +62,8 @@ class Parser {
         instance_.name = value;
       } else if (key == "TYPE") {
         instance_.type = value;
-        if (upper(value) != "ATSP" && upper(value) != "TSP") fail("TYPE '" + value + "' is not supported (ATSP or TSP)");
+        if (upper(value) != "ATSP" && upper(value) != "TSP")
+          fail("TYPE '" + value + "' is not supported (ATSP or TSP)");
       } else if (key == "COMMENT") {
         instance_.comment += (instance_.comment.empty() ? "" : "; ") + value;
       } else if (key == "DIMENSION") {
@@ -75,7 +76,8 @@ class Parser {
         if (upper(value) != "EXPLICIT") fail("EDGE_WEIGHT_TYPE '" + value + "' is not supported (EXPLICIT only)");
         explicit_weights_ = true;
       } else if (key == "EDGE_WEIGHT_FORMAT") {
-        if (upper(value) != "FULL_MATRIX") fail("EDGE_WEIGHT_FORMAT '" + value + "' is not supported (FULL_MATRIX only)");
+        if (upper(value) != "FULL_MATRIX")
+          fail("EDGE_WEIGHT_FORMAT '" + value + "' is not supported (FULL_MATRIX only)");
         full_matrix_ = true;
       } else if (key.size() > 8 && key.compare(key.size() - 8, 8, "_SECTION") == 0) {
         fail("section " + key + " is not supported (EDGE_WEIGHT_SECTION only)");

@@ -60,6 +60,33 @@ CostMatrix randomCosts(std::size_t n, std::int64_t max_cost, std::uint64_t seed)
   return costs;
 }
 
+/// Rounded distances between random points in a 100 x 100 square: symmetric, like the planner's
+/// travel times, where segment reversals matter.
+CostMatrix euclideanCosts(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<double> x(n), y(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] = double(rng() % 10000) / 100.0;
+    y[i] = double(rng() % 10000) / 100.0;
+  }
+  CostMatrix costs(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = 0; j < n; ++j) costs(i, j) = std::llround(std::hypot(x[i] - x[j], y[i] - y[j]));
+  return costs;
+}
+
+/// Three kinds of small instances by seed: distinct asymmetric costs, heavy ties, symmetric.
+CostMatrix mixedCosts(std::size_t n, std::uint64_t seed) {
+  switch (seed % 3) {
+    case 0:
+      return randomCosts(n, 1000, seed);
+    case 1:
+      return randomCosts(n, 3, seed);
+    default:
+      return euclideanCosts(n, seed);
+  }
+}
+
 /// The contract every result keeps: a permutation, starting where it must, whose cost is what
 /// the matrix says.
 void checkResult(const CostMatrix& costs, const AtspResult& r, std::optional<std::size_t> open_from) {
@@ -76,9 +103,9 @@ void checkResult(const CostMatrix& costs, const AtspResult& r, std::optional<std
 TEST_CASE("exact DP matches brute force on random instances, closed and open, n <= 9", "[atsp]") {
   for (std::size_t n = 1; n <= 9; ++n) {
     for (std::uint64_t seed = 0; seed < 6; ++seed) {
-      const std::int64_t max_cost = seed % 2 == 0 ? 1000 : 3;  // distinct costs, then heavy ties
-      const CostMatrix costs = randomCosts(n, max_cost, 100 * n + seed);
-      for (const std::optional<std::size_t> open_from : {std::optional<std::size_t>(), std::optional<std::size_t>(n - 1)}) {
+      const CostMatrix costs = mixedCosts(n, 99 * n + seed);
+      for (const std::optional<std::size_t> open_from :
+           {std::optional<std::size_t>(), std::optional<std::size_t>(n - 1)}) {
         AtspOptions options;
         options.open_from = open_from;
         options.time_limit_s = 10.0;
@@ -93,13 +120,12 @@ TEST_CASE("exact DP matches brute force on random instances, closed and open, n 
   }
 }
 
-TEST_CASE("local search without the DP matches brute force on random instances, closed and open, n <= 9",
-          "[atsp]") {
+TEST_CASE("local search without the DP matches brute force on random instances, closed and open, n <= 9", "[atsp]") {
   for (std::size_t n = 4; n <= 9; ++n) {
-    for (std::uint64_t seed = 0; seed < 8; ++seed) {
-      const std::int64_t max_cost = seed % 2 == 0 ? 1000 : 3;
-      const CostMatrix costs = randomCosts(n, max_cost, 1000 * n + seed);
-      for (const std::optional<std::size_t> open_from : {std::optional<std::size_t>(), std::optional<std::size_t>(n / 2)}) {
+    for (std::uint64_t seed = 0; seed < 9; ++seed) {
+      const CostMatrix costs = mixedCosts(n, 999 * n + seed);
+      for (const std::optional<std::size_t> open_from :
+           {std::optional<std::size_t>(), std::optional<std::size_t>(n / 2)}) {
         AtspOptions options;
         options.open_from = open_from;
         options.exact_max_n = 0;  // force the heuristic path

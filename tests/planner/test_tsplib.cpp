@@ -40,8 +40,9 @@ TEST_CASE("irregular header spacing, wrapped rows, a junk diagonal and EOF", "[t
   CHECK(t.costs(2, 0) == 5);
   CHECK(t.costs(2, 1) == 6);
   // No EOF line and Windows line ends are fine too.
-  const TsplibInstance u = parse("NAME: u\r\nTYPE: ATSP\r\nDIMENSION: 2\r\nEDGE_WEIGHT_TYPE: EXPLICIT\r\n"
-                                 "EDGE_WEIGHT_FORMAT: FULL_MATRIX\r\nEDGE_WEIGHT_SECTION\r\n0 7\r\n8 0\r\n");
+  const TsplibInstance u = parse(
+      "NAME: u\r\nTYPE: ATSP\r\nDIMENSION: 2\r\nEDGE_WEIGHT_TYPE: EXPLICIT\r\n"
+      "EDGE_WEIGHT_FORMAT: FULL_MATRIX\r\nEDGE_WEIGHT_SECTION\r\n0 7\r\n8 0\r\n");
   CHECK(u.costs(0, 1) == 7);
   CHECK(u.costs(1, 0) == 8);
 }
@@ -52,9 +53,10 @@ TEST_CASE("every shared ATSP file parses with its dimension", "[tsplib]") {
     return;
   }
   const std::map<std::string, std::size_t> dimensions = {
-      {"br17", 17},  {"ftv33", 34},   {"ftv35", 36},    {"ftv38", 39},   {"p43", 43},       {"ftv44", 45},   {"ftv47", 48},
-      {"ry48p", 48}, {"ft53", 53},    {"ftv55", 56},    {"ftv64", 65},   {"ft70", 70},      {"ftv70", 71},   {"kro124p", 100},
-      {"ftv170", 171}, {"rbg323", 323}, {"rbg358", 358}, {"rbg403", 403}, {"rbg443", 443}};
+      {"br17", 17},    {"ftv33", 34},   {"ftv35", 36},   {"ftv38", 39},    {"p43", 43},
+      {"ftv44", 45},   {"ftv47", 48},   {"ry48p", 48},   {"ft53", 53},     {"ftv55", 56},
+      {"ftv64", 65},   {"ft70", 70},    {"ftv70", 71},   {"kro124p", 100}, {"ftv170", 171},
+      {"rbg323", 323}, {"rbg358", 358}, {"rbg403", 403}, {"rbg443", 443}};
   for (const auto& [name, n] : dimensions) {
     const TsplibInstance t = readTsplib(kTsplib / (name + ".atsp"));
     CHECK(t.name == name);
@@ -79,8 +81,9 @@ TEST_CASE("bad files fail naming the file, the line and the field or token", "[t
   CHECK_THROWS_WITH(parse(std::string(kHeader3) + "0 1 2 3 0 5 6 7 0\nEOF\n1\n"), Catch::Contains("after EOF"));
   CHECK_THROWS_WITH(parse("NAME: a\nDIMENSION: 3\nEDGE_WEIGHT_TYPE: EXPLICIT\nEDGE_WEIGHT_FORMAT: LOWER_DIAG_ROW\n"),
                     Catch::Contains("test.atsp:4") && Catch::Contains("EDGE_WEIGHT_FORMAT"));
-  CHECK_THROWS_WITH(parse("NAME: a\nEDGE_WEIGHT_TYPE: EXPLICIT\nEDGE_WEIGHT_FORMAT: FULL_MATRIX\nEDGE_WEIGHT_SECTION\n"),
-                    Catch::Contains("before DIMENSION"));
+  CHECK_THROWS_WITH(
+      parse("NAME: a\nEDGE_WEIGHT_TYPE: EXPLICIT\nEDGE_WEIGHT_FORMAT: FULL_MATRIX\nEDGE_WEIGHT_SECTION\n"),
+      Catch::Contains("before DIMENSION"));
   CHECK_THROWS_WITH(parse("NAME: a\nDIMENSION: -4\n"), Catch::Contains("test.atsp:2") && Catch::Contains("DIMENSION"));
   CHECK_THROWS_WITH(parse("NAME: a\nTYPE: CVRP\n"), Catch::Contains("TYPE"));
   CHECK_THROWS_WITH(parse("NAME: a\nDIMENSION: 3\n"), Catch::Contains("no EDGE_WEIGHT_SECTION"));

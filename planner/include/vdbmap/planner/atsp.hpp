@@ -94,9 +94,9 @@ struct AtspResult {
   std::int64_t lower_bound = 0;
   bool optimal_proven = false;
   AtspStatus status = AtspStatus::kTimeLimit;
-  double time_s = 0.0;          ///< total time spent
-  double time_to_best_s = 0.0;  ///< when the returned tour was first found
-  std::uint64_t iterations = 0; ///< local-search rounds run
+  double time_s = 0.0;           ///< total time spent
+  double time_to_best_s = 0.0;   ///< when the returned tour was first found
+  std::uint64_t iterations = 0;  ///< local-search rounds run
 };
 
 /// Solves the ATSP on integer costs. Throws std::invalid_argument for bad options, open_from
