@@ -1,8 +1,9 @@
 // The file layer's error type: every reader and writer reports a missing, unreadable or malformed
 // file as io::FileError (what the Python bindings turn into OSError), with the file named, while
-// bad parameters stay std::invalid_argument.
+// bad parameters stay std::invalid_argument. Also: depthFromRaw is readDepthPng's conversion.
 #include "test_io_helpers.hpp"
 
+#include "vdbmap/camera.hpp"
 #include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/frame_source.hpp"
 #include "vdbmap/io/mesh_io.hpp"
@@ -15,10 +16,13 @@
 
 #include <catch2/catch.hpp>
 
+#include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 using namespace vdbmap;
+using vdbmap::test::sharedData;
 using vdbmap::test::TempDir;
 using vdbmap::test::writeText;
 
@@ -76,4 +80,23 @@ TEST_CASE("a bad frame is a FileError too, and bad parameters stay invalid_argum
   requireFileError([&] { source->load(0); }, "missing.png");
   CHECK_THROWS_AS(source->load(0), io::BadFrameError);
   CHECK_THROWS_AS(io::readDepthPng(dir / "x.png", -1.0), std::invalid_argument);
+}
+
+TEST_CASE("depthFromRaw converts raw units exactly as readDepthPng does", "[io][png]") {
+  const auto file = sharedData("7scenes_redkitchen_tsdf_fusion_python/depth/frame-000000.depth.png");
+  if (!std::filesystem::exists(file)) {
+    WARN("shared data not found at " << file << "; skipped");
+    return;
+  }
+  const io::PngImage raw = io::readPng(file);
+  const std::vector<std::uint16_t> samples(raw.samples.begin(), raw.samples.end());
+  for (std::uint16_t invalid : {std::uint16_t(0), std::uint16_t(65535)}) {
+    const DepthImage expected = io::readDepthPng(file, 0.001, invalid);
+    const DepthImage got = depthFromRaw(raw.width, raw.height, samples.data(), 0.001, invalid);
+    REQUIRE(got.width == expected.width);
+    REQUIRE(got.height == expected.height);
+    CHECK(got.depth_m == expected.depth_m);  // bit for bit
+  }
+  CHECK_THROWS_WITH(depthFromRaw(2, 2, samples.data(), 0.0), Catch::Contains("depth_scale"));
+  CHECK_THROWS_WITH(depthFromRaw(-1, 2, samples.data(), 0.001), Catch::Contains("size"));
 }

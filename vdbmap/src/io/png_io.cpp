@@ -267,16 +267,7 @@ DepthImage readDepthPng(const std::filesystem::path& path, double depth_scale, s
                       "-bit " + colorTypeName(d.color_type));
     throw FileError(path.string() + ": corrupt or truncated PNG: " + st.message);
   }
-  DepthImage depth;
-  depth.width = int(d.width);
-  depth.height = int(d.height);
-  depth.depth_m.resize(raw.size());
-  const float scale = float(depth_scale);
-  for (std::size_t i = 0; i < raw.size(); ++i) {
-    const std::uint16_t r = raw[i];
-    depth.depth_m[i] = (r == 0 || (invalid_raw != 0 && r == invalid_raw)) ? 0.0f : float(r) * scale;
-  }
-  return depth;
+  return depthFromRaw(int(d.width), int(d.height), raw.data(), depth_scale, invalid_raw);
 }
 
 void writePng(const std::filesystem::path& path, const PngImage& image) {
