@@ -1,0 +1,147 @@
+"""The type stubs (bindings/python/stubs/vdbmap/__init__.pyi, installed beside the module) describe
+the module as it is: the same public names in the module and in every class, and the same
+parameter names for every function and method (read from pybind11's signatures). A binding added
+or renamed without its stub fails here."""
+from __future__ import annotations
+
+import ast
+import pathlib
+import re
+
+import pytest
+
+import vdbmap
+
+STUB = pathlib.Path(__file__).resolve().parents[2] / "bindings" / "python" / "stubs" / "vdbmap" / "__init__.pyi"
+
+
+def public(names):
+    return {n for n in names if not n.startswith("_")}
+
+
+def stub_tree():
+    return ast.parse(STUB.read_text())
+
+
+def stub_classes(tree):
+    return {node.name: node for node in tree.body if isinstance(node, ast.ClassDef)}
+
+
+def class_members(node, classes):
+    """Names a stub class declares, with those of its stub bases."""
+    names = {}
+    for base in node.bases:
+        if isinstance(base, ast.Name) and base.id in classes:
+            names.update(class_members(classes[base.id], classes))
+    for item in node.body:
+        if isinstance(item, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            names.setdefault(item.name, []).append(item)
+        elif isinstance(item, ast.AnnAssign) and isinstance(item.target, ast.Name):
+            names[item.target.id] = []
+    return names
+
+
+def stub_parameters(defs):
+    """The set of parameter-name tuples of a (possibly overloaded) stub function, without self."""
+    out = set()
+    for d in defs:
+        if any(isinstance(x, ast.Name) and x.id == "property" for x in d.decorator_list):
+            continue
+        a = d.args
+        names = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
+        if names and names[0] == "self":
+            names = names[1:]
+        if a.vararg:
+            names.append("*" + a.vararg.arg)
+        if a.kwarg:
+            names.append("**" + a.kwarg.arg)
+        out.add(tuple(names))
+    return out
+
+
+def runtime_parameters(obj, name):
+    """Parameter-name tuples from pybind11's signature lines 'name(a: T, b: T = ...) -> R'."""
+    doc = getattr(obj, "__doc__", None) or ""
+    out = set()
+    for line in doc.splitlines():
+        m = re.match(r"^(?:\d+\. )?" + re.escape(name) + r"\((.*)\) -> ", line.strip())
+        if not m:
+            continue
+        depth, current, params = 0, "", []
+        for ch in m.group(1):
+            if ch in "([{":
+                depth += 1
+            elif ch in ")]}":
+                depth -= 1
+            if ch == "," and depth == 0:
+                params.append(current)
+                current = ""
+            else:
+                current += ch
+        if current.strip():
+            params.append(current)
+        names = [p.split(":")[0].split("=")[0].strip() for p in params]
+        if names and names[0] == "self":
+            names = names[1:]
+        if names == ["*args", "**kwargs"] and "Overloaded function" in doc:
+            continue
+        out.add(tuple(names))
+    return out
+
+
+def test_the_stub_parses_and_names_every_public_module_attribute():
+    tree = stub_tree()
+    declared = set()
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            declared.add(node.name)
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            declared.add(node.target.id)
+    assert public(dir(vdbmap)) == public(declared)
+
+
+def test_every_class_has_the_same_public_members_as_its_stub():
+    classes = stub_classes(stub_tree())
+    for name, node in classes.items():
+        if name.startswith("_") or name == "BadFrameError":
+            continue
+        runtime = getattr(vdbmap, name)
+        assert public(dir(runtime)) == public(class_members(node, classes)), name
+
+
+def test_every_function_and_method_has_the_stubs_parameter_names():
+    tree = stub_tree()
+    classes = stub_classes(tree)
+    checked = 0
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef):
+            assert runtime_parameters(getattr(vdbmap, node.name), node.name) == stub_parameters([node]), node.name
+            checked += 1
+    for name, node in classes.items():
+        if name.startswith("_") or name == "BadFrameError":
+            continue
+        runtime_class = getattr(vdbmap, name)
+        for member, defs in class_members(node, classes).items():
+            if not defs or member in ("__eq__", "__ne__", "__hash__", "__index__", "__int__"):
+                continue
+            expected = stub_parameters(defs)
+            if not expected:
+                continue  # properties
+            assert runtime_parameters(getattr(runtime_class, member), member) == expected, f"{name}.{member}"
+            checked += 1
+    assert checked > 80
+
+
+def test_docstrings_everywhere():
+    for name in public(dir(vdbmap)):
+        obj = getattr(vdbmap, name)
+        if callable(obj):
+            assert (obj.__doc__ or "").strip(), name
+    assert vdbmap.__doc__ and "ValueError" in vdbmap.__doc__
+
+
+def test_the_stub_is_installed_beside_the_module():
+    built = pathlib.Path(vdbmap.__file__).parent / "vdbmap" / "__init__.pyi"
+    if not built.exists():
+        pytest.skip(f"module not loaded from a build tree with stubs ({vdbmap.__file__})")
+    assert built.read_text() == STUB.read_text()
