@@ -60,15 +60,15 @@ void bindEvaluation(py::module_& m) {
   py::class_<SurfaceEval> e(m, "SurfaceEval",
                             "Accuracy (distances of the reconstruction to ground truth) and "
                             "completeness (ground truth within the threshold of the reconstruction).");
-  e.def_readonly("reconstructed_vertices", &SurfaceEval::reconstructed_vertices)
-      .def_readonly("ground_truth_samples", &SurfaceEval::ground_truth_samples)
+  e.def_readonly("reconstructed_vertices", &SurfaceEval::reconstructed_vertices, "vertices whose distance was measured")
+      .def_readonly("ground_truth_samples", &SurfaceEval::ground_truth_samples, "samples of the ground-truth surface")
       .def_readonly("accuracy_rmse_m", &SurfaceEval::accuracy_rmse_m, "the paper's metric")
-      .def_readonly("accuracy_mean_m", &SurfaceEval::accuracy_mean_m)
-      .def_readonly("accuracy_median_m", &SurfaceEval::accuracy_median_m)
+      .def_readonly("accuracy_mean_m", &SurfaceEval::accuracy_mean_m, "mean vertex distance")
+      .def_readonly("accuracy_median_m", &SurfaceEval::accuracy_median_m, "median vertex distance")
       .def_readonly("accuracy_vertex_to_vertex_mean_m", &SurfaceEval::accuracy_vertex_to_vertex_mean_m,
                     "nvblox's metric: nearest ground-truth vertex")
       .def_readonly("completeness", &SurfaceEval::completeness, "fraction in [0, 1]")
-      .def_readonly("completeness_threshold_m", &SurfaceEval::completeness_threshold_m)
+      .def_readonly("completeness_threshold_m", &SurfaceEval::completeness_threshold_m, "the threshold used")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   m.def(

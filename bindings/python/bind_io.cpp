@@ -72,8 +72,8 @@ void bindSensor(py::module_& m) {
 
 void bindFrames(py::module_& m) {
   py::class_<io::FrameRecord> r(m, "FrameRecord", "One frame as listed (nothing read yet).");
-  r.def_readonly("index", &io::FrameRecord::index)
-      .def_readonly("timestamp_s", &io::FrameRecord::timestamp_s)
+  r.def_readonly("index", &io::FrameRecord::index, "position in the sequence, 0-based")
+      .def_readonly("timestamp_s", &io::FrameRecord::timestamp_s, "seconds, strictly increasing")
       .def_readonly("file", &io::FrameRecord::file, "depth PNG or .ply/.pcd/.bin points")
       .def_property_readonly(
           "T_W_S", [](const io::FrameRecord& f) { return toArray(f.T_W_S); }, "(4, 4) the pose the dataset gives")
@@ -82,11 +82,11 @@ void bindFrames(py::module_& m) {
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   py::class_<io::Frame> f(m, "Frame", "One loaded frame: a depth image (metres) or points, with its pose.");
-  f.def_readonly("index", &io::Frame::index)
-      .def_readonly("timestamp_s", &io::Frame::timestamp_s)
+  f.def_readonly("index", &io::Frame::index, "position in the sequence, 0-based")
+      .def_readonly("timestamp_s", &io::Frame::timestamp_s, "seconds")
       .def_property_readonly(
           "T_W_S", [](const io::Frame& x) { return toArray(x.T_W_S); }, "(4, 4) float64")
-      .def_readonly("is_depth", &io::Frame::is_depth)
+      .def_readonly("is_depth", &io::Frame::is_depth, "a depth image (else points)")
       .def_property_readonly(
           "depth",
           [](const io::Frame& x) -> py::object {
@@ -110,13 +110,13 @@ void bindFrames(py::module_& m) {
   py::class_<io::CorrectionEvent> c(m, "CorrectionEvent",
                                     "A loop-closure correction: optimised poses published at event_timestamp_s, "
                                     "applied once that frame is integrated.");
-  c.def_readonly("event_timestamp_s", &io::CorrectionEvent::event_timestamp_s)
+  c.def_readonly("event_timestamp_s", &io::CorrectionEvent::event_timestamp_s, "when the back end published it")
       .def_readonly("event_frame", &io::CorrectionEvent::event_frame, "index of the frame at the event")
       .def_property_readonly(
           "poses", [](const io::CorrectionEvent& e) { return trajectoryToArrays(e.poses); },
           "(timestamps float64 (N,), T_W_S float64 (N, 4, 4))")
       .def_readonly("pose_frames", &io::CorrectionEvent::pose_frames, "the frame index of each pose")
-      .def_readonly("file", &io::CorrectionEvent::file)
+      .def_readonly("file", &io::CorrectionEvent::file, "corrections/<event_timestamp>.txt")
       .def("__repr__", [](const io::CorrectionEvent& e) {
         return "CorrectionEvent(event_frame=" + std::to_string(e.event_frame) +
                ", poses=" + std::to_string(e.poses.size()) + ")";
@@ -141,7 +141,7 @@ void bindFrameSource(py::module_& m) {
                                 "A recorded sequence (our log format or a dataset layout), random access; "
                                 "source[i] loads frame i.");
   s.def_property_readonly("format", &io::FrameSource::format, "'log', '7scenes', 'iclnuim', ...")
-      .def_property_readonly("root", &io::FrameSource::root)
+      .def_property_readonly("root", &io::FrameSource::root, "the folder it was read from")
       .def_property_readonly("description", &io::FrameSource::description,
                              "where intrinsics, depth scale and poses came from")
       .def_property_readonly(
@@ -196,22 +196,22 @@ void bindReplay(py::module_& m) {
   defEnumField(o, "on_bad_frame", &ReplayOptions::on_bad_frame, &parseOnBadFrame, "OnBadFrame (or 'fail', 'skip')");
 
   py::class_<BadFrame> b(m, "BadFrame", "A frame skipped by replay_log (on_bad_frame 'skip').");
-  b.def_readonly("index", &BadFrame::index)
-      .def_readonly("message", &BadFrame::message)
+  b.def_readonly("index", &BadFrame::index, "the frame's index in the sequence")
+      .def_readonly("message", &BadFrame::message, "why it was skipped, naming its file")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   py::class_<ReplayResult> r(m, "ReplayResult", "What replay_log did; times in seconds unless named _ms.");
   r.def_readonly("frames_total", &ReplayResult::frames_total, "frames the log lists, after the stride")
-      .def_readonly("frames_integrated", &ReplayResult::frames_integrated)
-      .def_readonly("frames_skipped", &ReplayResult::frames_skipped)
+      .def_readonly("frames_integrated", &ReplayResult::frames_integrated, "frames given to the mapper")
+      .def_readonly("frames_skipped", &ReplayResult::frames_skipped, "bad frames skipped (on_bad_frame 'skip')")
       .def_readonly("bad_frames", &ReplayResult::bad_frames, "list of BadFrame")
       .def_readonly("correction_events", &ReplayResult::correction_events, "events applied")
-      .def_readonly("points_invalid", &ReplayResult::points_invalid)
+      .def_readonly("points_invalid", &ReplayResult::points_invalid, "NaN, zero or too close, over all frames")
       .def_readonly("integrate_s", &ReplayResult::integrate_s, "integration only")
-      .def_readonly("ms_per_frame_median", &ReplayResult::ms_per_frame_median)
-      .def_readonly("ms_per_frame_max", &ReplayResult::ms_per_frame_max)
-      .def_readonly("load_s", &ReplayResult::load_s)
-      .def_readonly("wall_s", &ReplayResult::wall_s)
+      .def_readonly("ms_per_frame_median", &ReplayResult::ms_per_frame_median, "integration only")
+      .def_readonly("ms_per_frame_max", &ReplayResult::ms_per_frame_max, "integration only")
+      .def_readonly("load_s", &ReplayResult::load_s, "reading and decoding frame files (overlaps integration)")
+      .def_readonly("wall_s", &ReplayResult::wall_s, "the whole replay")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   m.def(
@@ -339,7 +339,7 @@ void bindLogWriter(py::module_& m) {
       .def_readwrite("flush_every_frames", &io::LogWriterOptions::flush_every_frames,
                      "rewrite frames.csv every this many frames; 0 = only at flush()/close()")
       .def_readwrite("overwrite", &io::LogWriterOptions::overwrite, "allow a folder that already holds a log")
-      .def("validate", &io::LogWriterOptions::validate);
+      .def("validate", &io::LogWriterOptions::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<io::LogWriter> w(m, "LogWriter",
                               "Writes our log format (sensor.json, frames.csv, frame files, corrections/, "
@@ -384,7 +384,7 @@ void bindLogWriter(py::module_& m) {
       .def("flush", &io::LogWriter::flush, "Rewrites frames.csv (and groundtruth.txt) atomically.")
       .def("close", &io::LogWriter::close, "flush() and stop; idempotent.")
       .def("__len__", &io::LogWriter::size)
-      .def_property_readonly("folder", &io::LogWriter::folder)
+      .def_property_readonly("folder", &io::LogWriter::folder, "the log folder")
       .def(
           "__enter__", [](io::LogWriter& self) -> io::LogWriter& { return self; }, py::return_value_policy::reference)
       .def(
@@ -406,21 +406,21 @@ void bindLogWriter(py::module_& m) {
 
 void bindMapFile(py::module_& m) {
   py::class_<MapFileGrid> g(m, "MapFileGrid", "One grid of a .vdb file.");
-  g.def_readonly("name", &MapFileGrid::name)
-      .def_readonly("type", &MapFileGrid::type)
-      .def_readonly("grid_class", &MapFileGrid::grid_class)
-      .def_readonly("active_voxels", &MapFileGrid::active_voxels)
-      .def_readonly("leaf_nodes", &MapFileGrid::leaf_nodes)
-      .def_readonly("memory_bytes", &MapFileGrid::memory_bytes)
-      .def_readonly("voxel_size_m", &MapFileGrid::voxel_size_m)
+  g.def_readonly("name", &MapFileGrid::name, "'tsdf', 'weight', ...")
+      .def_readonly("type", &MapFileGrid::type, "OpenVDB value type, e.g. 'float'")
+      .def_readonly("grid_class", &MapFileGrid::grid_class, "e.g. 'level set'")
+      .def_readonly("active_voxels", &MapFileGrid::active_voxels, "exact count")
+      .def_readonly("leaf_nodes", &MapFileGrid::leaf_nodes, "8^3 leaf nodes")
+      .def_readonly("memory_bytes", &MapFileGrid::memory_bytes, "in memory once loaded")
+      .def_readonly("voxel_size_m", &MapFileGrid::voxel_size_m, "voxel edge in metres")
       .def_property_readonly(
           "bbox_index", [](const MapFileGrid& x) { return toTuple(x.bbox_index); },
           "((i, j, k) min, (i, j, k) max) of active voxels, or None")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   py::class_<MapFileInfo> i(m, "MapFileInfo", "What `vdbmap info` shows about a .vdb file.");
-  i.def_readonly("path", &MapFileInfo::path)
-      .def_readonly("file_bytes", &MapFileInfo::file_bytes)
+  i.def_readonly("path", &MapFileInfo::path, "the file")
+      .def_readonly("file_bytes", &MapFileInfo::file_bytes, "size on disk")
       .def_readonly("grids", &MapFileInfo::grids, "list of MapFileGrid")
       .def_property_readonly(
           "metadata",

@@ -22,14 +22,14 @@ void bindReports(py::module_& m) {
                     "re-integrations done (a frame may count many times)")
       .def_readonly("reintegration_cycles", &MapperStats::reintegration_cycles,
                     "cycles that re-integrated at least one frame")
-      .def_readonly("reintegration_ms_total", &MapperStats::reintegration_ms_total)
-      .def_readonly("reintegration_ms_max_cycle", &MapperStats::reintegration_ms_max_cycle)
-      .def_readonly("pruning_solves", &MapperStats::pruning_solves)
-      .def_readonly("submaps", &MapperStats::submaps)
+      .def_readonly("reintegration_ms_total", &MapperStats::reintegration_ms_total, "time spent re-integrating")
+      .def_readonly("reintegration_ms_max_cycle", &MapperStats::reintegration_ms_max_cycle, "the longest cycle")
+      .def_readonly("pruning_solves", &MapperStats::pruning_solves, "set-cover solves (keyframes mode)")
+      .def_readonly("submaps", &MapperStats::submaps, "rigid submaps started (submap mode)")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   py::class_<Keyframe> k(m, "Keyframe", "A stored keyframe (a copy): its poses and its data.");
-  k.def_readonly("id", &Keyframe::id)
+  k.def_readonly("id", &Keyframe::id, "its frame id")
       .def_readonly("timestamp", &Keyframe::timestamp, "seconds")
       .def_property_readonly(
           "T_W_S_integrated", [](const Keyframe& f) { return toArray(f.T_W_S_integrated); },
@@ -126,7 +126,8 @@ void bindMapperClass(py::module_& m) {
       .def_property_readonly(
           "stats", [](const Mapper& self) { return self.stats(); }, "MapperStats (a copy)")
       .def_property_readonly("keyframes_kept", &Mapper::keyframesKept, "frames whose data the mapper keeps")
-      .def_property_readonly("keyframe_store_bytes", &Mapper::keyframeStoreBytes)
+      .def_property_readonly("keyframe_store_bytes", &Mapper::keyframeStoreBytes,
+                             "bytes of the stored (compressed) keyframes")
       .def(
           "keyframe_ids",
           [](const Mapper& self) {

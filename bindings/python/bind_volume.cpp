@@ -10,7 +10,7 @@ namespace {
 
 void bindIntegrationStats(py::module_& m) {
   py::class_<IntegrationStats> s(m, "IntegrationStats", "What one integrate() or deintegrate() did with its points.");
-  s.def_readonly("points_total", &IntegrationStats::points_total)
+  s.def_readonly("points_total", &IntegrationStats::points_total, "points given")
       .def_readonly("points_invalid", &IntegrationStats::points_invalid,
                     "NaN, infinite, zero, or closer than min_range_m")
       .def_readonly("points_beyond_range", &IntegrationStats::points_beyond_range,
@@ -145,7 +145,7 @@ void bindTsdfVolume(py::module_& m) {
           },
           py::arg("frame_id"), py::arg("depth"), py::arg("intrinsics"), py::arg("T_W_S"),
           py::arg("depth_scale") = py::none(), "The inverse of integrate_depth with the same arguments.")
-      .def("is_integrated", &TsdfVolume::isIntegrated, py::arg("frame_id"))
+      .def("is_integrated", &TsdfVolume::isIntegrated, py::arg("frame_id"), "Whether the map holds that frame.")
       .def_property_readonly("frame_count", &TsdfVolume::frameCount, "number of integrated frames")
       .def(
           "integrated_poses", [](const TsdfVolume& self) { return toDict(self.integratedPoses()); },
