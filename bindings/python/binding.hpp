@@ -5,6 +5,9 @@
 // registers itself with a static BindRegistration, so a new part (bind_sim.cpp, bind_explore.cpp)
 // is added without editing any other file. Parts bind in BindOrder, so the types a part's
 // signatures mention are already known to pybind11 and its docstrings name Python types.
+// A part that binds a library of its own (sim, explore) can put it in a submodule (submodule()
+// below: `import vdbmap.sim` works) described by stubs/vdbmap/sim.pyi, with `from . import sim as
+// sim` in stubs/vdbmap/__init__.pyi; tests/python/test_stubs.py checks every stub against the module.
 //
 // Array conventions (checked here, with a ValueError naming the argument, the expected and the
 // received shape and dtype):
