@@ -5,7 +5,10 @@
 # itself, and Ceres's config (which loads TBB's config) then fails on the half-defined export set.
 find_package(TBB CONFIG REQUIRED)       # TBB::tbb
 list(APPEND CMAKE_MODULE_PATH "/usr/lib/${CMAKE_LIBRARY_ARCHITECTURE}/cmake/OpenVDB")
+# FindOpenVDB.cmake sets BUILD_SHARED_LIBS ON in the caller's scope (for Boost); keep our own choice.
+set(_vdbmap_build_shared_libs ${BUILD_SHARED_LIBS})
 find_package(OpenVDB REQUIRED)          # OpenVDB::openvdb (needs Boost iostreams on Debian)
+set(BUILD_SHARED_LIBS ${_vdbmap_build_shared_libs})
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)  # Eigen3::Eigen
 find_package(Threads REQUIRED)
 find_package(ZLIB REQUIRED)             # ZLIB::ZLIB, keyframe compression

@@ -33,12 +33,33 @@ vdbmap_install_packages() {
   apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
-# vdbmap_build_targets [target...]: configure once (Release, Ninja), then build what is asked.
+# The build's CMake options. The Python module is on: scripts/test.sh runs its tests.
+VDBMAP_CMAKE_OPTIONS=(
+  -DCMAKE_BUILD_TYPE=Release -DVDBMAP_BUILD_TESTS=ON -DVDBMAP_BUILD_PYTHON=ON -DVDBMAP_BUILD_BENCHMARKS=ON
+  -DPython_EXECUTABLE=/usr/bin/python3
+)
+
+# True when the build dir has no cache yet or a cached option differs from VDBMAP_CMAKE_OPTIONS
+# (e.g. a build dir made before an option changed): a grep, no CMake run.
+vdbmap_configure_needed() {
+  local cache="$vdbmap_build/CMakeCache.txt" opt name value
+  [ -f "$cache" ] || return 0
+  for opt in "${VDBMAP_CMAKE_OPTIONS[@]}"; do
+    name=${opt#-D}; value=${name#*=}; name=${name%%=*}
+    # Cache lines read NAME:TYPE=VALUE.
+    awk -v n="$name" -v v="$value" 'index($0, n ":") == 1 && substr($0, index($0, "=") + 1) == v { found = 1 }
+                                    END { exit !found }' "$cache" || return 0
+  done
+  return 1
+}
+
+# vdbmap_build_targets [target...]: configure (Release, Ninja) when needed, then build what is asked.
 vdbmap_build_targets() {
-  if [ ! -f "$vdbmap_build/CMakeCache.txt" ]; then
-    cmake -S "$vdbmap_root" -B "$vdbmap_build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-      -DVDBMAP_BUILD_TESTS=ON -DVDBMAP_BUILD_PYTHON=OFF -DVDBMAP_BUILD_BENCHMARKS=ON \
-      -DPython_EXECUTABLE=/usr/bin/python3 > "$vdbmap_build.configure.log" 2>&1 ||
+  if vdbmap_configure_needed; then
+    local generator=(-G Ninja)
+    [ -f "$vdbmap_build/CMakeCache.txt" ] && generator=()  # an existing build dir keeps its generator
+    cmake -S "$vdbmap_root" -B "$vdbmap_build" "${generator[@]}" "${VDBMAP_CMAKE_OPTIONS[@]}" \
+      > "$vdbmap_build.configure.log" 2>&1 ||
       { cat "$vdbmap_build.configure.log"; rm -f "$vdbmap_build/CMakeCache.txt"; exit 1; }
   fi
   if [ $# -eq 0 ]; then

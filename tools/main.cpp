@@ -1,6 +1,8 @@
 // `vdbmap`: the command-line front end. Parsing and printing only; the work is in the libraries.
 #include "command.hpp"
 
+#include "vdbmap/version.hpp"
+
 #include <algorithm>
 #include <exception>
 #include <iostream>
@@ -27,7 +29,7 @@ int main(int argc, char** argv) {
   CLI::App app{"vdbmap: globally consistent TSDF mapping on OpenVDB, with re-integration, "
                "frame pruning and exploration planning"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "vdbmap 0.1.0");
+  app.set_version_flag("--version", std::string("vdbmap ") + vdbmap::kVersion);
   for (auto& [name, setup] : vdbmap::cli::registeredCommands()) setup(app);
   try {
     app.parse(argc, argv);

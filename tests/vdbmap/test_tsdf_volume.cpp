@@ -322,3 +322,28 @@ TEST_CASE("bad input is refused with a message that names what is wrong, and cha
   CHECK(stats.rays_cast == 0);
   CHECK(volume.exactlyEquals(before));
 }
+
+TEST_CASE("a copy of a map is deep: integrating into one leaves the other unchanged", "[tsdf]") {
+  const auto poses = randomPoses(2, 7);
+  const auto frames = randomFrames(poses, 8);
+  TsdfVolume original(config(0.1));
+  original.integrate(0, frames[0], poses[0]);
+  TsdfVolume reference(config(0.1));
+  reference.integrate(0, frames[0], poses[0]);
+
+  TsdfVolume copy = original;
+  CHECK(copy.exactlyEquals(original));
+  CHECK(copy.isIntegrated(0));
+  copy.integrate(1, frames[1], poses[1]);
+  CHECK(original.exactlyEquals(reference));
+  CHECK_FALSE(original.isIntegrated(1));
+  CHECK_FALSE(copy.exactlyEquals(original));
+
+  TsdfVolume assigned(config(0.2));
+  assigned = copy;
+  copy.deintegrate(1, frames[1], poses[1]);
+  CHECK(copy.exactlyEquals(reference));
+  CHECK(assigned.isIntegrated(1));
+  CHECK(assigned.config().voxel_size_m == 0.1);
+  CHECK(assigned.weightSumGrid()->transform() == copy.weightSumGrid()->transform());
+}

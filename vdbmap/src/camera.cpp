@@ -17,6 +17,22 @@ void CameraIntrinsics::validate() const {
   if (!std::isfinite(cy)) fail("cy must be finite");
 }
 
+DepthImage depthFromRaw(int width, int height, const std::uint16_t* raw, double depth_scale,
+                        std::uint16_t invalid_raw) {
+  if (width < 0 || height < 0)
+    throw std::invalid_argument("depthFromRaw: size must be >= 0, got " + std::to_string(width) + "x" +
+                                std::to_string(height));
+  if (!(depth_scale > 0.0) || !std::isfinite(depth_scale))
+    throw std::invalid_argument("depthFromRaw: depth_scale must be finite and > 0, got " + std::to_string(depth_scale));
+  DepthImage depth(width, height);
+  const float scale = float(depth_scale);
+  for (std::size_t i = 0; i < depth.depth_m.size(); ++i) {
+    const std::uint16_t r = raw[i];
+    depth.depth_m[i] = (r == 0 || (invalid_raw != 0 && r == invalid_raw)) ? 0.0f : float(r) * scale;
+  }
+  return depth;
+}
+
 PointCloud backProject(const DepthImage& depth, const CameraIntrinsics& K, int stride) {
   K.validate();
   if (depth.width != K.width || depth.height != K.height)

@@ -35,6 +35,23 @@ TsdfVolume::TsdfVolume(const TsdfConfig& config, const IntegratorConfig& integra
   wsdf_q_->setName("wsdf_q");
 }
 
+TsdfVolume::TsdfVolume(const TsdfVolume& other)
+    : config_(other.config_),
+      integrator_(other.integrator_),
+      transform_(other.transform_->copy()),
+      weight_q_(other.weight_q_->deepCopy()),
+      wsdf_q_(other.wsdf_q_->deepCopy()),
+      frames_(other.frames_),
+      exact_state_(other.exact_state_) {
+  weight_q_->setTransform(transform_);
+  wsdf_q_->setTransform(transform_);
+}
+
+TsdfVolume& TsdfVolume::operator=(const TsdfVolume& other) {
+  if (this != &other) *this = TsdfVolume(other);
+  return *this;
+}
+
 void TsdfVolume::setThreads(int threads) {
   IntegratorConfig c = integrator_;
   c.threads = threads;

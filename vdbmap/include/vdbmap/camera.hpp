@@ -7,6 +7,7 @@
 
 #include "vdbmap/types.hpp"
 
+#include <cstdint>
 #include <vector>
 
 namespace vdbmap {
@@ -34,6 +35,14 @@ struct DepthImage {
   float& at(int u, int v) { return depth_m[std::size_t(v) * width + u]; }
   float at(int u, int v) const { return depth_m[std::size_t(v) * width + u]; }
 };
+
+/// Depth in metres from raw sensor units (e.g. a 16-bit PNG or a uint16 array): depth_m = raw *
+/// depth_scale, with depth_scale in metres per unit, computed in float as readDepthPng does, so
+/// both give bit-identical images. Raw 0, and `invalid_raw` when it is non-zero (7-Scenes marks
+/// missing depth 65535), become 0 = invalid. `raw` holds width * height values, row-major.
+/// Throws std::invalid_argument when a size is negative or depth_scale is not finite and > 0.
+DepthImage depthFromRaw(int width, int height, const std::uint16_t* raw, double depth_scale,
+                        std::uint16_t invalid_raw = 0);
 
 /// Back-projects every pixel to a point in the sensor frame. Invalid pixels (0, NaN, negative)
 /// become NaN points so that the integrator counts them; `stride` keeps every stride-th pixel in

@@ -56,6 +56,11 @@ class TsdfVolume {
   using Int64GridT = openvdb::Int64Grid;
 
   explicit TsdfVolume(const TsdfConfig& config = {}, const IntegratorConfig& integrator = {});
+  /// Copies are deep: a copy owns its grids, so changing one map never changes the other.
+  TsdfVolume(const TsdfVolume& other);
+  TsdfVolume& operator=(const TsdfVolume& other);
+  TsdfVolume(TsdfVolume&&) = default;
+  TsdfVolume& operator=(TsdfVolume&&) = default;
 
   const TsdfConfig& config() const { return config_; }
   const IntegratorConfig& integratorConfig() const { return integrator_; }

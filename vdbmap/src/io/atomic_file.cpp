@@ -1,5 +1,7 @@
 #include "vdbmap/io/atomic_file.hpp"
 
+#include "vdbmap/io/errors.hpp"
+
 #include <atomic>
 #include <fstream>
 #include <stdexcept>
@@ -20,21 +22,21 @@ void commitTemporary(const std::filesystem::path& tmp, const std::filesystem::pa
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
     std::filesystem::remove(tmp, ec);
-    throw std::runtime_error("cannot write " + path.string() + ": rename failed: " + ec.message());
+    throw FileError("cannot write " + path.string() + ": rename failed: " + ec.message());
   }
 }
 
 void writeFileAtomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
   if (path.has_parent_path() && !std::filesystem::is_directory(path.parent_path()))
-    throw std::runtime_error("cannot write " + path.string() + ": folder " + path.parent_path().string() +
-                             " does not exist");
+    throw FileError("cannot write " + path.string() + ": folder " + path.parent_path().string() +
+                    " does not exist");
   const std::filesystem::path tmp = temporaryPathFor(path);
   try {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot open " + tmp.string() + " for writing");
+    if (!out) throw FileError("cannot open " + tmp.string() + " for writing");
     write(out);
     out.flush();
-    if (!out) throw std::runtime_error("write error on " + tmp.string() + " (disk full?)");
+    if (!out) throw FileError("write error on " + tmp.string() + " (disk full?)");
     out.close();
   } catch (...) {
     std::error_code ec;

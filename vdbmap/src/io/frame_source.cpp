@@ -1,5 +1,6 @@
 #include "vdbmap/io/frame_source.hpp"
 
+#include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/png_io.hpp"
 #include "vdbmap/io/point_cloud_io.hpp"
 
@@ -48,19 +49,19 @@ Frame FrameSource::load(std::size_t i) const {
   f.T_W_S = r.T_W_S;
   try {
     if (ext == ".png") {
-      if (c_.sensor.kind != SensorKind::Depth) throw std::runtime_error(r.file.string() + ": a depth PNG, but the sensor is a point sensor");
+      if (c_.sensor.kind != SensorKind::Depth) throw FileError(r.file.string() + ": a depth PNG, but the sensor is a point sensor");
       f.is_depth = true;
       f.depth = readDepthPng(r.file, c_.sensor.depth_scale, c_.sensor.invalid_depth_raw);
       const CameraIntrinsics& K = c_.sensor.intrinsics;
       if (f.depth.width != K.width || f.depth.height != K.height)
-        throw std::runtime_error(r.file.string() + ": depth image is " + std::to_string(f.depth.width) + "x" +
-                                 std::to_string(f.depth.height) + " but the camera is " + std::to_string(K.width) + "x" +
-                                 std::to_string(K.height));
+        throw FileError(r.file.string() + ": depth image is " + std::to_string(f.depth.width) + "x" +
+                        std::to_string(f.depth.height) + " but the camera is " + std::to_string(K.width) + "x" +
+                        std::to_string(K.height));
     } else if (ext == ".ply" || ext == ".pcd" || ext == ".bin") {
       f.is_depth = false;
       f.points_S = readPointCloud(r.file);
     } else {
-      throw std::runtime_error(r.file.string() + ": unknown frame file type '" + ext + "' (expected .png, .ply, .pcd or .bin)");
+      throw FileError(r.file.string() + ": unknown frame file type '" + ext + "' (expected .png, .ply, .pcd or .bin)");
     }
   } catch (const BadFrameError&) {
     throw;
@@ -103,19 +104,19 @@ DatasetFormat detectDatasetFormat(const std::filesystem::path& path) {
 
 std::unique_ptr<FrameSource> openDataset(const std::filesystem::path& path, DatasetFormat format) {
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw std::runtime_error(path.string() + ": no such folder");
+  if (!std::filesystem::exists(path, ec)) throw FileError(path.string() + ": no such folder");
   std::filesystem::path folder = path;
   if (!std::filesystem::is_directory(path, ec)) {
     // A log's sensor.json or frames.csv names its folder.
     const std::string name = path.filename().string();
     if (name == "frames.csv" || name == "sensor.json") folder = path.parent_path();
-    else throw std::runtime_error(path.string() + ": is a file; expected a log or dataset folder");
+    else throw FileError(path.string() + ": is a file; expected a log or dataset folder");
   }
   if (format == DatasetFormat::Auto) {
     std::filesystem::path resolved;
     format = detail::detectLayout(folder, resolved);
     if (format == DatasetFormat::Auto)
-      throw std::runtime_error(
+      throw FileError(
           folder.string() +
           ": not a recognised log or dataset: expected sensor.json + frames.csv (log), frame-XXXXXX.depth.png + "
           ".pose.txt (7-Scenes/3DMatch), pose.txt + depth/ (ICL-NUIM), depth/ + trajectory.log (Redwood), depth.txt + "

@@ -4,6 +4,7 @@
 // Nothing depends on a folder's name.
 #include "io/importers.hpp"
 
+#include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/png_io.hpp"
 
 #include "io/pose_util.hpp"
@@ -567,7 +568,7 @@ DatasetFormat detectLayout(const fs::path& path, fs::path& folder) {
     if (found.size() > 1) {
       std::string names;
       for (const fs::path& s : found) names += " " + s.filename().string();
-      throw std::runtime_error(path.string() + ": holds several " + what + " (" + names.substr(1) + "); open one of them");
+      throw FileError(path.string() + ": holds several " + what + " (" + names.substr(1) + "); open one of them");
     }
     folder = found.front();
     return f;

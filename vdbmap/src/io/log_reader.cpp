@@ -1,6 +1,8 @@
 // Reading our log format (docs/formats.md): sensor.json, frames.csv, corrections/, groundtruth.txt.
 #include "io/importers.hpp"
 
+#include "vdbmap/io/errors.hpp"
+
 #include "io/pose_util.hpp"
 #include "io/text_util.hpp"
 
@@ -60,7 +62,7 @@ std::vector<CorrectionEvent> readCorrections(const std::filesystem::path& dir, c
 
 FrameSourceContents readLog(const std::filesystem::path& folder) {
   std::error_code ec;
-  if (!std::filesystem::is_directory(folder, ec)) throw std::runtime_error(folder.string() + ": no such folder");
+  if (!std::filesystem::is_directory(folder, ec)) throw FileError(folder.string() + ": no such folder");
   FrameSourceContents c;
   c.format = "log";
   c.root = folder;

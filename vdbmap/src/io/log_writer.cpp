@@ -1,6 +1,7 @@
 #include "vdbmap/io/log_writer.hpp"
 
 #include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/png_io.hpp"
 #include "vdbmap/io/point_cloud_io.hpp"
 
@@ -23,9 +24,9 @@ LogWriter::LogWriter(const std::filesystem::path& folder, const SensorInfo& sens
   options_.validate();
   std::error_code ec;
   if (std::filesystem::exists(folder_ / "frames.csv", ec) && !options_.overwrite)
-    throw std::runtime_error(folder_.string() + ": already holds a log (frames.csv); choose another folder or allow overwrite");
+    throw FileError(folder_.string() + ": already holds a log (frames.csv); choose another folder or allow overwrite");
   std::filesystem::create_directories(folder_, ec);
-  if (ec) throw std::runtime_error("cannot create " + folder_.string() + ": " + ec.message());
+  if (ec) throw FileError("cannot create " + folder_.string() + ": " + ec.message());
   writeSensorJson(folder_ / "sensor.json", sensor_);
 }
 

@@ -1,6 +1,7 @@
 #include "vdbmap/io/mesh_io.hpp"
 
 #include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/io/errors.hpp"
 
 #include "io/ply_reader.hpp"
 #include "io/text_util.hpp"
@@ -157,7 +158,7 @@ TriangleMesh readOff(const std::filesystem::path& path) {
 
 TriangleMesh readTriangleMesh(const std::filesystem::path& path) {
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw std::runtime_error(path.string() + ": no such file");
+  if (!std::filesystem::exists(path, ec)) throw FileError(path.string() + ": no such file");
   const std::string ext = lowerExtension(path);
   TriangleMesh mesh;
   if (ext == ".ply") {

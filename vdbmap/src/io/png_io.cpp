@@ -1,6 +1,7 @@
 #include "vdbmap/io/png_io.hpp"
 
 #include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/io/errors.hpp"
 
 #include <png.h>
 
@@ -49,14 +50,14 @@ struct FileCloser {
 
 std::FILE* openForReading(const std::filesystem::path& path) {
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw std::runtime_error(path.string() + ": no such file");
+  if (!std::filesystem::exists(path, ec)) throw FileError(path.string() + ": no such file");
   std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw std::runtime_error(path.string() + ": cannot open: " + std::strerror(errno));
+  if (!f) throw FileError(path.string() + ": cannot open: " + std::strerror(errno));
   unsigned char sig[8];
   const std::size_t n = std::fread(sig, 1, 8, f);
   if (n != 8 || png_sig_cmp(sig, 0, 8) != 0) {
     std::fclose(f);
-    throw std::runtime_error(path.string() + ": not a PNG file (bad signature" + (n != 8 ? ", file too short)" : ")"));
+    throw FileError(path.string() + ": not a PNG file (bad signature" + (n != 8 ? ", file too short)" : ")"));
   }
   return f;
 }
@@ -190,11 +191,11 @@ int colorTypeFor(int channels) {
 void writeRowsAtomically(const std::filesystem::path& path, png_uint_32 width, png_uint_32 height, int bit_depth,
                          int color_type, std::vector<png_bytep>& rows) {
   if (path.has_parent_path() && !std::filesystem::is_directory(path.parent_path()))
-    throw std::runtime_error("cannot write " + path.string() + ": folder " + path.parent_path().string() +
-                             " does not exist");
+    throw FileError("cannot write " + path.string() + ": folder " + path.parent_path().string() +
+                    " does not exist");
   const std::filesystem::path tmp = temporaryPathFor(path);
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw std::runtime_error("cannot write " + path.string() + ": " + std::strerror(errno));
+  if (!f) throw FileError("cannot write " + path.string() + ": " + std::strerror(errno));
   PngErrorState st;
   bool ok = encode(f, st, width, height, bit_depth, color_type, rows);
   ok = (std::fflush(f) == 0) && ok;
@@ -202,7 +203,7 @@ void writeRowsAtomically(const std::filesystem::path& path, png_uint_32 width, p
   if (!ok) {
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
-    throw std::runtime_error("cannot write " + path.string() + ": " + (st.message[0] ? st.message : "write error (disk full?)"));
+    throw FileError("cannot write " + path.string() + ": " + (st.message[0] ? st.message : "write error (disk full?)"));
   }
   commitTemporary(tmp, path);
 }
@@ -214,11 +215,11 @@ void readPngSize(const std::filesystem::path& path, int& width, int& height) {
   // The IHDR chunk follows the 8-byte signature: length (4), "IHDR" (4), width (4), height (4), big endian.
   unsigned char b[16];
   if (std::fread(b, 1, 16, file.f) != 16 || std::memcmp(b + 4, "IHDR", 4) != 0)
-    throw std::runtime_error(path.string() + ": corrupt or truncated PNG: no IHDR chunk");
+    throw FileError(path.string() + ": corrupt or truncated PNG: no IHDR chunk");
   auto be32 = [](const unsigned char* p) { return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3]; };
   const std::uint32_t w = be32(b + 8), h = be32(b + 12);
   if (w == 0 || h == 0 || w > 0x7fffffffu || h > 0x7fffffffu)
-    throw std::runtime_error(path.string() + ": corrupt PNG: image size " + std::to_string(w) + "x" + std::to_string(h));
+    throw FileError(path.string() + ": corrupt PNG: image size " + std::to_string(w) + "x" + std::to_string(h));
   width = int(w);
   height = int(h);
 }
@@ -232,7 +233,7 @@ PngImage readPng(const std::filesystem::path& path) {
   std::vector<png_bytep> rows;
   bool wrong_kind = false;
   if (!decode(file.f, Mode::Any, st, d, buf8, buf16, rows, wrong_kind))
-    throw std::runtime_error(path.string() + ": corrupt or truncated PNG: " + st.message);
+    throw FileError(path.string() + ": corrupt or truncated PNG: " + st.message);
   PngImage img;
   img.width = int(d.width);
   img.height = int(d.height);
@@ -262,20 +263,11 @@ DepthImage readDepthPng(const std::filesystem::path& path, double depth_scale, s
   bool wrong_kind = false;
   if (!decode(file.f, Mode::Depth16, st, d, buf8, raw, rows, wrong_kind)) {
     if (wrong_kind)
-      throw std::runtime_error(path.string() + ": expected a 16-bit gray depth PNG, got " + std::to_string(d.bit_depth) +
-                               "-bit " + colorTypeName(d.color_type));
-    throw std::runtime_error(path.string() + ": corrupt or truncated PNG: " + st.message);
+      throw FileError(path.string() + ": expected a 16-bit gray depth PNG, got " + std::to_string(d.bit_depth) +
+                      "-bit " + colorTypeName(d.color_type));
+    throw FileError(path.string() + ": corrupt or truncated PNG: " + st.message);
   }
-  DepthImage depth;
-  depth.width = int(d.width);
-  depth.height = int(d.height);
-  depth.depth_m.resize(raw.size());
-  const float scale = float(depth_scale);
-  for (std::size_t i = 0; i < raw.size(); ++i) {
-    const std::uint16_t r = raw[i];
-    depth.depth_m[i] = (r == 0 || (invalid_raw != 0 && r == invalid_raw)) ? 0.0f : float(r) * scale;
-  }
-  return depth;
+  return depthFromRaw(int(d.width), int(d.height), raw.data(), depth_scale, invalid_raw);
 }
 
 void writePng(const std::filesystem::path& path, const PngImage& image) {

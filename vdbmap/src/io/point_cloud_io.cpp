@@ -1,6 +1,7 @@
 #include "vdbmap/io/point_cloud_io.hpp"
 
 #include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/io/errors.hpp"
 
 #include "io/ply_reader.hpp"
 #include "io/text_util.hpp"
@@ -266,7 +267,7 @@ void writeFloats(std::ostream& out, const PointCloud& points) {
 
 PointCloud readPointCloud(const std::filesystem::path& path) {
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw std::runtime_error(path.string() + ": no such file");
+  if (!std::filesystem::exists(path, ec)) throw FileError(path.string() + ": no such file");
   const std::string ext = lowerExtension(path);
   if (ext == ".ply") return detail::readPly(path, /*read_faces=*/false).vertices;
   if (ext == ".pcd") return readPcd(path);

@@ -1,6 +1,7 @@
 #include "vdbmap/io/sensor_info.hpp"
 
 #include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/io/errors.hpp"
 
 #include "io/text_util.hpp"
 
@@ -26,7 +27,7 @@ void SensorInfo::validate() const {
 
 SensorInfo readSensorJson(const std::filesystem::path& path) {
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw std::runtime_error(path.string() + ": no such file");
+  if (!std::filesystem::exists(path, ec)) throw FileError(path.string() + ": no such file");
   const std::string text = detail::readWholeFile(path);
   nlohmann::json j;
   try {

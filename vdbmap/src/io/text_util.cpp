@@ -1,5 +1,7 @@
 #include "io/text_util.hpp"
 
+#include "vdbmap/io/errors.hpp"
+
 #include <cerrno>
 #include <charconv>
 #include <cstring>
@@ -24,11 +26,11 @@ std::string readWholeFile(const std::filesystem::path& path) {
 }
 
 void failAt(const std::filesystem::path& path, std::size_t line, const std::string& what) {
-  throw std::runtime_error(path.string() + ":" + std::to_string(line) + ": " + what);
+  throw FileError(path.string() + ":" + std::to_string(line) + ": " + what);
 }
 
 void fail(const std::filesystem::path& path, const std::string& what) {
-  throw std::runtime_error(path.string() + ": " + what);
+  throw FileError(path.string() + ": " + what);
 }
 
 bool LineReader::next(std::string_view& line) {

@@ -12,12 +12,12 @@
 
 namespace vdbmap::io::detail {
 
-/// The whole content of a file; throws std::runtime_error naming the file when it cannot be read.
+/// The whole content of a file; throws FileError naming the file when it cannot be read.
 std::string readWholeFile(const std::filesystem::path& path);
 
-/// "<file>:<line>: <what>" as a std::runtime_error.
+/// "<file>:<line>: <what>" as a FileError.
 [[noreturn]] void failAt(const std::filesystem::path& path, std::size_t line, const std::string& what);
-/// "<file>: <what>" as a std::runtime_error.
+/// "<file>: <what>" as a FileError.
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& what);
 
 /// Iterates over the lines of a text held in memory, counting from 1; strips a trailing '\r'.

@@ -1,6 +1,7 @@
 #include "vdbmap/io/tum_trajectory.hpp"
 
 #include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/io/errors.hpp"
 
 #include "io/pose_util.hpp"
 #include "io/text_util.hpp"
@@ -15,7 +16,7 @@ namespace vdbmap::io {
 std::vector<StampedPose> readTumTrajectory(const std::filesystem::path& path, bool require_increasing,
                                            std::vector<std::size_t>* line_numbers) {
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw std::runtime_error(path.string() + ": no such file");
+  if (!std::filesystem::exists(path, ec)) throw FileError(path.string() + ": no such file");
   const std::string text = detail::readWholeFile(path);
   detail::LineReader lines(text);
   std::string_view line;

@@ -7,13 +7,22 @@
 
 namespace vdbmap::io {
 
+/// A file or folder that cannot be opened, read or written, or whose content is malformed (bad
+/// header, truncated data, a listing that does not parse). The message names the file and, where
+/// it helps, the line or element. Callers that only care about "something failed" can keep
+/// catching std::runtime_error; the Python bindings turn this type into OSError.
+class FileError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 /// A problem with one frame of a dataset (missing, corrupt or wrongly sized file, invalid pose):
 /// thrown by FrameSource::load(i) for that frame only, so that a caller can skip the frame
 /// (`--on-bad-frame skip`) or stop. The message names the frame and its file or line.
-class BadFrameError : public std::runtime_error {
+class BadFrameError : public FileError {
  public:
   BadFrameError(std::size_t frame_index, const std::string& message)
-      : std::runtime_error(message), frame_index_(frame_index) {}
+      : FileError(message), frame_index_(frame_index) {}
   std::size_t frameIndex() const { return frame_index_; }
 
  private:

@@ -1,0 +1,152 @@
+// Mapper: the four consistency modes, frames, pose updates, budgeted re-integration, keyframes.
+#include "binding.hpp"
+
+#include "vdbmap/mapper.hpp"
+
+#include <memory>
+
+namespace vdbmap::python {
+namespace {
+
+void bindReports(py::module_& m) {
+  py::class_<CycleReport> c(m, "CycleReport", "What one re-integration cycle did.");
+  c.def_readonly("frames", &CycleReport::frames, "frames re-integrated in this cycle")
+      .def_readonly("ms", &CycleReport::ms, "time spent in milliseconds")
+      .def_readonly("queued_left", &CycleReport::queued_left, "frames still waiting")
+      .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
+
+  py::class_<MapperStats> s(m, "MapperStats", "Counters of a Mapper's life.");
+  s.def_readonly("frames_total", &MapperStats::frames_total, "frames given to the mapper")
+      .def_readonly("frames_dropped", &MapperStats::frames_dropped, "de-integrated and released by pruning")
+      .def_readonly("reintegrated_frames", &MapperStats::reintegrated_frames,
+                    "re-integrations done (a frame may count many times)")
+      .def_readonly("reintegration_cycles", &MapperStats::reintegration_cycles,
+                    "cycles that re-integrated at least one frame")
+      .def_readonly("reintegration_ms_total", &MapperStats::reintegration_ms_total, "time spent re-integrating")
+      .def_readonly("reintegration_ms_max_cycle", &MapperStats::reintegration_ms_max_cycle, "the longest cycle")
+      .def_readonly("pruning_solves", &MapperStats::pruning_solves, "set-cover solves (keyframes mode)")
+      .def_readonly("submaps", &MapperStats::submaps, "rigid submaps started (submap mode)")
+      .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
+
+  py::class_<Keyframe> k(m, "Keyframe", "A stored keyframe (a copy): its poses and its data.");
+  k.def_readonly("id", &Keyframe::id, "its frame id")
+      .def_readonly("timestamp", &Keyframe::timestamp, "seconds")
+      .def_property_readonly(
+          "T_W_S_integrated", [](const Keyframe& f) { return toArray(f.T_W_S_integrated); },
+          "(4, 4) the pose the map currently holds it at")
+      .def_property_readonly(
+          "T_W_S_latest", [](const Keyframe& f) { return toArray(f.T_W_S_latest); },
+          "(4, 4) the newest estimate (odometry or correction)")
+      .def_readonly("integrated", &Keyframe::integrated, "whether the map currently holds it")
+      .def_property_readonly(
+          "bytes", [](const Keyframe& f) { return f.data.bytes(); }, "bytes of its compressed data")
+      .def(
+          "points_S", [](const Keyframe& f) { return toArray(f.data.decode()); },
+          "Its points (N, 3) float32 in the sensor frame, exactly as the mapper integrated them.")
+      .def("__repr__", [](const Keyframe& f) {
+        return "Keyframe(id=" + std::to_string(f.id) + ", timestamp=" + std::string(py::repr(py::float_(f.timestamp))) +
+               ", integrated=" + (f.integrated ? "True" : "False") + ")";
+      });
+}
+
+void bindMapperClass(py::module_& m) {
+  py::class_<Mapper> c(m, "Mapper",
+                       "One engine, four ways to keep the map consistent when loop closure corrects poses "
+                       "(MapperConfig.mode): none, submap, all, keyframes (ours, set-cover pruned).");
+  c.def(py::init<const MapperConfig&>(), py::arg("config") = MapperConfig{},
+        "ValueError naming the field when the config is out of range.")
+      .def_property_readonly(
+          "config", [](const Mapper& self) { return self.config(); }, "MapperConfig (a copy)");
+
+  c.def(
+       "add_depth_frame",
+       [](Mapper& self, FrameId id, double timestamp, py::handle depth, const CameraIntrinsics& K, py::handle T_W_S,
+          std::optional<double> depth_scale) {
+         const DepthImage d = toDepth(depth, depth_scale, "depth");
+         const Pose3d T = toPose(T_W_S, "T_W_S");
+         auto intrinsics = std::make_shared<const CameraIntrinsics>(K);
+         py::gil_scoped_release nogil;
+         return self.addDepthFrame(id, timestamp, d, intrinsics, T);
+       },
+       py::arg("frame_id"), py::arg("timestamp"), py::arg("depth"), py::arg("intrinsics"), py::arg("T_W_S"),
+       py::arg("depth_scale") = py::none(),
+       "Stores (except in none mode) and integrates a depth frame seen from T_W_S (odometry). depth: (H, W) "
+       "float32/float64 metres, or uint16 with depth_scale (metres per unit). ValueError when frame_id was "
+       "already given.")
+      .def(
+          "add_point_frame",
+          [](Mapper& self, FrameId id, double timestamp, py::handle points_S, py::handle T_W_S) {
+            const PointCloud p = toPoints(points_S, "points_S");
+            const Pose3d T = toPose(T_W_S, "T_W_S");
+            py::gil_scoped_release nogil;
+            return self.addPointFrame(id, timestamp, p, T);
+          },
+          py::arg("frame_id"), py::arg("timestamp"), py::arg("points_S"), py::arg("T_W_S"),
+          "Same for points (N, 3) in the sensor frame.")
+      .def(
+          "update_poses",
+          [](Mapper& self, py::handle poses) {
+            const std::map<FrameId, Pose3d> p = toPoseMap(poses, "poses");
+            py::gil_scoped_release nogil;
+            return self.updatePoses(p);
+          },
+          py::arg("poses"),
+          "New pose estimates {frame_id: (4, 4) T_W_S} (a loop-closure correction). Frames moved beyond the "
+          "gates are queued for re-integration (all, keyframes) or move their submap (submap); none ignores "
+          "them; unknown ids are skipped. Returns how many frames (or anchors) changed.")
+      .def(
+          "reintegrate",
+          [](Mapper& self, py::handle robot_W) {
+            const Vec3d r = toVec3(robot_W, "robot_W");
+            py::gil_scoped_release nogil;
+            return self.reintegrate(r);
+          },
+          py::arg("robot_W"), "One budgeted re-integration cycle, frames nearest to robot_W (3,) first.")
+      .def(
+          "reintegrate_all",
+          [](Mapper& self, py::handle robot_W) {
+            const Vec3d r = toVec3(robot_W, "robot_W");
+            py::gil_scoped_release nogil;
+            return self.reintegrateAll(r);
+          },
+          py::arg("robot_W"), "Re-integrates every queued frame; returns how many.")
+      .def_property_readonly("queued_frames", &Mapper::queuedFrames, "frames awaiting re-integration");
+
+  c.def(
+       "volume",
+       [](const Mapper& self) {
+         py::gil_scoped_release nogil;
+         return TsdfVolume(self.volume());
+       },
+       "A snapshot of the map (a deep copy, independent of the mapper): in submap mode the fusion of all "
+       "submaps. Keep it in a variable rather than calling this per query.")
+      .def(
+          "take_dirty_region", [](Mapper& self) { return toTuple(self.takeDirtyRegion()); },
+          "Voxel box ((i, j, k) min, (i, j, k) max) changed since the last call, or None.")
+      .def_property_readonly(
+          "stats", [](const Mapper& self) { return self.stats(); }, "MapperStats (a copy)")
+      .def_property_readonly("keyframes_kept", &Mapper::keyframesKept, "frames whose data the mapper keeps")
+      .def_property_readonly("keyframe_store_bytes", &Mapper::keyframeStoreBytes,
+                             "bytes of the stored (compressed) keyframes")
+      .def(
+          "keyframe_ids",
+          [](const Mapper& self) {
+            std::vector<FrameId> ids;
+            for (const auto& [id, kf] : self.keyframes()) ids.push_back(id);
+            return ids;
+          },
+          "Ids of the stored keyframes, ascending.")
+      .def(
+          "keyframe", [](const Mapper& self, FrameId id) { return Keyframe(self.keyframes().at(id)); },
+          py::arg("frame_id"), "A copy of a stored keyframe; IndexError when it is not stored (e.g. pruned).");
+}
+
+void bindMapper(py::module_& m) {
+  bindReports(m);
+  bindMapperClass(m);
+}
+
+const BindRegistration registration(kBindMapper, "mapper", &bindMapper);
+
+}  // namespace
+}  // namespace vdbmap::python
