@@ -1,8 +1,8 @@
 // Integration and de-integration speed on synthetic 640x480 depth frames (fx = fy = 387.229,
-// range 5 m) in a 20 x 14 x 3 m room, at 0.05 m and 0.1 m voxels, 1 and 2 threads, merged and
-// per-ray modes. Prints one JSON line per configuration.
+// range 5 m) in a 20 x 14 x 3 m room, at 0.05 m and 0.1 m voxels, 1 and 2 threads, projective
+// (depth images), merged and per-ray (points) modes. Prints one JSON line per configuration.
 //
-//   cmake --build build --target vdbmap_bench_integrate && build/bin/vdbmap_bench_integrate [frames] [merged|per_ray]
+//   cmake --build build --target vdbmap_bench_integrate && build/bin/vdbmap_bench_integrate [frames] [projective|merged|per_ray]
 #include "vdbmap/camera.hpp"
 #include "vdbmap/sim/analytic_scene.hpp"
 #include "vdbmap/tsdf_volume.hpp"
@@ -48,20 +48,22 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 40;
-  const std::string only_mode = argc > 2 ? argv[2] : "";  // "merged" or "per_ray": only that one
+  const std::string only_mode = argc > 2 ? argv[2] : "";  // "projective", "merged" or "per_ray": only that one
   const sim::AnalyticScene scene = benchRoom();
   const CameraIntrinsics K;
   std::vector<Pose3d> poses;
   std::vector<PointCloud> clouds;
+  std::vector<DepthImage> images;
   std::size_t points = 0;
   for (int i = 0; i < frames; ++i) {
     const double a = 2 * M_PI * i / frames;
     const Pose3d T = sim::lookingPose({5.0 * std::cos(a), 3.5 * std::sin(a), 1.3}, a + M_PI / 2 + 0.3 * std::sin(3 * a), 0.1);
     poses.push_back(T);
-    clouds.push_back(backProject(scene.renderDepth(K, T, 6.0), K));
+    images.push_back(scene.renderDepth(K, T, 6.0));
+    clouds.push_back(backProject(images.back(), K));
     points += clouds.back().size();
   }
-  for (const RayMode mode : {RayMode::Merged, RayMode::PerRay}) {
+  for (const RayMode mode : {RayMode::Projective, RayMode::Merged, RayMode::PerRay}) {
     if (!only_mode.empty() && only_mode != toString(mode)) continue;
     for (const double voxel : {0.05, 0.1}) {
       for (const int threads : {1, 2}) {
@@ -77,7 +79,8 @@ int main(int argc, char** argv) {
         for (int i = 0; i < frames; ++i) {
           const auto t0 = std::chrono::steady_clock::now();
           const double cpu0 = processCpuMs();
-          const IntegrationStats stats = volume.integrate(i, clouds[i], poses[i]);
+          const IntegrationStats stats = mode == RayMode::Projective ? volume.integrate(i, images[i], K, poses[i])
+                                                                     : volume.integrate(i, clouds[i], poses[i]);
           integrate_cpu_ms.push_back(processCpuMs() - cpu0);
           rays += stats.rays_cast;
           updates += stats.voxel_updates;
@@ -89,7 +92,10 @@ int main(int argc, char** argv) {
         const std::size_t voxels = volume.activeVoxelCount();
         for (int i = frames - 1; i >= 0; --i) {
           const auto t0 = std::chrono::steady_clock::now();
-          volume.deintegrate(i, clouds[i], poses[i]);
+          if (mode == RayMode::Projective)
+            volume.deintegrate(i, images[i], K, poses[i]);
+          else
+            volume.deintegrate(i, clouds[i], poses[i]);
           deintegrate_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         }
         nlohmann::json j = {{"ray_mode", toString(mode)},

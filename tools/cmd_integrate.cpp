@@ -19,6 +19,7 @@ struct IntegrateOptions {
   std::string format = "auto";
   std::string mode = toString(MapperConfig{}.mode);
   std::string weighting = toString(TsdfConfig{}.weighting);
+  std::string integrator = toString(IntegratorConfig{}.ray_mode);
   std::string on_bad_frame = "fail";
   double voxel_size_m = TsdfConfig{}.voxel_size_m;
   double truncation_vox = TsdfConfig{}.truncation_vox;
@@ -41,6 +42,7 @@ void runIntegrate(const IntegrateOptions& o) {
   config.integrator.min_range_m = source->sensor().min_range_m;
   config.integrator.max_range_m = o.max_range_m > 0 ? o.max_range_m : source->sensor().max_range_m;
   config.integrator.threads = o.threads;
+  config.integrator.ray_mode = parseRayMode(o.integrator);
   config.set_cover.n_ob = o.n_ob;
   config.set_cover.tau_gain = o.tau_gain;
   config.reintegration.budget_ms = o.budget_ms;
@@ -117,6 +119,10 @@ const Registration registration("integrate", [](CLI::App& app) {
   sub->add_option("--truncation-vox", o->truncation_vox, "Truncation distance in voxels")->check(CLI::Range(1.0, 100.0));
   sub->add_option("--weighting", o->weighting, "Ray weight: constant or inverse_square")
       ->check(CLI::IsMember({"constant", "inverse_square"}));
+  sub->add_option("--integrator", o->integrator,
+                  "projective: depth images voxel by voxel (fast); merged: rays bundled per end voxel; per_ray: "
+                  "one ray per point (reference). Point clouds always use rays")
+      ->check(CLI::IsMember({"projective", "merged", "per_ray"}));
   sub->add_option("--max-range", o->max_range_m, "Max range in metres (0 = the sensor's max_range_m)")
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--stride", o->stride, "Integrate every k-th frame")->check(CLI::Range(1, 1000000));

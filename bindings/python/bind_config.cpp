@@ -37,7 +37,7 @@ void bindIntegratorConfig(py::module_& m) {
       .def_readwrite("threads", &IntegratorConfig::threads,
                      "worker threads; 0 = all cores; the map does not depend on it; [0, 1024]")
       .def("validate", &IntegratorConfig::validate, "Raises ValueError naming the field and its allowed range.");
-  defEnumField(c, "ray_mode", &IntegratorConfig::ray_mode, &parseRayMode, "RayMode (or 'merged', 'per_ray')");
+  defEnumField(c, "ray_mode", &IntegratorConfig::ray_mode, &parseRayMode, "RayMode (or 'projective', 'merged', 'per_ray')");
 }
 
 void bindReintegrationConfig(py::module_& m) {

@@ -42,7 +42,14 @@ void bindReports(py::module_& m) {
           "bytes", [](const Keyframe& f) { return f.data.bytes(); }, "bytes of its compressed data")
       .def(
           "points_S", [](const Keyframe& f) { return toArray(f.data.decode()); },
-          "Its points (N, 3) float32 in the sensor frame, exactly as the mapper integrated them.")
+          "Its points (N, 3) float32 in the sensor frame, as stored (quantized).")
+      .def(
+          "depth",
+          [](const Keyframe& f) -> py::object {
+            if (!f.data.isDepth()) return py::none();
+            return toArray(f.data.decodeDepth());
+          },
+          "Its depth image (H, W) float32 metres as stored and integrated (None for point frames).")
       .def("__repr__", [](const Keyframe& f) {
         return "Keyframe(id=" + std::to_string(f.id) + ", timestamp=" + std::string(py::repr(py::float_(f.timestamp))) +
                ", integrated=" + (f.integrated ? "True" : "False") + ")";

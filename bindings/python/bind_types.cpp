@@ -35,8 +35,10 @@ void bindEnums(py::module_& m) {
              "1/z^2 with the paper's linear drop-off behind the surface (Eq. 2)");
   addNames(weighting, &parseWeighting, &toString);
 
-  py::enum_<RayMode> ray_mode(m, "RayMode", "Whether rays ending in the same voxel are bundled.");
-  ray_mode.value("Merged", RayMode::Merged, "bundle rays per end voxel (fast, the default)")
+  py::enum_<RayMode> ray_mode(m, "RayMode", "How frames become voxel updates.");
+  ray_mode.value("Projective", RayMode::Projective,
+                 "depth images voxel by voxel (the default); point clouds as merged rays")
+      .value("Merged", RayMode::Merged, "bundle rays per end voxel")
       .value("PerRay", RayMode::PerRay, "one ray per point (slow, the reference)");
   addNames(ray_mode, &parseRayMode, &toString);
 

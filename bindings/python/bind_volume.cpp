@@ -130,18 +130,20 @@ void bindTsdfVolume(py::module_& m) {
              std::optional<double> depth_scale) {
             const DepthImage d = toDepth(depth, depth_scale, "depth");
             const Pose3d T = toPose(T_W_S, "T_W_S");
-            return withoutGil([&] { return self.integrate(id, backProject(d, K), T); });
+            return withoutGil([&] { return self.integrate(id, d, K, T); });
           },
           py::arg("frame_id"), py::arg("depth"), py::arg("intrinsics"), py::arg("T_W_S"),
           py::arg("depth_scale") = py::none(),
-          "integrate(frame_id, back_project(depth, intrinsics, depth_scale=depth_scale), T_W_S).")
+          "Integrates a depth image (H, W): float metres, or uint16 raw units with depth_scale metres per unit. "
+          "With ray_mode projective (the default) voxel by voxel; otherwise as integrate(frame_id, "
+          "back_project(depth, intrinsics), T_W_S).")
       .def(
           "deintegrate_depth",
           [](TsdfVolume& self, FrameId id, py::handle depth, const CameraIntrinsics& K, py::handle T_W_S,
              std::optional<double> depth_scale) {
             const DepthImage d = toDepth(depth, depth_scale, "depth");
             const Pose3d T = toPose(T_W_S, "T_W_S");
-            return withoutGil([&] { return self.deintegrate(id, backProject(d, K), T); });
+            return withoutGil([&] { return self.deintegrate(id, d, K, T); });
           },
           py::arg("frame_id"), py::arg("depth"), py::arg("intrinsics"), py::arg("T_W_S"),
           py::arg("depth_scale") = py::none(), "The inverse of integrate_depth with the same arguments.")

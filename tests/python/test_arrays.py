@@ -59,7 +59,7 @@ def test_uint16_depth_with_a_scale_equals_the_float_conversion_bit_for_bit():
     volume_a = vdbmap.TsdfVolume()
     volume_a.integrate_depth(0, raw, small_camera(), pose(), depth_scale=scale)
     volume_b = vdbmap.TsdfVolume()
-    volume_b.integrate(0, b, pose())
+    volume_b.integrate_depth(0, metres, small_camera(), pose())
     assert volume_a.exactly_equals(volume_b)
 
 

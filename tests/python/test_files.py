@@ -129,10 +129,10 @@ def test_mapper_reintegration_equals_integrating_at_the_corrected_pose():
     fresh.add_depth_frame(0, 0.0, wall_depth(2.0), K, pose())
     fresh.add_depth_frame(1, 0.1, wall_depth(1.8), K, corrected)
     assert mapper.volume().exactly_equals(fresh.volume())
-    # The stored keyframe decodes to the points the mapper integrated.
+    # The stored keyframe decodes to the depth image the mapper integrated.
     by_hand = vdbmap.TsdfVolume(config.tsdf, config.integrator)
-    by_hand.integrate(0, mapper.keyframe(0).points_S(), pose())
-    by_hand.integrate(1, keyframe.points_S(), corrected)
+    by_hand.integrate_depth(0, mapper.keyframe(0).depth(), K, pose())
+    by_hand.integrate_depth(1, keyframe.depth(), K, corrected)
     assert by_hand.exactly_equals(fresh.volume())
 
 

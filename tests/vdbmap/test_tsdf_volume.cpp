@@ -1,5 +1,6 @@
 // The TSDF core: exact reversibility, thread independence, accuracy on analytic scenes, voxel
 // states, files, and bad input.
+#include "tsdf_test_helpers.hpp"
 #include "vdbmap/camera.hpp"
 #include "vdbmap/mesh.hpp"
 #include "vdbmap/sim/analytic_scene.hpp"
@@ -15,72 +16,8 @@
 #include <random>
 
 using namespace vdbmap;
-using sim::AnalyticScene;
-using sim::lookingPose;
+using namespace vdbmap::test;
 
-namespace {
-
-/// A small camera keeps the tests fast; the geometry is the same as FUEL's camera, scaled.
-CameraIntrinsics smallCamera() {
-  CameraIntrinsics K;
-  K.width = 160;
-  K.height = 120;
-  K.fx = K.fy = 96.8;
-  K.cx = 79.5;
-  K.cy = 59.5;
-  return K;
-}
-
-PointCloud render(const AnalyticScene& scene, const Pose3d& T_W_S, const CameraIntrinsics& K = smallCamera(),
-                  double max_range_m = 5.0) {
-  return backProject(scene.renderDepth(K, T_W_S, max_range_m), K);
-}
-
-/// Random poses inside the demo room, looking around, with a fixed seed.
-std::vector<Pose3d> randomPoses(int n, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> x(-2.5, 2.5), y(-1.5, 1.5), z(0.8, 2.0), yaw(-M_PI, M_PI), pitch(-0.3, 0.5);
-  std::vector<Pose3d> poses;
-  for (int i = 0; i < n; ++i) poses.push_back(lookingPose({x(rng), y(rng), z(rng)}, yaw(rng), pitch(rng)));
-  return poses;
-}
-
-/// Frames of the demo room with seeded depth noise, some invalid pixels and some beyond range.
-std::vector<PointCloud> randomFrames(const std::vector<Pose3d>& poses, std::uint32_t seed) {
-  const AnalyticScene scene = AnalyticScene::demoRoom();
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> noise(0.0f, 0.01f);
-  std::vector<PointCloud> frames;
-  for (const Pose3d& T : poses) {
-    const CameraIntrinsics K = smallCamera();
-    DepthImage depth = scene.renderDepth(K, T, 10.0);
-    for (float& d : depth.depth_m)
-      if (d > 0.0f) d += noise(rng);
-    depth.at(3, 4) = std::numeric_limits<float>::quiet_NaN();
-    frames.push_back(backProject(depth, K));
-  }
-  return frames;
-}
-
-TsdfConfig config(double voxel_size_m, Weighting weighting = Weighting::InverseSquare) {
-  TsdfConfig c;
-  c.voxel_size_m = voxel_size_m;
-  c.weighting = weighting;
-  return c;
-}
-
-/// Root mean square distance of the mesh's vertices to the analytic surfaces.
-double meshRmse(const TriangleMesh& mesh, const AnalyticScene& scene) {
-  REQUIRE(mesh.vertices.size() > 100);
-  double sum = 0.0;
-  for (const Vec3f& v : mesh.vertices) {
-    const double d = scene.distance(v.cast<double>());
-    sum += d * d;
-  }
-  return std::sqrt(sum / double(mesh.vertices.size()));
-}
-
-}  // namespace
 
 TEST_CASE("integrating then de-integrating frames in another order restores the empty map bit for bit",
           "[tsdf][reversibility]") {
@@ -267,11 +204,16 @@ TEST_CASE("save then load gives identical grids, metadata and frame registry", "
     CHECK_FALSE(approx.hasExactState());
     CHECK(approx.frameCount() == 0);
     CHECK(approx.tsdfGrid()->activeVoxelCount() == volume.tsdfGrid()->activeVoxelCount());
+    // Values agree to float precision; a state may flip only for a voxel whose tsdf sits on the
+    // occupancy threshold to within that precision.
+    const double tolerance_m = 1e-3 * c.voxel_size_m;
+    const double threshold_m = c.occupancy_threshold_vox * c.voxel_size_m;
     std::size_t mismatches = 0;
     const auto tsdf = volume.tsdfGrid();
     for (auto it = tsdf->cbeginValueOn(); it; ++it) {
       const VoxelSample a = approx.sample(it.getCoord()), e = volume.sample(it.getCoord());
-      if (a.state != e.state || std::abs(a.tsdf_m - e.tsdf_m) > 1e-3 * c.voxel_size_m) ++mismatches;
+      const bool on_threshold = std::abs(e.tsdf_m - threshold_m) <= tolerance_m;
+      if ((a.state != e.state && !on_threshold) || std::abs(a.tsdf_m - e.tsdf_m) > tolerance_m) ++mismatches;
     }
     CHECK(mismatches == 0);
   }

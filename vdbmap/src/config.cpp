@@ -17,7 +17,14 @@ void requireRange(const char* owner, const char* field, T value, T lo, T hi, con
 }  // namespace
 
 const char* toString(Weighting w) { return w == Weighting::Constant ? "constant" : "inverse_square"; }
-const char* toString(RayMode m) { return m == RayMode::Merged ? "merged" : "per_ray"; }
+const char* toString(RayMode m) {
+  switch (m) {
+    case RayMode::Merged: return "merged";
+    case RayMode::PerRay: return "per_ray";
+    case RayMode::Projective: return "projective";
+  }
+  return "?";
+}
 
 Weighting parseWeighting(const std::string& text) {
   if (text == "constant") return Weighting::Constant;
@@ -28,7 +35,8 @@ Weighting parseWeighting(const std::string& text) {
 RayMode parseRayMode(const std::string& text) {
   if (text == "merged") return RayMode::Merged;
   if (text == "per_ray") return RayMode::PerRay;
-  throw std::invalid_argument("ray mode must be merged or per_ray, got '" + text + "'");
+  if (text == "projective") return RayMode::Projective;
+  throw std::invalid_argument("ray mode must be projective, merged or per_ray, got '" + text + "'");
 }
 
 void TsdfConfig::validate() const {

@@ -92,20 +92,23 @@ EncodedFrame EncodedFrame::fromPoints(const PointCloud& points_S, double unit_m,
   return f;
 }
 
-PointCloud EncodedFrame::decode() const {
-  if (kind_ == Kind::Depth) {
-    std::vector<std::uint16_t> coded(count_);
-    inflateBytes(payload_, coded.data(), coded.size() * sizeof(std::uint16_t), compressed_);
-    DepthImage depth(intrinsics_->width, intrinsics_->height, 0.0f);
-    for (int v = 0; v < depth.height; ++v) {
-      std::uint16_t q = 0;
-      for (int u = 0; u < depth.width; ++u) {
-        q = std::uint16_t(q + coded[std::size_t(v) * depth.width + u]);
-        depth.at(u, v) = q == 0 ? 0.0f : float(q * unit_m_);
-      }
+DepthImage EncodedFrame::decodeDepth() const {
+  if (kind_ != Kind::Depth) throw std::logic_error("EncodedFrame::decodeDepth: the frame holds points, not depth");
+  std::vector<std::uint16_t> coded(count_);
+  inflateBytes(payload_, coded.data(), coded.size() * sizeof(std::uint16_t), compressed_);
+  DepthImage depth(intrinsics_->width, intrinsics_->height, 0.0f);
+  for (int v = 0; v < depth.height; ++v) {
+    std::uint16_t q = 0;
+    for (int u = 0; u < depth.width; ++u) {
+      q = std::uint16_t(q + coded[std::size_t(v) * depth.width + u]);
+      depth.at(u, v) = q == 0 ? 0.0f : float(q * unit_m_);
     }
-    return backProject(depth, *intrinsics_, stride_);
   }
+  return depth;
+}
+
+PointCloud EncodedFrame::decode() const {
+  if (kind_ == Kind::Depth) return backProject(decodeDepth(), *intrinsics_, stride_);
   std::vector<std::int32_t> q(std::size_t(count_) * 3);
   inflateBytes(payload_, q.data(), q.size() * sizeof(std::int32_t), compressed_);
   constexpr std::int32_t kInvalid = std::numeric_limits<std::int32_t>::min();

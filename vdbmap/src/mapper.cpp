@@ -98,11 +98,24 @@ IntegrationStats Mapper::addPointFrame(FrameId id, double timestamp, const Point
   return addFrame(id, timestamp, EncodedFrame::fromPoints(points_S, config_.depth_unit_m, store), T_W_S);
 }
 
+namespace {
+/// Integrates (add) or de-integrates a stored frame as the volume's integrator takes it best:
+/// depth frames as images (projective), point frames as points. Always the decoded frame, so that
+/// a later de-integration removes exactly what went in.
+IntegrationStats applyFrame(TsdfVolume& volume, FrameId id, const EncodedFrame& frame, const Pose3d& T_W_S, bool add) {
+  if (frame.isDepth()) {
+    const DepthImage depth = frame.decodeDepth();
+    return add ? volume.integrate(id, depth, *frame.intrinsics(), T_W_S)
+               : volume.deintegrate(id, depth, *frame.intrinsics(), T_W_S);
+  }
+  const PointCloud points_S = frame.decode();
+  return add ? volume.integrate(id, points_S, T_W_S) : volume.deintegrate(id, points_S, T_W_S);
+}
+}  // namespace
+
 IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) {
   if (store_.contains(id) || (config_.mode == ConsistencyMode::None && volume_.isIntegrated(id)))
     throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
-  // Integrate the decoded frame, so that a later de-integration removes exactly what went in.
-  const PointCloud points_S = data.decode();
   IntegrationStats stats;
   ++stats_.frames_total;
 
@@ -116,7 +129,7 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
       ++stats_.submaps;
     }
     Submap& s = *submaps_.back();
-    stats = s.volume->integrate(id, points_S, s.T_W_A_odom.inverse() * T_W_S);
+    stats = applyFrame(*s.volume, id, data, s.T_W_A_odom.inverse() * T_W_S, true);
     ++s.frames;
     fused_.reset();
     // The submap's box in the world is not tracked voxel-exactly; mark the frame's reach.
@@ -126,7 +139,7 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
     return stats;
   }
 
-  stats = volume_.integrate(id, points_S, T_W_S);
+  stats = applyFrame(volume_, id, data, T_W_S, true);
   markDirty(stats.touched_voxels);
   if (config_.mode == ConsistencyMode::None) return stats;
 
@@ -139,8 +152,10 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
   store_.add(std::move(kf));
 
   if (config_.mode == ConsistencyMode::Keyframes) {
+    const Keyframe& stored = store_.at(id);
     pruner_->addFrame(id, T_W_S.translation(),
-                      visibleCells(points_S, T_W_S, config_.tsdf, config_.integrator, config_.set_cover.cell_size_vox));
+                      visibleCells(stored.data.decode(), T_W_S, config_.tsdf, config_.integrator,
+                                   config_.set_cover.cell_size_vox));
     if (++frames_since_solve_ >= std::size_t(config_.set_cover.solve_period_frames)) prune();
   }
   return stats;
@@ -153,7 +168,7 @@ void Mapper::prune() {
   for (const FrameId id : result.dropped) {
     Keyframe& kf = store_.at(id);
     if (kf.integrated) {
-      const IntegrationStats s = volume_.deintegrate(id, kf.data.decode(), kf.T_W_S_integrated);
+      const IntegrationStats s = applyFrame(volume_, id, kf.data, kf.T_W_S_integrated, false);
       markDirty(s.touched_voxels);
     }
     queue_.erase(id);
@@ -204,9 +219,8 @@ std::size_t Mapper::updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) {
 }
 
 void Mapper::reintegrateFrame(Keyframe& kf) {
-  const PointCloud points_S = kf.data.decode();
-  const IntegrationStats out = volume_.deintegrate(kf.id, points_S, kf.T_W_S_integrated);
-  const IntegrationStats in = volume_.integrate(kf.id, points_S, kf.T_W_S_latest);
+  const IntegrationStats out = applyFrame(volume_, kf.id, kf.data, kf.T_W_S_integrated, false);
+  const IntegrationStats in = applyFrame(volume_, kf.id, kf.data, kf.T_W_S_latest, true);
   kf.T_W_S_integrated = kf.T_W_S_latest;
   markDirty(out.touched_voxels);
   markDirty(in.touched_voxels);

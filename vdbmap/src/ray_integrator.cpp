@@ -1,33 +1,23 @@
 #include "internal/ray_integrator.hpp"
 
-#include <openvdb/tools/Prune.h>
+#include "internal/voxel_blocks.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <memory>
-#include <mutex>
 
 namespace vdbmap::internal {
 namespace {
 
-using Int64Tree = openvdb::Int64Tree;
-using Int64Leaf = Int64Tree::LeafNodeType;
-
 constexpr double kMicrometresPerMetre = 1e6;
-constexpr std::int64_t kFractionScale = 1 << 16;  // fixed point of the behind-surface drop-off
 /// Points are classified and run-length bundled in fixed chunks, so the result does not depend on
 /// how TBB splits the work.
 constexpr std::size_t kPointChunk = 4096;
-
-/// Rounds half away from zero, like std::llround, without the libm call (it was 5 % of a frame).
-inline std::int64_t roundToInt64(double x) { return std::int64_t(x < 0.0 ? x - 0.5 : x + 0.5); }
 
 /// 21 bits per axis plus the surface flag; coordinates wrap beyond +-2^20 voxels (100 km at 0.1 m).
 inline std::uint64_t packKey(const openvdb::Coord& c, bool surface) {
@@ -35,60 +25,6 @@ inline std::uint64_t packKey(const openvdb::Coord& c, bool surface) {
   return (std::uint64_t(surface) << 63) | ((std::uint64_t(c.x()) & mask) << 42) |
          ((std::uint64_t(c.y()) & mask) << 21) | (std::uint64_t(c.z()) & mask);
 }
-
-inline std::size_t mixHash(std::uint64_t k) {
-  k ^= k >> 33;
-  k *= 0xff51afd7ed558ccdULL;
-  k ^= k >> 33;
-  return std::size_t(k);
-}
-
-/// Open-addressing map from 64-bit keys to dense indices 0..n-1 in insertion order.
-class KeyIndex {
- public:
-  explicit KeyIndex(std::size_t expected) {
-    std::size_t cap = 16;
-    while (cap < 2 * expected) cap <<= 1;
-    keys_.resize(cap);
-    slots_.assign(cap, kEmpty);
-  }
-  /// The index of `key`, inserting it as `size()` when new; `inserted` says which.
-  std::uint32_t findOrInsert(std::uint64_t key, bool& inserted) {
-    if (2 * (size_ + 1) > slots_.size()) grow();
-    std::size_t i = mixHash(key) & (slots_.size() - 1);
-    while (slots_[i] != kEmpty) {
-      if (keys_[i] == key) {
-        inserted = false;
-        return slots_[i];
-      }
-      i = (i + 1) & (slots_.size() - 1);
-    }
-    keys_[i] = key;
-    slots_[i] = std::uint32_t(size_);
-    inserted = true;
-    return std::uint32_t(size_++);
-  }
-  std::size_t size() const { return size_; }
-
- private:
-  static constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();
-  void grow() {
-    std::vector<std::uint64_t> keys = std::move(keys_);
-    std::vector<std::uint32_t> slots = std::move(slots_);
-    keys_.assign(keys.size() * 2, 0);
-    slots_.assign(slots.size() * 2, kEmpty);
-    for (std::size_t j = 0; j < slots.size(); ++j) {
-      if (slots[j] == kEmpty) continue;
-      std::size_t i = mixHash(keys[j]) & (slots_.size() - 1);
-      while (slots_[i] != kEmpty) i = (i + 1) & (slots_.size() - 1);
-      keys_[i] = keys[j];
-      slots_[i] = slots[j];
-    }
-  }
-  std::vector<std::uint64_t> keys_;
-  std::vector<std::uint32_t> slots_;
-  std::size_t size_ = 0;
-};
 
 struct Classified {
   Vec3d end_W;
@@ -171,64 +107,6 @@ struct ChunkResult {
 
 // ---- per-thread accumulation of voxel updates -------------------------------------------------
 
-/// One leaf's worth (8^3 voxels, OpenVDB's leaf layout) of pending updates. Free-space updates
-/// (sdf clamped to +truncation) all have the form (w, w * kSdfScale), so they only sum their
-/// weight, in an array of their own: most updates are free space, and this halves their memory
-/// traffic. Band updates keep (W, WD) interleaved, one cache line per update.
-struct Block {
-  struct Cell {
-    std::int64_t w, wd;
-  };
-  openvdb::Coord origin;
-  std::array<std::uint64_t, Int64Leaf::SIZE / 64> touched;  // bit n: voxel n holds an update
-  std::array<std::int64_t, Int64Leaf::SIZE> free_w;         // summed free-space weights
-  std::array<Cell, Int64Leaf::SIZE> band;                   // summed band updates
-};
-
-/// Blocks are recycled between frames: a frame at 0.05 m touches thousands of them, and zeroing
-/// fresh ones costs more than the integration. Returned blocks are already zero.
-class BlockPool {
- public:
-  std::unique_ptr<Block> acquire() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!free_.empty()) {
-        std::unique_ptr<Block> b = std::move(free_.back());
-        free_.pop_back();
-        return b;
-      }
-    }
-    auto b = std::make_unique<Block>();
-    b->touched.fill(0);
-    b->free_w.fill(0);
-    std::memset(b->band.data(), 0, sizeof(b->band));
-    return b;
-  }
-  void release(std::vector<std::unique_ptr<Block>>& blocks) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (auto& b : blocks)
-      if (free_.size() < kMaxPooled) free_.push_back(std::move(b));
-    blocks.clear();
-  }
-
- private:
-  static constexpr std::size_t kMaxPooled = 6144;  // 72 MiB
-  std::mutex mutex_;
-  std::vector<std::unique_ptr<Block>> free_;
-};
-
-BlockPool& blockPool() {
-  static BlockPool pool;
-  return pool;
-}
-
-/// Origin of the leaf holding ijk, packed into a key that sorts like openvdb::Coord (x, y, z).
-inline std::uint64_t blockKey(const openvdb::Coord& origin) {
-  constexpr std::uint64_t bias = 1u << 20, mask = (1u << 21) - 1;
-  return ((std::uint64_t((origin.x() >> 3) + bias) & mask) << 42) |
-         ((std::uint64_t((origin.y() >> 3) + bias) & mask) << 21) | (std::uint64_t((origin.z() >> 3) + bias) & mask);
-}
-
 class BlockAccumulator {
  public:
   BlockAccumulator() : index_(256) {}
@@ -237,10 +115,7 @@ class BlockAccumulator {
   Block* blockAt(const openvdb::Coord& origin) {
     bool inserted = false;
     const std::uint32_t i = index_.findOrInsert(blockKey(origin), inserted);
-    if (inserted) {
-      blocks.push_back(blockPool().acquire());
-      blocks.back()->origin = origin;
-    }
+    if (inserted) blocks.push_back(acquireBlock(origin));
     return blocks[i].get();
   }
 
@@ -263,17 +138,12 @@ class VoxelCursor {
   }
   /// A free-space update: (dw, dw * kSdfScale).
   void addFree(std::int64_t dw) {
-    block_->free_w[n_] += dw;
-    block_->touched[n_ >> 6] |= std::uint64_t(1) << (n_ & 63);
+    block_->addFree(n_, dw);
     ++acc_.updates;
   }
-  /// A band update (dw, dwd).
-  void addBand(std::int64_t dw, std::int64_t dwd) {
-    Block::Cell& cell = block_->band[n_];
-    cell.w += dw;
-    cell.wd += dwd;
-    block_->touched[n_ >> 6] |= std::uint64_t(1) << (n_ & 63);
-    ++acc_.updates;
+  /// The update of a voxel at signed distance sdf (see SdfUpdate).
+  void add(const SdfUpdate& update, double sdf, std::int64_t weight_q) {
+    if (update.apply(*block_, n_, sdf, weight_q)) ++acc_.updates;
   }
   /// Moves one voxel along axis a (0, 1, 2) in direction step (+1 or -1).
   void move(int a, int step) {
@@ -357,97 +227,13 @@ void castOne(const RayBundle& b, const Vec3d& origin_W, const TsdfConfig& tsdf, 
   }
 
   // The band: the projective sdf per voxel, clamped, with the paper's drop-off behind the surface.
-  const bool drop_off = tsdf.weighting == Weighting::InverseSquare;
-  const double epsilon = vs;
-  const double inv_delta = 1.0 / delta;
+  const SdfUpdate update(tsdf);
   const Vec3d step_dir = vs * dir;
   const double base = dist + origin_W.dot(dir);
   do {
     const double sdf = base - (ijk[0] * step_dir[0] + ijk[1] * step_dir[1] + ijk[2] * step_dir[2]);
-    if (sdf >= delta) {
-      cursor.addFree(free_w);
-    } else if (sdf >= -delta) {
-      std::int64_t w = b.weight_q;
-      if (drop_off && sdf < -epsilon) {
-        const double f = delta > epsilon ? (delta + sdf) / (delta - epsilon) : 0.0;
-        w = (w * roundToInt64(f * kFractionScale)) / kFractionScale;
-      }
-      if (w > 0) cursor.addBand(w, w * roundToInt64(sdf * inv_delta * double(kSdfScale)));
-    }
+    cursor.add(update, sdf, b.weight_q);
   } while (advance());
-}
-
-/// Adds sign * (every accumulator's updates) into the map, leaf by leaf in parallel; with sign < 0
-/// voxels whose weight returns to 0 are removed and empty branches pruned.
-void applyBlocks(tbb::enumerable_thread_specific<BlockAccumulator>& locals, Int64Tree& weight, Int64Tree& wsdf,
-                 std::int64_t sign) {
-  // A DDA may enter a leaf without updating it (e.g. behind the band): such blocks stay empty and
-  // must not create leaves.
-  auto touched = [](const Block& b) {
-    return std::any_of(b.touched.begin(), b.touched.end(), [](std::uint64_t w) { return w != 0; });
-  };
-  std::vector<std::pair<std::uint64_t, Block*>> all;
-  for (BlockAccumulator& acc : locals)
-    for (const auto& b : acc.blocks)
-      if (touched(*b)) all.emplace_back(blockKey(b->origin), b.get());
-  if (all.empty()) return;
-  std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-
-  // Topology changes are serial (OpenVDB trees are not thread-safe for writes); values are not.
-  struct Target {
-    std::size_t begin, end;  // range in `all`
-    Int64Leaf* w;
-    Int64Leaf* wd;
-  };
-  std::vector<Target> targets;
-  openvdb::tree::ValueAccessor<Int64Tree> wacc(weight), wdacc(wsdf);
-  for (std::size_t i = 0; i < all.size();) {
-    std::size_t j = i + 1;
-    while (j < all.size() && all[j].first == all[i].first) ++j;
-    const openvdb::Coord& origin = all[i].second->origin;
-    targets.push_back({i, j, wacc.touchLeaf(origin), wdacc.touchLeaf(origin)});
-    i = j;
-  }
-
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, targets.size(), 16), [&](const auto& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t) {
-      const Target& target = targets[t];
-      std::int64_t* w_data = target.w->buffer().data();
-      std::int64_t* wd_data = target.wd->buffer().data();
-      for (std::size_t k = target.begin; k != target.end; ++k) {
-        Block& block = *all[k].second;
-        for (std::size_t word = 0; word < block.touched.size(); ++word) {
-          std::uint64_t bits = block.touched[word];
-          while (bits) {
-            const openvdb::Index n = openvdb::Index(word * 64 + std::size_t(__builtin_ctzll(bits)));
-            bits &= bits - 1;
-            Block::Cell& band = block.band[n];
-            std::int64_t& free = block.free_w[n];
-            const std::int64_t w = w_data[n] + sign * (band.w + free);
-            const std::int64_t wd = wd_data[n] + sign * (band.wd + free * kSdfScale);
-            band = {0, 0};  // back to the pool zeroed
-            free = 0;
-            if (w == 0) {   // every contribution to this voxel is gone: remove it
-              w_data[n] = 0;
-              wd_data[n] = 0;
-              target.w->setActiveState(n, false);
-              target.wd->setActiveState(n, false);
-            } else {
-              w_data[n] = w;
-              wd_data[n] = wd;
-              target.w->setActiveState(n, true);
-              target.wd->setActiveState(n, true);
-            }
-          }
-          block.touched[word] = 0;
-        }
-      }
-    }
-  });
-  if (sign < 0) {
-    openvdb::tools::pruneInactive(weight);
-    openvdb::tools::pruneInactive(wsdf);
-  }
 }
 
 /// Interleaves the low 16 bits of x and y (Morton / Z order).
@@ -593,9 +379,13 @@ void castRays(const std::vector<RayBundle>& bundles, const Vec3d& origin_W, cons
     BlockAccumulator& acc = locals.local();
     for (std::size_t i = r.begin(); i != r.end(); ++i) castOne(bundles[i], origin_W, tsdf, acc);
   });
-  for (const BlockAccumulator& acc : locals) stats.voxel_updates += acc.updates;
-  applyBlocks(locals, weight_q.tree(), wsdf_q.tree(), sign);
-  for (BlockAccumulator& acc : locals) blockPool().release(acc.blocks);
+  std::vector<Block*> blocks;
+  for (const BlockAccumulator& acc : locals) {
+    stats.voxel_updates += acc.updates;
+    for (const auto& b : acc.blocks) blocks.push_back(b.get());
+  }
+  applyBlocks(blocks, weight_q.tree(), wsdf_q.tree(), sign);
+  for (BlockAccumulator& acc : locals) releaseBlocks(acc.blocks);
 }
 
 }  // namespace vdbmap::internal

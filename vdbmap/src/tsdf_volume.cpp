@@ -1,5 +1,6 @@
 #include "vdbmap/tsdf_volume.hpp"
 
+#include "internal/projective_integrator.hpp"
 #include "internal/ray_integrator.hpp"
 
 #include <openvdb/tools/Prune.h>
@@ -59,41 +60,37 @@ void TsdfVolume::setThreads(int threads) {
   integrator_ = c;
 }
 
-std::uint64_t TsdfVolume::fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const {
-  // A 64-bit hash of the raw bytes: four independent multiply-rotate lanes over 8-byte words
-  // (about 1 ns per point), then a splitmix64 finaliser. Equal inputs give equal fingerprints; a
-  // different point or pose changes it with overwhelming probability.
-  constexpr std::uint64_t kP1 = 0x9e3779b185ebca87ULL, kP2 = 0xc2b2ae3d27d4eb4fULL;
-  auto round = [](std::uint64_t acc, std::uint64_t w) {
-    acc += w * kP2;
-    acc = (acc << 31) | (acc >> 33);
-    return acc * kP1;
-  };
-  std::uint64_t lane[4] = {kP1 + kP2, kP2, 0, 0 - kP1};
-  const auto* bytes = reinterpret_cast<const unsigned char*>(points_S.data());
-  const std::size_t n = points_S.size() * sizeof(Vec3f);
+namespace {
+/// A 64-bit hash of raw bytes: four independent multiply-rotate lanes over 8-byte words (about
+/// 1 ns per point), chained onto `seed`. Equal inputs give equal hashes; a different byte changes
+/// it with overwhelming probability.
+constexpr std::uint64_t kP1 = 0x9e3779b185ebca87ULL, kP2 = 0xc2b2ae3d27d4eb4fULL;
+inline std::uint64_t hashRound(std::uint64_t acc, std::uint64_t w) {
+  acc += w * kP2;
+  acc = (acc << 31) | (acc >> 33);
+  return acc * kP1;
+}
+std::uint64_t hashBytes(std::uint64_t seed, const void* data, std::size_t n) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  std::uint64_t lane[4] = {seed + kP1 + kP2, seed + kP2, seed, seed - kP1};
   std::size_t i = 0;
   for (; i + 32 <= n; i += 32) {
     std::uint64_t w[4];
     std::memcpy(w, bytes + i, 32);
-    for (int k = 0; k < 4; ++k) lane[k] = round(lane[k], w[k]);
+    for (int k = 0; k < 4; ++k) lane[k] = hashRound(lane[k], w[k]);
   }
   std::uint64_t h = (lane[0] << 1 | lane[0] >> 63) + (lane[1] << 7 | lane[1] >> 57) + (lane[2] << 12 | lane[2] >> 52) +
                     (lane[3] << 18 | lane[3] >> 46) + n;
   for (; i + 8 <= n; i += 8) {
     std::uint64_t w;
     std::memcpy(&w, bytes + i, 8);
-    h = round(h, w);
+    h = hashRound(h, w);
   }
   std::uint64_t tail = 0;
   std::memcpy(&tail, bytes + i, n - i);
-  h = round(h, tail);
-  for (int k = 0; k < 16; ++k) {
-    std::uint64_t w;
-    const double v = T_W_S.matrix().data()[k];
-    std::memcpy(&w, &v, 8);
-    h = round(h, w);
-  }
+  return hashRound(h, tail);
+}
+std::uint64_t finish(std::uint64_t h) {  // splitmix64's finaliser
   h ^= h >> 30;
   h *= 0xbf58476d1ce4e5b9ULL;
   h ^= h >> 27;
@@ -101,44 +98,96 @@ std::uint64_t TsdfVolume::fingerprint(const PointCloud& points_S, const Pose3d& 
   h ^= h >> 31;
   return h;
 }
+}  // namespace
 
-void TsdfVolume::checkPose(FrameId id, const Pose3d& T_W_S) const {
-  if (!isValidRigidTransform(T_W_S))
-    throw FrameError("frame " + std::to_string(id) + ": T_W_S is not a rigid transform (NaN or non-orthonormal rotation)");
+std::uint64_t TsdfVolume::fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const {
+  const std::uint64_t h = hashBytes(0x706f696e7473ULL, points_S.data(), points_S.size() * sizeof(Vec3f));
+  return finish(hashBytes(h, T_W_S.matrix().data(), 16 * sizeof(double)));
 }
 
-IntegrationStats TsdfVolume::apply(const PointCloud& points_S, const Pose3d& T_W_S, std::int64_t sign) {
-  IntegrationStats stats;
-  auto work = [&] {
-    const std::vector<internal::RayBundle> bundles =
-        internal::bundleRays(points_S, T_W_S, config_, integrator_, stats);
-    internal::castRays(bundles, T_W_S.translation(), config_, *weight_q_, *wsdf_q_, sign, stats);
-  };
-  if (integrator_.threads > 0) {
-    tbb::task_arena arena(integrator_.threads);
+std::uint64_t TsdfVolume::fingerprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S) const {
+  std::uint64_t h = hashBytes(0x6465707468ULL, depth_m.depth_m.data(), depth_m.depth_m.size() * sizeof(float));
+  const double k[6] = {double(K.width), double(K.height), K.fx, K.fy, K.cx, K.cy};
+  h = hashBytes(h, k, sizeof(k));
+  return finish(hashBytes(h, T_W_S.matrix().data(), 16 * sizeof(double)));
+}
+
+namespace {
+/// Runs `work` in an arena of `threads` workers (0 = TBB's default).
+template <typename Fn>
+void inArena(int threads, Fn&& work) {
+  if (threads > 0) {
+    tbb::task_arena arena(threads);
     arena.execute(work);
   } else {
     work();
   }
+}
+}  // namespace
+
+IntegrationStats TsdfVolume::apply(const PointCloud& points_S, const Pose3d& T_W_S, std::int64_t sign) {
+  IntegrationStats stats;
+  inArena(integrator_.threads, [&] {
+    const std::vector<internal::RayBundle> bundles =
+        internal::bundleRays(points_S, T_W_S, config_, integrator_, stats);
+    internal::castRays(bundles, T_W_S.translation(), config_, *weight_q_, *wsdf_q_, sign, stats);
+  });
   return stats;
 }
 
-IntegrationStats TsdfVolume::integrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S) {
+IntegrationStats TsdfVolume::apply(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
+                                   std::int64_t sign) {
+  if (integrator_.ray_mode != RayMode::Projective) return apply(backProject(depth_m, K), T_W_S, sign);
+  IntegrationStats stats;
+  inArena(integrator_.threads, [&] {
+    internal::integrateProjective(depth_m, K, T_W_S, config_, integrator_, *weight_q_, *wsdf_q_, sign, stats);
+  });
+  return stats;
+}
+
+void TsdfVolume::checkNewFrame(FrameId id, const Pose3d& T_W_S) const {
   if (frames_.count(id)) throw FrameError("frame " + std::to_string(id) + " is already integrated");
-  checkPose(id, T_W_S);
+  if (!isValidRigidTransform(T_W_S))
+    throw FrameError("frame " + std::to_string(id) + ": T_W_S is not a rigid transform (NaN or non-orthonormal rotation)");
+}
+
+std::map<FrameId, TsdfVolume::FrameRecord>::iterator TsdfVolume::checkKnownFrame(FrameId id, std::uint64_t fingerprint,
+                                                                                 const char* what) {
+  const auto it = frames_.find(id);
+  if (it == frames_.end())
+    throw FrameError("frame " + std::to_string(id) + " cannot be de-integrated: it was never integrated");
+  if (it->second.fingerprint != fingerprint)
+    throw FrameError("frame " + std::to_string(id) + " cannot be de-integrated: its " + what +
+                     " or pose differ from those it was integrated with");
+  return it;
+}
+
+IntegrationStats TsdfVolume::integrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S) {
+  checkNewFrame(id, T_W_S);
   IntegrationStats stats = apply(points_S, T_W_S, +1);
   frames_[id] = FrameRecord{fingerprint(points_S, T_W_S), T_W_S};
   return stats;
 }
 
 IntegrationStats TsdfVolume::deintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S) {
-  const auto it = frames_.find(id);
-  if (it == frames_.end())
-    throw FrameError("frame " + std::to_string(id) + " cannot be de-integrated: it was never integrated");
-  if (it->second.fingerprint != fingerprint(points_S, T_W_S))
-    throw FrameError("frame " + std::to_string(id) +
-                     " cannot be de-integrated: its points or pose differ from those it was integrated with");
+  const auto it = checkKnownFrame(id, fingerprint(points_S, T_W_S), "points");
   IntegrationStats stats = apply(points_S, T_W_S, -1);
+  frames_.erase(it);
+  return stats;
+}
+
+IntegrationStats TsdfVolume::integrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
+                                       const Pose3d& T_W_S) {
+  checkNewFrame(id, T_W_S);
+  IntegrationStats stats = apply(depth_m, K, T_W_S, +1);
+  frames_[id] = FrameRecord{fingerprint(depth_m, K, T_W_S), T_W_S};
+  return stats;
+}
+
+IntegrationStats TsdfVolume::deintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
+                                         const Pose3d& T_W_S) {
+  const auto it = checkKnownFrame(id, fingerprint(depth_m, K, T_W_S), "depth image, intrinsics");
+  IntegrationStats stats = apply(depth_m, K, T_W_S, -1);
   frames_.erase(it);
   return stats;
 }

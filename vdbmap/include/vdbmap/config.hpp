@@ -16,15 +16,22 @@ enum class Weighting {
                   ///< linearly to 0
 };
 
-/// Whether rays that end in the same voxel are bundled into one (voxblox's "merged" integrator,
-/// the fast default) or every point casts its own ray (slow, the reference).
-enum class RayMode { Merged, PerRay };
+/// How a frame becomes voxel updates.
+///  - Projective (the default): depth images are integrated voxel by voxel, each voxel of the
+///    camera frustum projected into the image and updated once per frame by its pixel (as
+///    KinectFusion, Open3D and nvblox do); point clouds, which have no image, use Merged rays.
+///  - Merged: rays that end in the same voxel are bundled into one (voxblox's "merged"
+///    integrator); every voxel a bundle crosses is updated once per bundle.
+///  - PerRay: every point casts its own ray (slow, the reference).
+/// All three give the sdf of DESIGN section 4 along the rays; they differ in how often a voxel
+/// crossed by several rays is counted (its weight), and in speed.
+enum class RayMode { Merged, PerRay, Projective };
 
 const char* toString(Weighting w);
 const char* toString(RayMode m);
 /// Parses "constant" / "inverse_square"; throws std::invalid_argument listing the choices.
 Weighting parseWeighting(const std::string& text);
-/// Parses "merged" / "per_ray"; throws std::invalid_argument listing the choices.
+/// Parses "projective" / "merged" / "per_ray"; throws std::invalid_argument listing the choices.
 RayMode parseRayMode(const std::string& text);
 
 /// The map's geometry and the meaning of its values.
@@ -49,7 +56,7 @@ struct IntegratorConfig {
   double min_range_m = 0.1;  ///< points closer than this are invalid (skipped, counted); [0, max_range_m)
   /// Points beyond this carve free space up to it and add no surface; (min_range_m, 1000]
   double max_range_m = 5.0;
-  RayMode ray_mode = RayMode::Merged;
+  RayMode ray_mode = RayMode::Projective;
   /// Worker threads for integration; 0 = TBB's default (all cores). The map does not depend on it.
   int threads = 0;            ///< [0, 1024]
 

@@ -30,6 +30,13 @@ class EncodedFrame {
 
   /// The frame's points in the sensor frame, exactly as every other decode of this frame.
   PointCloud decode() const;
+  /// Whether the frame is a depth image (decodeDepth() works) rather than points.
+  bool isDepth() const { return kind_ == Kind::Depth && stride_ == 1; }
+  /// The depth image (metres, 0 = invalid), exactly as every other decode; its points are
+  /// decode()'s. Throws std::logic_error for point frames (see isDepth()).
+  DepthImage decodeDepth() const;
+  /// The camera of a depth frame (nullptr for points).
+  const std::shared_ptr<const CameraIntrinsics>& intrinsics() const { return intrinsics_; }
   /// Bytes held (compressed payload plus bookkeeping).
   std::size_t bytes() const { return sizeof(*this) + payload_.capacity(); }
   bool empty() const { return payload_.empty(); }

@@ -10,6 +10,7 @@
 // Voxel centres follow OpenVDB's convention: voxel (i, j, k) is centred at (i, j, k) * voxel_size.
 #pragma once
 
+#include "vdbmap/camera.hpp"
 #include "vdbmap/config.hpp"
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/types.hpp"
@@ -33,7 +34,7 @@ struct IntegrationStats {
   std::size_t points_total = 0;
   std::size_t points_invalid = 0;      ///< NaN, infinite, zero, or closer than min_range_m
   std::size_t points_beyond_range = 0; ///< beyond max_range_m: carved free space only
-  std::size_t rays_cast = 0;           ///< after bundling (Merged) or one per valid point (PerRay)
+  std::size_t rays_cast = 0;           ///< after bundling (Merged) or one per valid point (PerRay); 0 (Projective)
   std::size_t voxel_updates = 0;       ///< voxel visits summed over all rays
   openvdb::CoordBBox touched_voxels;   ///< index-space box around every voxel the rays touched
 };
@@ -75,6 +76,14 @@ class TsdfVolume {
   /// Removes exactly what integrate(id, points_S, T_W_S) added. Throws FrameError, changing
   /// nothing, when `id` was never integrated or was integrated with other points or pose.
   IntegrationStats deintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S);
+
+  /// Integrates a depth image (metres along the optical axis; 0 or NaN = invalid) seen with
+  /// intrinsics K from T_W_S: projectively with RayMode::Projective, else as its back-projected
+  /// points. Throws FrameError as integrate() does, std::invalid_argument when the image size
+  /// differs from K.
+  IntegrationStats integrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S);
+  /// Removes exactly what integrate(id, depth_m, K, T_W_S) added (same checks as above).
+  IntegrationStats deintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S);
 
   bool isIntegrated(FrameId id) const { return frames_.count(id) != 0; }
   std::size_t frameCount() const { return frames_.size(); }
@@ -134,8 +143,13 @@ class TsdfVolume {
     Pose3d T_W_S = Pose3d::Identity();
   };
   IntegrationStats apply(const PointCloud& points_S, const Pose3d& T_W_S, std::int64_t sign);
+  IntegrationStats apply(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, std::int64_t sign);
+  /// Throws FrameError unless `id` is new and T_W_S a rigid transform.
+  void checkNewFrame(FrameId id, const Pose3d& T_W_S) const;
+  /// Throws FrameError unless `id` is integrated with this fingerprint; returns its record.
+  std::map<FrameId, FrameRecord>::iterator checkKnownFrame(FrameId id, std::uint64_t fingerprint, const char* what);
   std::uint64_t fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const;
-  void checkPose(FrameId id, const Pose3d& T_W_S) const;
+  std::uint64_t fingerprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S) const;
 
   TsdfConfig config_;
   IntegratorConfig integrator_;

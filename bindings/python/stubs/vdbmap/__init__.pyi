@@ -57,7 +57,8 @@ class Weighting(_Enum):
     def __init__(self, name: str) -> None: ...
 
 class RayMode(_Enum):
-    """Whether rays ending in the same voxel are bundled."""
+    """How frames become voxel updates."""
+    Projective: ClassVar[RayMode]
     Merged: ClassVar[RayMode]
     PerRay: ClassVar[RayMode]
     @overload
@@ -319,6 +320,7 @@ class Keyframe:
     @property
     def bytes(self) -> int: ...
     def points_S(self) -> _F32: ...
+    def depth(self) -> Optional[_F32]: ...
 
 class Mapper:
     """One engine, four consistency modes: none, submap, all, keyframes."""

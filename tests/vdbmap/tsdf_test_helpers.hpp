@@ -1,0 +1,89 @@
+// Scenes, cameras and poses shared by the TSDF tests (analytic, seeded).
+#pragma once
+
+#include "vdbmap/camera.hpp"
+#include "vdbmap/mesh.hpp"
+#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/tsdf_volume.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+namespace vdbmap::test {
+
+using sim::AnalyticScene;
+using sim::lookingPose;
+
+/// A small camera keeps the tests fast; the geometry is the same as FUEL's camera, scaled.
+inline CameraIntrinsics smallCamera() {
+  CameraIntrinsics K;
+  K.width = 160;
+  K.height = 120;
+  K.fx = K.fy = 96.8;
+  K.cx = 79.5;
+  K.cy = 59.5;
+  return K;
+}
+
+inline PointCloud render(const AnalyticScene& scene, const Pose3d& T_W_S, const CameraIntrinsics& K = smallCamera(),
+                         double max_range_m = 5.0) {
+  return backProject(scene.renderDepth(K, T_W_S, max_range_m), K);
+}
+
+/// Random poses inside the demo room, looking around, with a fixed seed.
+inline std::vector<Pose3d> randomPoses(int n, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> x(-2.5, 2.5), y(-1.5, 1.5), z(0.8, 2.0), yaw(-M_PI, M_PI), pitch(-0.3, 0.5);
+  std::vector<Pose3d> poses;
+  for (int i = 0; i < n; ++i) poses.push_back(lookingPose({x(rng), y(rng), z(rng)}, yaw(rng), pitch(rng)));
+  return poses;
+}
+
+/// Depth images of the demo room with seeded depth noise, an invalid pixel and some pixels beyond
+/// 5 m (the room's far corners), seen with smallCamera().
+inline std::vector<DepthImage> randomDepthImages(const std::vector<Pose3d>& poses, std::uint32_t seed) {
+  const AnalyticScene scene = AnalyticScene::demoRoom();
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  std::vector<DepthImage> images;
+  for (const Pose3d& T : poses) {
+    DepthImage depth = scene.renderDepth(smallCamera(), T, 10.0);
+    for (float& d : depth.depth_m)
+      if (d > 0.0f) d += noise(rng);
+    depth.at(3, 4) = std::numeric_limits<float>::quiet_NaN();
+    images.push_back(std::move(depth));
+  }
+  return images;
+}
+
+/// The same frames as points in the sensor frame.
+inline std::vector<PointCloud> randomFrames(const std::vector<Pose3d>& poses, std::uint32_t seed) {
+  std::vector<PointCloud> frames;
+  for (const DepthImage& depth : randomDepthImages(poses, seed)) frames.push_back(backProject(depth, smallCamera()));
+  return frames;
+}
+
+inline TsdfConfig config(double voxel_size_m, Weighting weighting = Weighting::InverseSquare) {
+  TsdfConfig c;
+  c.voxel_size_m = voxel_size_m;
+  c.weighting = weighting;
+  return c;
+}
+
+/// Root mean square distance of the mesh's vertices to the analytic surfaces.
+inline double meshRmse(const TriangleMesh& mesh, const AnalyticScene& scene) {
+  REQUIRE(mesh.vertices.size() > 100);
+  double sum = 0.0;
+  for (const Vec3f& v : mesh.vertices) {
+    const double d = scene.distance(v.cast<double>());
+    sum += d * d;
+  }
+  return std::sqrt(sum / double(mesh.vertices.size()));
+}
+
+
+}  // namespace vdbmap::test

@@ -1,0 +1,33 @@
+// Projective integration of a depth image (private to the library): voxel by voxel instead of
+// ray by ray, as KinectFusion, Open3D and nvblox do.
+//
+// Every voxel of the camera frustum is projected into the image; the pixel it falls in (nearest
+// pixel centre) gives the range R of the surface along that pixel's ray, and the voxel gets the
+// update of a ray of that pixel's weight at signed distance sdf = R - |CV| (C the camera centre,
+// V the voxel centre): the same value the ray integrator gives the voxels along a ray (DESIGN
+// section 4), but each voxel is updated once per frame instead of once per ray that crosses it,
+// so the cost grows with the frustum's volume, not with the rays' summed lengths. Pixels beyond
+// max range carve free space up to it and add no surface; invalid pixels add nothing.
+//
+// Candidate voxels are whole leaves (8^3): the leaves that coarse rays through tiles of the image
+// cross (each tile's ray going as far as the tile's farthest valid pixel + truncation), dilated by
+// one leaf so that no voxel of the frustum is missed, then culled against the frustum. Each leaf is
+// computed by one task into its own block, and the blocks are applied exactly (integer sums), so
+// the result is independent of thread count and integration then de-integration is the identity.
+#pragma once
+
+#include "vdbmap/camera.hpp"
+#include "vdbmap/config.hpp"
+#include "vdbmap/openvdb.hpp"
+#include "vdbmap/tsdf_volume.hpp"
+#include "vdbmap/types.hpp"
+
+namespace vdbmap::internal {
+
+/// Adds sign * (the image's updates) into W and WD. Throws std::invalid_argument when the image
+/// size differs from the intrinsics.
+void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
+                         const TsdfConfig& tsdf, const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q,
+                         openvdb::Int64Grid& wsdf_q, std::int64_t sign, IntegrationStats& stats);
+
+}  // namespace vdbmap::internal

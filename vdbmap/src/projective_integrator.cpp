@@ -1,0 +1,303 @@
+#include "internal/projective_integrator.hpp"
+
+#include "internal/voxel_blocks.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+
+namespace vdbmap::internal {
+namespace {
+
+/// floor(x) as an int without the libm call (|x| < 2^31).
+inline int fastFloor(double x) {
+  const int i = int(x);
+  return i - int(x < double(i));
+}
+
+/// What each pixel contributes: the range of its surface along its ray (or max range for pixels
+/// beyond it, which only carve free space) and its fixed-point weight (0: invalid pixel). One
+/// 16-byte record per pixel, so a voxel's lookup touches one cache line.
+struct PixelRay {
+  std::int64_t weight_q = 0;
+  float range_m = 0.0f;
+  std::uint32_t surface = 0;
+};
+
+struct PixelTable {
+  int width = 0, height = 0;
+  std::vector<PixelRay> rays;
+  double max_range_m = 0.0;  // largest range of a valid pixel
+};
+
+/// |(x/z, y/z, 1)| of every pixel's ray: range = depth * norm. Cached for the last camera, since a
+/// log or a flight keeps one camera.
+std::shared_ptr<const std::vector<float>> rayNorms(const CameraIntrinsics& K) {
+  static std::mutex mutex;
+  static CameraIntrinsics cached_K;
+  static std::shared_ptr<const std::vector<float>> cached;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (cached && cached_K.width == K.width && cached_K.height == K.height && cached_K.fx == K.fx &&
+      cached_K.fy == K.fy && cached_K.cx == K.cx && cached_K.cy == K.cy)
+    return cached;
+  auto norms = std::make_shared<std::vector<float>>(std::size_t(K.width) * std::size_t(K.height));
+  for (int v = 0; v < K.height; ++v) {
+    const double dy = (v - K.cy) / K.fy;
+    for (int u = 0; u < K.width; ++u) {
+      const double dx = (u - K.cx) / K.fx;
+      (*norms)[std::size_t(v) * std::size_t(K.width) + std::size_t(u)] = float(std::sqrt(dx * dx + dy * dy + 1.0));
+    }
+  }
+  cached_K = K;
+  cached = norms;
+  return cached;
+}
+
+PixelTable classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, const TsdfConfig& tsdf,
+                          const IntegratorConfig& in, IntegrationStats& stats) {
+  PixelTable t;
+  t.width = depth.width;
+  t.height = depth.height;
+  const std::size_t n = std::size_t(depth.width) * std::size_t(depth.height);
+  t.rays.assign(n, PixelRay{});
+  const std::shared_ptr<const std::vector<float>> norms = rayNorms(K);
+  std::vector<std::size_t> invalid(std::size_t(depth.height), 0), beyond(std::size_t(depth.height), 0);
+  std::vector<double> row_max(std::size_t(depth.height), 0.0);
+  const bool constant = tsdf.weighting == Weighting::Constant;
+  tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
+    for (int v = rows.begin(); v != rows.end(); ++v) {
+      std::size_t bad = 0, far = 0;
+      double far_most = 0.0;
+      for (int u = 0; u < depth.width; ++u) {
+        const std::size_t i = std::size_t(v) * std::size_t(depth.width) + std::size_t(u);
+        const double z = depth.depth_m[i];
+        const double range = z * double((*norms)[i]);
+        if (!(z > 0.0) || !std::isfinite(z) || range < in.min_range_m) {
+          ++bad;
+          continue;
+        }
+        PixelRay& ray = t.rays[i];
+        double r = range, z_eff = z;
+        if (range > in.max_range_m) {  // carve free space up to max range, add no surface
+          ++far;
+          r = in.max_range_m;
+          z_eff = z * in.max_range_m / range;
+        } else {
+          ray.surface = 1;
+        }
+        ray.range_m = float(r);
+        ray.weight_q = constant ? kWeightScale : roundToInt64(double(kWeightScale) / (z_eff * z_eff));
+        far_most = std::max(far_most, double(ray.range_m));
+      }
+      invalid[std::size_t(v)] = bad;
+      beyond[std::size_t(v)] = far;
+      row_max[std::size_t(v)] = far_most;
+    }
+  });
+  stats.points_total += n;
+  for (int v = 0; v < depth.height; ++v) {
+    stats.points_invalid += invalid[std::size_t(v)];
+    stats.points_beyond_range += beyond[std::size_t(v)];
+    t.max_range_m = std::max(t.max_range_m, row_max[std::size_t(v)]);
+  }
+  return t;
+}
+
+/// The leaves (8^3 voxels) that may hold voxels of the frustum: those crossed by a coarse ray
+/// through each image tile, out to the tile's farthest range + truncation, dilated by one leaf.
+/// Tiles are as wide as a leaf appears at max range, so neighbouring tile rays are less than a
+/// leaf apart everywhere and the dilation covers the space between them.
+std::vector<openvdb::Coord> candidateLeaves(const PixelTable& px, const CameraIntrinsics& K, const Pose3d& T_W_S,
+                                            const TsdfConfig& tsdf) {
+  const double vs = tsdf.voxel_size_m, leaf_m = 8.0 * vs, delta = tsdf.truncation_m();
+  const double f = std::min(std::abs(K.fx), std::abs(K.fy));
+  const int tile = std::clamp(int(std::floor(leaf_m * f / std::max(px.max_range_m, 1e-3))), 1, 32);
+  const Vec3d origin = T_W_S.translation();
+  const Vec3d q0 = (origin / vs + Vec3d::Constant(0.5)) / 8.0;  // leaf space: leaf L spans [L, L + 1)
+
+  KeyIndex index(1024);
+  std::vector<openvdb::Coord> marked;
+  auto mark = [&](const openvdb::Coord& leaf) {
+    const openvdb::Coord origin_ijk(leaf.x() * 8, leaf.y() * 8, leaf.z() * 8);
+    bool inserted = false;
+    index.findOrInsert(blockKey(origin_ijk), inserted);
+    if (inserted) marked.push_back(origin_ijk);
+  };
+  for (int v0 = 0; v0 < px.height; v0 += tile) {
+    for (int u0 = 0; u0 < px.width; u0 += tile) {
+      const int u1 = std::min(px.width, u0 + tile), v1 = std::min(px.height, v0 + tile);
+      double reach = -1.0;
+      for (int v = v0; v < v1; ++v)
+        for (int u = u0; u < u1; ++u) {
+          const PixelRay& ray = px.rays[std::size_t(v) * std::size_t(px.width) + std::size_t(u)];
+          if (ray.weight_q > 0) reach = std::max(reach, double(ray.range_m));
+        }
+      if (reach < 0.0) continue;
+      reach += delta;
+      const double uc = 0.5 * (u0 + u1 - 1), vc = 0.5 * (v0 + v1 - 1);
+      const Vec3d dir = (T_W_S.linear() * Vec3d((uc - K.cx) / K.fx, (vc - K.cy) / K.fy, 1.0)).normalized();
+      // 3D DDA over leaves (Amanatides & Woo) from the camera to `reach`.
+      int L[3], step[3];
+      double t_max[3], t_delta[3];
+      for (int a = 0; a < 3; ++a) {
+        L[a] = int(std::floor(q0[a]));
+        const double g = dir[a] / leaf_m;  // leaf units per metre
+        if (g > 0.0) {
+          step[a] = 1;
+          t_max[a] = (L[a] + 1 - q0[a]) / g;
+          t_delta[a] = 1.0 / g;
+        } else if (g < 0.0) {
+          step[a] = -1;
+          t_max[a] = (L[a] - q0[a]) / g;
+          t_delta[a] = -1.0 / g;
+        } else {
+          step[a] = 0;
+          t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
+        }
+      }
+      while (true) {
+        mark(openvdb::Coord(L[0], L[1], L[2]));
+        int a = t_max[1] < t_max[0] ? 1 : 0;
+        a = t_max[2] < t_max[a] ? 2 : a;
+        if (t_max[a] > reach) break;
+        L[a] += step[a];
+        t_max[a] += t_delta[a];
+      }
+    }
+  }
+  std::vector<openvdb::Coord> leaves = marked;
+  for (const openvdb::Coord& c : marked)
+    for (int dx = -8; dx <= 8; dx += 8)
+      for (int dy = -8; dy <= 8; dy += 8)
+        for (int dz = -8; dz <= 8; dz += 8) {
+          const openvdb::Coord n = c.offsetBy(dx, dy, dz);
+          bool inserted = false;
+          index.findOrInsert(blockKey(n), inserted);
+          if (inserted) leaves.push_back(n);
+        }
+  return leaves;
+}
+
+/// A leaf's box in the sensor frame, to cull leaves outside the frustum before testing voxels.
+class FrustumCull {
+ public:
+  FrustumCull(const CameraIntrinsics& K, const Pose3d& T_W_S, double voxel_size_m, double reach_m)
+      : K_(K), T_S_W_(T_W_S.inverse()), vs_(voxel_size_m), reach_(reach_m) {}
+
+  /// True when no voxel of the leaf at `origin` can be in the frustum within reach.
+  bool outside(const openvdb::Coord& origin) const {
+    std::array<Vec3d, 8> c;
+    for (int k = 0; k < 8; ++k) {
+      const Vec3d corner_W((origin.x() - 0.5 + 8.0 * (k & 1)) * vs_, (origin.y() - 0.5 + 8.0 * ((k >> 1) & 1)) * vs_,
+                           (origin.z() - 0.5 + 8.0 * ((k >> 2) & 1)) * vs_);
+      c[std::size_t(k)] = T_S_W_ * corner_W;
+    }
+    // Behind the camera, or entirely beyond reach (the box's nearest point).
+    if (std::all_of(c.begin(), c.end(), [](const Vec3d& p) { return p.z() <= 0.0; })) return true;
+    Vec3d lo = c[0], hi = c[0];
+    for (const Vec3d& p : c) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    const Vec3d nearest = Vec3d::Zero().cwiseMax(lo).cwiseMin(hi);
+    if (nearest.norm() > reach_) return true;
+    if (std::any_of(c.begin(), c.end(), [](const Vec3d& p) { return p.z() <= 0.0; })) return false;
+    // The four side planes through the camera centre: u in [-0.5, W - 0.5], v in [-0.5, H - 0.5].
+    auto allOutside = [&](auto signedSide) {
+      return std::all_of(c.begin(), c.end(), [&](const Vec3d& p) { return signedSide(p) < 0.0; });
+    };
+    if (allOutside([&](const Vec3d& p) { return K_.fx * p.x() + (K_.cx + 0.5) * p.z(); })) return true;
+    if (allOutside([&](const Vec3d& p) { return -(K_.fx * p.x() + (K_.cx - K_.width + 0.5) * p.z()); })) return true;
+    if (allOutside([&](const Vec3d& p) { return K_.fy * p.y() + (K_.cy + 0.5) * p.z(); })) return true;
+    if (allOutside([&](const Vec3d& p) { return -(K_.fy * p.y() + (K_.cy - K_.height + 0.5) * p.z()); })) return true;
+    return false;
+  }
+
+ private:
+  CameraIntrinsics K_;
+  Pose3d T_S_W_;
+  double vs_, reach_;
+};
+
+/// Tests the 512 voxels of one leaf against the image and writes their updates into `block`.
+std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3d& A, const Vec3d& b,
+                          const SdfUpdate& update, Block& block) {
+  std::size_t updates = 0;
+  const double delta = update.truncation();
+  const double u_max = px.width - 0.5, v_max = px.height - 0.5;
+  for (int i = 0; i < 8; ++i) {
+    for (int j = 0; j < 8; ++j) {
+      Vec3d p = A.col(0) * i + A.col(1) * j + b;  // voxel (i, j, 0) of the leaf in the sensor frame
+      openvdb::Index n = openvdb::Index(i * 64 + j * 8);
+      for (int k = 0; k < 8; ++k, ++n, p += A.col(2)) {
+        if (!(p.z() > 0.0)) continue;
+        const double inv_z = 1.0 / p.z();
+        const double uf = K.fx * p.x() * inv_z + K.cx, vf = K.fy * p.y() * inv_z + K.cy;
+        if (!(uf >= -0.5 && uf < u_max && vf >= -0.5 && vf < v_max)) continue;
+        const std::size_t pixel = std::size_t(fastFloor(vf + 0.5)) * std::size_t(px.width) + std::size_t(fastFloor(uf + 0.5));
+        const PixelRay& ray = px.rays[pixel];
+        if (ray.weight_q == 0) continue;
+        const double sdf = double(ray.range_m) - p.norm();
+        if (ray.surface) {
+          updates += update.apply(block, n, sdf, ray.weight_q) ? 1 : 0;
+        } else if (sdf >= delta) {  // beyond max range: free space only
+          block.addFree(n, ray.weight_q);
+          ++updates;
+        }
+      }
+    }
+  }
+  return updates;
+}
+
+}  // namespace
+
+void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
+                         const TsdfConfig& tsdf, const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q,
+                         openvdb::Int64Grid& wsdf_q, std::int64_t sign, IntegrationStats& stats) {
+  K.validate();
+  if (depth_m.width != K.width || depth_m.height != K.height ||
+      depth_m.depth_m.size() != std::size_t(K.width) * std::size_t(K.height))
+    throw std::invalid_argument("depth image is " + std::to_string(depth_m.width) + "x" +
+                                std::to_string(depth_m.height) + " but the camera is " + std::to_string(K.width) + "x" +
+                                std::to_string(K.height));
+  const PixelTable px = classifyPixels(depth_m, K, tsdf, integrator, stats);
+  if (px.max_range_m <= 0.0) return;  // no valid pixel
+  const std::vector<openvdb::Coord> leaves = candidateLeaves(px, K, T_W_S, tsdf);
+  const FrustumCull cull(K, T_W_S, tsdf.voxel_size_m, px.max_range_m + tsdf.truncation_m());
+  const SdfUpdate update(tsdf);
+  const double vs = tsdf.voxel_size_m;
+  const Eigen::Matrix3d R_S_W = T_W_S.linear().transpose();
+  const Eigen::Matrix3d A = R_S_W * vs;  // sensor-frame step per voxel index
+
+  std::vector<std::unique_ptr<Block>> blocks(leaves.size());
+  std::vector<std::size_t> updates(leaves.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 4), [&](const auto& r) {
+    for (std::size_t l = r.begin(); l != r.end(); ++l) {
+      const openvdb::Coord& origin = leaves[l];
+      if (cull.outside(origin)) continue;
+      const Vec3d b = R_S_W * (Vec3d(origin.x(), origin.y(), origin.z()) * vs - T_W_S.translation());
+      blocks[l] = acquireBlock(origin);
+      updates[l] = integrateLeaf(px, K, A, b, update, *blocks[l]);
+    }
+  });
+
+  std::vector<Block*> touched;
+  for (std::size_t l = 0; l < leaves.size(); ++l) {
+    if (!blocks[l] || updates[l] == 0) continue;
+    touched.push_back(blocks[l].get());
+    stats.voxel_updates += updates[l];
+    stats.touched_voxels.expand(openvdb::CoordBBox::createCube(leaves[l], 8));
+  }
+  applyBlocks(touched, weight_q.tree(), wsdf_q.tree(), sign);
+  releaseBlocks(blocks);
+}
+
+}  // namespace vdbmap::internal
