@@ -155,3 +155,37 @@ TEST_CASE("projective and ray integration agree on what is known and on the surf
   CHECK(double(common) / std::max(known_pixel, known_ray) > 0.9);
   CHECK(double(same_state) / double(common) > 0.98);
 }
+
+TEST_CASE("reintegrate moves a frame exactly as de-integrating and integrating it would", "[tsdf][reintegration]") {
+  const auto poses = randomPoses(3, 71);
+  const auto images = randomDepthImages(poses, 72);
+  const Pose3d moved = Eigen::Translation3d(0.12, -0.07, 0.03) * poses[1] * Eigen::AngleAxisd(0.05, Vec3d::UnitY());
+  IntegratorConfig merged;
+  merged.ray_mode = RayMode::Merged;
+  for (const IntegratorConfig& in : {projective(), merged}) {
+    INFO("ray mode " << toString(in.ray_mode));
+    TsdfVolume one_pass(config(0.05), in), two_steps(config(0.05), in), fresh(config(0.05), in);
+    for (int i : {0, 1, 2}) {
+      one_pass.integrate(i, images[i], smallCamera(), poses[i]);
+      two_steps.integrate(i, images[i], smallCamera(), poses[i]);
+      fresh.integrate(i, images[i], smallCamera(), i == 1 ? moved : poses[i]);
+    }
+    const IntegrationStats stats = one_pass.reintegrate(1, images[1], smallCamera(), poses[1], moved);
+    CHECK(stats.voxel_updates > 0);
+    two_steps.deintegrate(1, images[1], smallCamera(), poses[1]);
+    two_steps.integrate(1, images[1], smallCamera(), moved);
+    CHECK(one_pass.exactlyEquals(two_steps));
+    CHECK(one_pass.exactlyEquals(fresh));
+    CHECK(one_pass.integratedPoses().at(1).isApprox(moved));
+    // The frame now sits at `moved`: moving it from its old pose again is refused, changing nothing.
+    CHECK_THROWS_AS(one_pass.reintegrate(1, images[1], smallCamera(), poses[1], moved), FrameError);
+    CHECK(one_pass.exactlyEquals(fresh));
+    // Points: the same contract.
+    const PointCloud points = backProject(images[0], smallCamera());
+    TsdfVolume a(config(0.05), merged), b(config(0.05), merged);
+    a.integrate(0, points, poses[0]);
+    a.reintegrate(0, points, poses[0], moved);
+    b.integrate(0, points, moved);
+    CHECK(a.exactlyEquals(b));
+  }
+}

@@ -219,11 +219,12 @@ std::size_t Mapper::updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) {
 }
 
 void Mapper::reintegrateFrame(Keyframe& kf) {
-  const IntegrationStats out = applyFrame(volume_, kf.id, kf.data, kf.T_W_S_integrated, false);
-  const IntegrationStats in = applyFrame(volume_, kf.id, kf.data, kf.T_W_S_latest, true);
+  const IntegrationStats s =
+      kf.data.isDepth()
+          ? volume_.reintegrate(kf.id, kf.data.decodeDepth(), *kf.data.intrinsics(), kf.T_W_S_integrated, kf.T_W_S_latest)
+          : volume_.reintegrate(kf.id, kf.data.decode(), kf.T_W_S_integrated, kf.T_W_S_latest);
   kf.T_W_S_integrated = kf.T_W_S_latest;
-  markDirty(out.touched_voxels);
-  markDirty(in.touched_voxels);
+  markDirty(s.touched_voxels);
   ++stats_.reintegrated_frames;
 }
 
@@ -244,11 +245,16 @@ CycleReport Mapper::reintegrate(const Vec3d& robot_W) {
   }
   std::sort(order.begin(), order.end());
   for (const auto& entry : order) {
+    // Stop before a frame that would likely overrun the budget (by the recent cost per frame);
+    // the first frame always goes, so progress never stops.
+    const double elapsed_ms = msSince(t0);
+    if (report.frames > 0 && elapsed_ms + frame_ms_estimate_ > config_.reintegration.budget_ms) break;
     reintegrateFrame(store_.at(entry.second));
     queue_.erase(entry.second);
     ++report.frames;
+    const double frame_ms = msSince(t0) - elapsed_ms;
+    frame_ms_estimate_ = frame_ms_estimate_ > 0.0 ? 0.8 * frame_ms_estimate_ + 0.2 * frame_ms : frame_ms;
     if (config_.reintegration.budget_frames > 0 && int(report.frames) >= config_.reintegration.budget_frames) break;
-    if (msSince(t0) >= config_.reintegration.budget_ms) break;
   }
   report.ms = msSince(t0);
   report.queued_left = queue_.size();

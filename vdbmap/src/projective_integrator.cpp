@@ -114,21 +114,23 @@ PixelTable classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, co
 /// through each image tile, out to the tile's farthest range + truncation, dilated by one leaf.
 /// Tiles are as wide as a leaf appears at max range, so neighbouring tile rays are less than a
 /// leaf apart everywhere and the dilation covers the space between them.
-std::vector<openvdb::Coord> candidateLeaves(const PixelTable& px, const CameraIntrinsics& K, const Pose3d& T_W_S,
-                                            const TsdfConfig& tsdf) {
+void candidateLeaves(const PixelTable& px, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+                     KeyIndex& index, std::vector<openvdb::Coord>& leaves) {
   const double vs = tsdf.voxel_size_m, leaf_m = 8.0 * vs, delta = tsdf.truncation_m();
   const double f = std::min(std::abs(K.fx), std::abs(K.fy));
   const int tile = std::clamp(int(std::floor(leaf_m * f / std::max(px.max_range_m, 1e-3))), 1, 32);
   const Vec3d origin = T_W_S.translation();
   const Vec3d q0 = (origin / vs + Vec3d::Constant(0.5)) / 8.0;  // leaf space: leaf L spans [L, L + 1)
 
-  KeyIndex index(1024);
   std::vector<openvdb::Coord> marked;
   auto mark = [&](const openvdb::Coord& leaf) {
     const openvdb::Coord origin_ijk(leaf.x() * 8, leaf.y() * 8, leaf.z() * 8);
     bool inserted = false;
     index.findOrInsert(blockKey(origin_ijk), inserted);
-    if (inserted) marked.push_back(origin_ijk);
+    if (inserted) {
+      marked.push_back(origin_ijk);
+      leaves.push_back(origin_ijk);
+    }
   };
   for (int v0 = 0; v0 < px.height; v0 += tile) {
     for (int u0 = 0; u0 < px.width; u0 += tile) {
@@ -172,7 +174,6 @@ std::vector<openvdb::Coord> candidateLeaves(const PixelTable& px, const CameraIn
       }
     }
   }
-  std::vector<openvdb::Coord> leaves = marked;
   for (const openvdb::Coord& c : marked)
     for (int dx = -8; dx <= 8; dx += 8)
       for (int dy = -8; dy <= 8; dy += 8)
@@ -182,7 +183,6 @@ std::vector<openvdb::Coord> candidateLeaves(const PixelTable& px, const CameraIn
           index.findOrInsert(blockKey(n), inserted);
           if (inserted) leaves.push_back(n);
         }
-  return leaves;
 }
 
 /// A leaf's box in the sensor frame, to cull leaves outside the frustum before testing voxels.
@@ -228,7 +228,7 @@ class FrustumCull {
 
 /// Tests the 512 voxels of one leaf against the image and writes their updates into `block`.
 std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3d& A, const Vec3d& b,
-                          const SdfUpdate& update, Block& block) {
+                          const SdfUpdate& update, std::int64_t sign, Block& block) {
   std::size_t updates = 0;
   const double delta = update.truncation();
   const double u_max = px.width - 0.5, v_max = px.height - 0.5;
@@ -246,9 +246,9 @@ std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const
         if (ray.weight_q == 0) continue;
         const double sdf = double(ray.range_m) - p.norm();
         if (ray.surface) {
-          updates += update.apply(block, n, sdf, ray.weight_q) ? 1 : 0;
+          updates += update.apply(block, n, sdf, ray.weight_q, sign) ? 1 : 0;
         } else if (sdf >= delta) {  // beyond max range: free space only
-          block.addFree(n, ray.weight_q);
+          block.addFree(n, sign * ray.weight_q);
           ++updates;
         }
       }
@@ -259,9 +259,10 @@ std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const
 
 }  // namespace
 
-void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
-                         const TsdfConfig& tsdf, const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q,
-                         openvdb::Int64Grid& wsdf_q, std::int64_t sign, IntegrationStats& stats) {
+void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
+                         const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
+                         const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
+                         IntegrationStats& stats) {
   K.validate();
   if (depth_m.width != K.width || depth_m.height != K.height ||
       depth_m.depth_m.size() != std::size_t(K.width) * std::size_t(K.height))
@@ -269,23 +270,37 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K, c
                                 std::to_string(depth_m.height) + " but the camera is " + std::to_string(K.width) + "x" +
                                 std::to_string(K.height));
   const PixelTable px = classifyPixels(depth_m, K, tsdf, integrator, stats);
-  if (px.max_range_m <= 0.0) return;  // no valid pixel
-  const std::vector<openvdb::Coord> leaves = candidateLeaves(px, K, T_W_S, tsdf);
-  const FrustumCull cull(K, T_W_S, tsdf.voxel_size_m, px.max_range_m + tsdf.truncation_m());
-  const SdfUpdate update(tsdf);
+  if (px.max_range_m <= 0.0 || placements.empty()) return;  // no valid pixel
+  KeyIndex index(4096);
+  std::vector<openvdb::Coord> leaves;
+  for (const ImagePlacement& p : placements) candidateLeaves(px, K, p.T_W_S, tsdf, index, leaves);
+
+  struct Placement {
+    FrustumCull cull;
+    Eigen::Matrix3d R_S_W, A;  // A: sensor-frame step per voxel index
+    Vec3d t_W;
+    std::int64_t sign;
+  };
+  std::vector<Placement> views;
   const double vs = tsdf.voxel_size_m;
-  const Eigen::Matrix3d R_S_W = T_W_S.linear().transpose();
-  const Eigen::Matrix3d A = R_S_W * vs;  // sensor-frame step per voxel index
+  for (const ImagePlacement& p : placements) {
+    const Eigen::Matrix3d R_S_W = p.T_W_S.linear().transpose();
+    views.push_back({FrustumCull(K, p.T_W_S, vs, px.max_range_m + tsdf.truncation_m()), R_S_W, R_S_W * vs,
+                     p.T_W_S.translation(), p.sign});
+  }
+  const SdfUpdate update(tsdf);
 
   std::vector<std::unique_ptr<Block>> blocks(leaves.size());
   std::vector<std::size_t> updates(leaves.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 4), [&](const auto& r) {
     for (std::size_t l = r.begin(); l != r.end(); ++l) {
       const openvdb::Coord& origin = leaves[l];
-      if (cull.outside(origin)) continue;
-      const Vec3d b = R_S_W * (Vec3d(origin.x(), origin.y(), origin.z()) * vs - T_W_S.translation());
-      blocks[l] = acquireBlock(origin);
-      updates[l] = integrateLeaf(px, K, A, b, update, *blocks[l]);
+      for (const Placement& view : views) {
+        if (view.cull.outside(origin)) continue;
+        if (!blocks[l]) blocks[l] = acquireBlock(origin);
+        const Vec3d b = view.R_S_W * (Vec3d(origin.x(), origin.y(), origin.z()) * vs - view.t_W);
+        updates[l] += integrateLeaf(px, K, view.A, b, update, view.sign, *blocks[l]);
+      }
     }
   });
 
@@ -296,7 +311,7 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K, c
     stats.voxel_updates += updates[l];
     stats.touched_voxels.expand(openvdb::CoordBBox::createCube(leaves[l], 8));
   }
-  applyBlocks(touched, weight_q.tree(), wsdf_q.tree(), sign);
+  applyBlocks(touched, weight_q.tree(), wsdf_q.tree(), +1);
   releaseBlocks(blocks);
 }
 

@@ -140,7 +140,7 @@ IntegrationStats TsdfVolume::apply(const DepthImage& depth_m, const CameraIntrin
   if (integrator_.ray_mode != RayMode::Projective) return apply(backProject(depth_m, K), T_W_S, sign);
   IntegrationStats stats;
   inArena(integrator_.threads, [&] {
-    internal::integrateProjective(depth_m, K, T_W_S, config_, integrator_, *weight_q_, *wsdf_q_, sign, stats);
+    internal::integrateProjective(depth_m, K, {{T_W_S, sign}}, config_, integrator_, *weight_q_, *wsdf_q_, stats);
   });
   return stats;
 }
@@ -189,6 +189,40 @@ IntegrationStats TsdfVolume::deintegrate(FrameId id, const DepthImage& depth_m, 
   const auto it = checkKnownFrame(id, fingerprint(depth_m, K, T_W_S), "depth image, intrinsics");
   IntegrationStats stats = apply(depth_m, K, T_W_S, -1);
   frames_.erase(it);
+  return stats;
+}
+
+IntegrationStats TsdfVolume::reintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S_old,
+                                         const Pose3d& T_W_S_new) {
+  const auto it = checkKnownFrame(id, fingerprint(points_S, T_W_S_old), "points");
+  if (!isValidRigidTransform(T_W_S_new))
+    throw FrameError("frame " + std::to_string(id) + ": the new T_W_S is not a rigid transform");
+  IntegrationStats stats = apply(points_S, T_W_S_old, -1);
+  const IntegrationStats in = apply(points_S, T_W_S_new, +1);
+  stats.voxel_updates += in.voxel_updates;
+  stats.touched_voxels.expand(in.touched_voxels);
+  it->second = FrameRecord{fingerprint(points_S, T_W_S_new), T_W_S_new};
+  return stats;
+}
+
+IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
+                                         const Pose3d& T_W_S_old, const Pose3d& T_W_S_new) {
+  const auto it = checkKnownFrame(id, fingerprint(depth_m, K, T_W_S_old), "depth image, intrinsics");
+  if (!isValidRigidTransform(T_W_S_new))
+    throw FrameError("frame " + std::to_string(id) + ": the new T_W_S is not a rigid transform");
+  IntegrationStats stats;
+  if (integrator_.ray_mode == RayMode::Projective) {
+    inArena(integrator_.threads, [&] {
+      internal::integrateProjective(depth_m, K, {{T_W_S_old, -1}, {T_W_S_new, +1}}, config_, integrator_,
+                                    *weight_q_, *wsdf_q_, stats);
+    });
+  } else {
+    stats = apply(depth_m, K, T_W_S_old, -1);
+    const IntegrationStats in = apply(depth_m, K, T_W_S_new, +1);
+    stats.voxel_updates += in.voxel_updates;
+    stats.touched_voxels.expand(in.touched_voxels);
+  }
+  it->second = FrameRecord{fingerprint(depth_m, K, T_W_S_new), T_W_S_new};
   return stats;
 }
 

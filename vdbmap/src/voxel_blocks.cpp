@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <mutex>
 
@@ -109,7 +110,9 @@ void applyBlocks(const std::vector<Block*>& blocks, openvdb::Int64Tree& weight, 
     i = j;
   }
 
+  std::atomic<bool> removed{false};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, targets.size(), 16), [&](const auto& r) {
+    bool removed_here = false;
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
       const Target& target = targets[t];
       std::int64_t* w_data = target.w->buffer().data();
@@ -132,6 +135,7 @@ void applyBlocks(const std::vector<Block*>& blocks, openvdb::Int64Tree& weight, 
               wd_data[n] = 0;
               target.w->setActiveState(n, false);
               target.wd->setActiveState(n, false);
+              removed_here = true;
             } else {
               w_data[n] = w;
               wd_data[n] = wd;
@@ -143,8 +147,9 @@ void applyBlocks(const std::vector<Block*>& blocks, openvdb::Int64Tree& weight, 
         }
       }
     }
+    if (removed_here) removed = true;
   });
-  if (sign < 0) {
+  if (removed) {
     openvdb::tools::pruneInactive(weight);
     openvdb::tools::pruneInactive(wsdf);
   }

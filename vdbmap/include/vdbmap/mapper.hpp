@@ -36,7 +36,8 @@ ConsistencyMode parseConsistencyMode(const std::string& text);
 struct ReintegrationConfig {
   double gate_translation_m = 0.01;  ///< a pose change below both gates is ignored; [0, 1e3]
   double gate_rotation_deg = 0.5;    ///< [0, 180]
-  /// Time budget of one re-integration cycle (one call of reintegrate()); at least one frame is
+  /// Time budget of one re-integration cycle (one call of reintegrate()): a cycle stops before a
+  /// frame that would likely overrun it (by the recent time per frame); at least one frame is
   /// processed per cycle so progress never stops; (0, 1e6]
   double budget_ms = 20.0;
   int budget_frames = 0;             ///< also stop after this many frames per cycle; 0 = no limit
@@ -130,6 +131,7 @@ class Mapper {
   mutable std::unique_ptr<TsdfVolume> fused_;     ///< submap mode: cached fusion
   openvdb::CoordBBox dirty_;
   MapperStats stats_;
+  double frame_ms_estimate_ = 0.0;  ///< recent re-integration time per frame (moving average)
 };
 
 }  // namespace vdbmap

@@ -85,6 +85,16 @@ class TsdfVolume {
   /// Removes exactly what integrate(id, depth_m, K, T_W_S) added (same checks as above).
   IntegrationStats deintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S);
 
+  /// Moves an integrated frame from T_W_S_old to T_W_S_new: exactly deintegrate at the old pose
+  /// then integrate at the new one (the map ends bit-identical to that), in one pass where the
+  /// integrator allows (projective: pixels classified once, only the net change applied). Throws
+  /// FrameError, changing nothing, when the frame is not integrated with these data at
+  /// T_W_S_old or T_W_S_new is not a rigid transform.
+  IntegrationStats reintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S_old,
+                               const Pose3d& T_W_S_new);
+  IntegrationStats reintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
+                               const Pose3d& T_W_S_old, const Pose3d& T_W_S_new);
+
   bool isIntegrated(FrameId id) const { return frames_.count(id) != 0; }
   std::size_t frameCount() const { return frames_.size(); }
   /// The pose each integrated frame was integrated with, by id.

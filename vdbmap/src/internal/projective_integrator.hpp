@@ -22,12 +22,23 @@
 #include "vdbmap/tsdf_volume.hpp"
 #include "vdbmap/types.hpp"
 
+#include <vector>
+
 namespace vdbmap::internal {
 
-/// Adds sign * (the image's updates) into W and WD. Throws std::invalid_argument when the image
-/// size differs from the intrinsics.
-void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
-                         const TsdfConfig& tsdf, const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q,
-                         openvdb::Int64Grid& wsdf_q, std::int64_t sign, IntegrationStats& stats);
+/// One placement of the image: seen from T_W_S, added (sign +1) or removed (sign -1).
+struct ImagePlacement {
+  Pose3d T_W_S;
+  std::int64_t sign = 1;
+};
+
+/// Adds the image's updates at every placement (each times its sign) into W and WD, in one pass:
+/// a re-integration {(old pose, -1), (new pose, +1)} classifies the pixels once and applies only
+/// the net change. Throws std::invalid_argument when the image size differs from the intrinsics.
+/// `stats` counts the pixels once and the voxel updates of all placements.
+void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
+                         const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
+                         const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
+                         IntegrationStats& stats);
 
 }  // namespace vdbmap::internal

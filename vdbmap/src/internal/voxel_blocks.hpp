@@ -112,10 +112,10 @@ class SdfUpdate {
 
   double truncation() const { return delta_; }
 
-  /// Adds the update to voxel n of `block`; returns whether there was one.
-  bool apply(Block& block, openvdb::Index n, double sdf, std::int64_t weight_q) const {
+  /// Adds sign (+1 or -1) times the update to voxel n of `block`; returns whether there was one.
+  bool apply(Block& block, openvdb::Index n, double sdf, std::int64_t weight_q, std::int64_t sign = 1) const {
     if (sdf >= delta_) {
-      block.addFree(n, weight_q);
+      block.addFree(n, sign * weight_q);
       return true;
     }
     if (!(sdf >= -delta_)) return false;
@@ -125,7 +125,7 @@ class SdfUpdate {
       w = (w * roundToInt64(f * kFractionScale)) / kFractionScale;
     }
     if (w <= 0) return false;
-    block.addBand(n, w, w * roundToInt64(sdf * inv_delta_ * double(kSdfScale)));
+    block.addBand(n, sign * w, sign * w * roundToInt64(sdf * inv_delta_ * double(kSdfScale)));
     return true;
   }
 
@@ -135,9 +135,9 @@ class SdfUpdate {
 };
 
 /// Adds sign * (the blocks' updates) into W and WD, leaf by leaf in parallel. Blocks without any
-/// update create no leaf; with sign < 0, voxels whose weight returns to 0 are removed and empty
-/// branches pruned. Leaves the blocks zeroed (ready for releaseBlocks). Several blocks may share
-/// an origin (e.g. one per thread).
+/// update create no leaf; voxels whose weight returns to 0 are removed and then empty branches
+/// pruned. Leaves the blocks zeroed (ready for releaseBlocks). Several blocks may share an origin
+/// (e.g. one per thread). Block values may be negative (a re-integration's net change).
 void applyBlocks(const std::vector<Block*>& blocks, openvdb::Int64Tree& weight, openvdb::Int64Tree& wsdf,
                  std::int64_t sign);
 
