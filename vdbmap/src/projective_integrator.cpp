@@ -35,6 +35,32 @@ struct PixelTable {
   int width = 0, height = 0;
   std::vector<PixelRay> rays;
   double max_range_m = 0.0;  // largest range of a valid pixel
+  /// Largest range per tile of kTile x kTile pixels (-1: no valid pixel), to cull leaves that lie
+  /// entirely behind the surfaces they project onto.
+  static constexpr int kTile = 8;
+  int tiles_x = 0, tiles_y = 0;
+  std::vector<float> tile_max_m;
+
+  void buildTiles() {
+    tiles_x = (width + kTile - 1) / kTile;
+    tiles_y = (height + kTile - 1) / kTile;
+    tile_max_m.assign(std::size_t(tiles_x) * std::size_t(tiles_y), -1.0f);
+    for (int v = 0; v < height; ++v)
+      for (int u = 0; u < width; ++u) {
+        const PixelRay& r = rays[std::size_t(v) * std::size_t(width) + std::size_t(u)];
+        if (r.weight_q == 0) continue;
+        float& m = tile_max_m[std::size_t(v / kTile) * std::size_t(tiles_x) + std::size_t(u / kTile)];
+        m = std::max(m, r.range_m);
+      }
+  }
+  /// Largest range over the pixels [u0, u1] x [v0, v1] (tile-granular, so an upper bound).
+  float maxRange(int u0, int u1, int v0, int v1) const {
+    float m = -1.0f;
+    for (int ty = v0 / kTile; ty <= v1 / kTile; ++ty)
+      for (int tx = u0 / kTile; tx <= u1 / kTile; ++tx)
+        m = std::max(m, tile_max_m[std::size_t(ty) * std::size_t(tiles_x) + std::size_t(tx)]);
+    return m;
+  }
 };
 
 /// |(x/z, y/z, 1)| of every pixel's ray: range = depth * norm. Cached for the last camera, since a
@@ -107,6 +133,7 @@ PixelTable classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, co
     stats.points_beyond_range += beyond[std::size_t(v)];
     t.max_range_m = std::max(t.max_range_m, row_max[std::size_t(v)]);
   }
+  t.buildTiles();
   return t;
 }
 
@@ -188,10 +215,17 @@ void candidateLeaves(const PixelTable& px, const CameraIntrinsics& K, const Pose
 /// A leaf's box in the sensor frame, to cull leaves outside the frustum before testing voxels.
 class FrustumCull {
  public:
-  FrustumCull(const CameraIntrinsics& K, const Pose3d& T_W_S, double voxel_size_m, double reach_m)
-      : K_(K), T_S_W_(T_W_S.inverse()), vs_(voxel_size_m), reach_(reach_m) {}
+  FrustumCull(const PixelTable& px, const CameraIntrinsics& K, const Pose3d& T_W_S, double voxel_size_m,
+              double truncation_m)
+      : px_(px),
+        K_(K),
+        T_S_W_(T_W_S.inverse()),
+        vs_(voxel_size_m),
+        delta_(truncation_m),
+        reach_(px.max_range_m + truncation_m) {}
 
-  /// True when no voxel of the leaf at `origin` can be in the frustum within reach.
+  /// True when no voxel of the leaf at `origin` can be in the frustum within reach: behind the
+  /// camera, outside the image, or beyond every surface it projects onto (+ truncation).
   bool outside(const openvdb::Coord& origin) const {
     std::array<Vec3d, 8> c;
     for (int k = 0; k < 8; ++k) {
@@ -217,13 +251,31 @@ class FrustumCull {
     if (allOutside([&](const Vec3d& p) { return -(K_.fx * p.x() + (K_.cx - K_.width + 0.5) * p.z()); })) return true;
     if (allOutside([&](const Vec3d& p) { return K_.fy * p.y() + (K_.cy + 0.5) * p.z(); })) return true;
     if (allOutside([&](const Vec3d& p) { return -(K_.fy * p.y() + (K_.cy - K_.height + 0.5) * p.z()); })) return true;
-    return false;
+    // The pixels the leaf projects onto (its voxels take the nearest pixel centre); beyond all of
+    // their surfaces + truncation, no voxel of it is updated.
+    double u_lo = 1e30, u_hi = -1e30, v_lo = 1e30, v_hi = -1e30;
+    for (const Vec3d& p : c) {
+      const double u = K_.fx * p.x() / p.z() + K_.cx, v = K_.fy * p.y() / p.z() + K_.cy;
+      u_lo = std::min(u_lo, u);
+      u_hi = std::max(u_hi, u);
+      v_lo = std::min(v_lo, v);
+      v_hi = std::max(v_hi, v);
+    }
+    const int u0 = std::max(0, int(std::floor(u_lo + 0.5))), u1 = std::min(K_.width - 1, int(std::floor(u_hi + 0.5)));
+    const int v0 = std::max(0, int(std::floor(v_lo + 0.5))), v1 = std::min(K_.height - 1, int(std::floor(v_hi + 0.5)));
+    if (u0 > u1 || v0 > v1) return true;
+    constexpr int kMaxTiles = 256;  // near leaves cover much of the image and are rarely behind it
+    const int tiles = (u1 / PixelTable::kTile - u0 / PixelTable::kTile + 1) * (v1 / PixelTable::kTile - v0 / PixelTable::kTile + 1);
+    if (tiles > kMaxTiles) return false;
+    const float local_max = px_.maxRange(u0, u1, v0, v1);
+    return local_max < 0.0f || nearest.norm() > double(local_max) + delta_;
   }
 
  private:
+  const PixelTable& px_;
   CameraIntrinsics K_;
   Pose3d T_S_W_;
-  double vs_, reach_;
+  double vs_, delta_, reach_;
 };
 
 /// Tests the 512 voxels of one leaf against the image and writes their updates into `block`.
@@ -285,7 +337,7 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
   const double vs = tsdf.voxel_size_m;
   for (const ImagePlacement& p : placements) {
     const Eigen::Matrix3d R_S_W = p.T_W_S.linear().transpose();
-    views.push_back({FrustumCull(K, p.T_W_S, vs, px.max_range_m + tsdf.truncation_m()), R_S_W, R_S_W * vs,
+    views.push_back({FrustumCull(px, K, p.T_W_S, vs, tsdf.truncation_m()), R_S_W, R_S_W * vs,
                      p.T_W_S.translation(), p.sign});
   }
   const SdfUpdate update(tsdf);
