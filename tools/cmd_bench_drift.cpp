@@ -19,7 +19,7 @@ struct BenchDriftOptions {
   std::vector<std::string> modes = {"none", "submap", "all", "keyframes"};
   std::uint64_t seed = 1;
   double voxel_size_m = 0.1;
-  std::string loop_closure = sim::toString(sim::SimulatorConfig{}.loop_closure);
+  std::string loop_closure = sim::toString(sim::DriftBenchmarkConfig{}.loop_closure);
   double ceiling_clip_m = std::numeric_limits<double>::infinity();
   bool no_meshes = false;
 };
@@ -34,7 +34,7 @@ void runBenchDrift(const BenchDriftOptions& o) {
   c.seed = o.seed;
   c.voxel_size_m = o.voxel_size_m;
   c.trajectory_file = o.trajectory;
-  c.simulator.loop_closure = sim::parseLoopClosureMode(o.loop_closure);
+  c.loop_closure = sim::parseLoopClosureMode(o.loop_closure);
   c.write_meshes = !o.no_meshes;
   c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   sim::runDriftBenchmark(c, o.output);
@@ -62,7 +62,8 @@ const GroupRegistration registration("bench", "drift", [](CLI::App& bench) {
   sub->add_option("--voxel-size", o->voxel_size_m, "Voxel edge in metres")->check(CLI::PositiveNumber);
   sub->add_option("--trajectory", o->trajectory, "Waypoint file; default: the world's coverage pattern")
       ->check(CLI::ExistingFile);
-  sub->add_option("--loop-closure", o->loop_closure, "pgo, perfect or off")
+  sub->add_option("--loop-closure", o->loop_closure,
+                  "Correction on loop closure: perfect (ground truth, as the authors' simulator), pgo or off")
       ->check(CLI::IsMember({"pgo", "perfect", "off"}));
   sub->add_option("--ceiling-clip", o->ceiling_clip_m, "Cut the world's mesh at this height (metres)");
   sub->add_flag("--no-meshes", o->no_meshes, "Do not write the meshes of the maps");

@@ -56,8 +56,9 @@ void runSimulate(const SimulateOptions& o) {
   fo.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
   const sim::FlightResult r = sim::simulateFlight(world, trajectory, config, o.output, fo);
   progress.finish();
-  std::printf("wrote %s: %zu frames over %.1f s (%.1f m), %zu loop closures, %.1f ms per frame (render, loop check)\n",
-              o.output.c_str(), r.frames, r.duration_s, r.path_length_m, r.loop_closures.size(), r.capture_ms_median);
+  std::printf(
+      "wrote %s: %zu frames over %.1f s (%.1f m), %zu loop closures, %.1f ms per frame (render, loop check, write)\n",
+      o.output.c_str(), r.frames, r.duration_s, r.path_length_m, r.loop_closures.size(), r.frame_ms_median);
   std::printf(
       "drift %s: odometry error %.3f m at the end (max %.3f m); published estimate error RMSE %.3f m (max %.3f m)\n",
       o.drift.c_str(), r.odometry_error_final_m, r.odometry_error_max_m, r.estimate_error_rmse_m,

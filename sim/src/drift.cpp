@@ -1,7 +1,5 @@
 #include "vdbmap/sim/drift.hpp"
 
-#include "vdbmap/sim/trajectory.hpp"
-
 #include <cmath>
 #include <stdexcept>
 

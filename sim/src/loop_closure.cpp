@@ -1,7 +1,5 @@
 #include "vdbmap/sim/loop_closure.hpp"
 
-#include "vdbmap/sim/trajectory.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>

@@ -1,7 +1,5 @@
 #include "vdbmap/sim/pose_graph.hpp"
 
-#include "vdbmap/sim/trajectory.hpp"
-
 #include <ceres/ceres.h>
 
 #include <array>

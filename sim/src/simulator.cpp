@@ -1,7 +1,6 @@
 #include "vdbmap/sim/simulator.hpp"
 
 #include "vdbmap/sim/analytic_scene.hpp"
-#include "vdbmap/sim/trajectory.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -58,6 +57,7 @@ Simulator::Simulator(const World& world, const SimulatorConfig& config, const Fl
       odometry_(config.drift, start, t0_s),
       detector_(config.loop),
       loop_noise_rng_(config.drift.seed ^ 0x5eed100bULL),
+      t0_(t0_s),
       truth_(start) {
   config_.validate();
 }
@@ -69,7 +69,7 @@ void Simulator::advance(double t_s, const FlatPose& truth) {
 
 FlatPose Simulator::bodyEstimate() const { return compose(anchor_, odometry_.pose()); }
 
-Pose3d Simulator::sensorPose(const FlatPose& body) const { return bodyPose(body.p_W, body.yaw) * T_B_S_; }
+Pose3d Simulator::sensorPose(const FlatPose& body) const { return bodyPose(body) * T_B_S_; }
 
 SimFrame Simulator::capture() {
   const double t = odometry_.time();
@@ -80,6 +80,7 @@ SimFrame Simulator::capture() {
   f.t_s = t;
   f.body_true = truth_;
   f.body_estimate = bodyEstimate();
+  f.body_odometry = odometry_.pose();
   f.T_W_S_true = sensorPose(truth_);
   f.T_W_S_estimate = sensorPose(f.body_estimate);
   f.depth = camera_.render(world_, f.T_W_S_true, f.index);

@@ -21,6 +21,7 @@
 // of 0.016 rad per sqrt(s) plus mu_phi t. Draws are seeded and deterministic.
 #pragma once
 
+#include "vdbmap/sim/trajectory.hpp"
 #include "vdbmap/types.hpp"
 
 #include <cstdint>
@@ -49,12 +50,6 @@ struct DriftConfig {
 struct DriftIncrement {
   Vec3d v_B_mps = Vec3d::Zero();  ///< velocity error in the body frame
   double w_radps = 0.0;           ///< yaw-rate error
-};
-
-/// A flat body pose: position and yaw (unwrapped).
-struct FlatPose {
-  Vec3d p_W = Vec3d::Zero();
-  double yaw = 0.0;
 };
 
 /// The drifting odometry of one vehicle, advanced step by step (online) with the true pose.

@@ -4,7 +4,7 @@
 // closures, drift statistics). Every mapping mode then replays exactly the same flight.
 //
 // The vehicle advances at the drift rate (200 Hz) along the trajectory and captures a frame at
-// every camera period from the trajectory's start to its end.
+// every camera period from the trajectory's start to its end (flyAlong).
 #pragma once
 
 #include "vdbmap/sim/simulator.hpp"
@@ -36,9 +36,18 @@ struct FlightResult {
   /// Position error of the published estimates (what frames.csv holds): RMSE and maximum.
   double estimate_error_rmse_m = 0.0;
   double estimate_error_max_m = 0.0;
-  double capture_ms_median = 0.0;  ///< rendering, loop detection and pose-graph optimization
+  /// Per frame: drift steps, rendering, loop detection, pose graph and writing the frame.
+  double frame_ms_median = 0.0;
   double wall_s = 0.0;
 };
+
+/// Moves the simulator along `trajectory` (the true poses) from its current time to t_end_s:
+/// advances at the drift rate and captures every frame that falls due (Simulator::nextFrameTime),
+/// handing each to `on_frame`. The building block of simulateFlight and of closed-loop flights (a
+/// planner calls it with its newest trajectory, then replans). Throws std::invalid_argument for an
+/// empty trajectory.
+void flyAlong(Simulator& sim, const Trajectory& trajectory, double t_end_s,
+              const std::function<void(SimFrame&)>& on_frame);
 
 /// Flies `trajectory` and writes the log to `log_dir`. Throws std::invalid_argument for an empty
 /// trajectory or an invalid config, std::runtime_error when `log_dir` holds a log and overwrite

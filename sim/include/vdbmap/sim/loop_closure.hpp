@@ -7,7 +7,7 @@
 #pragma once
 
 #include "vdbmap/camera.hpp"
-#include "vdbmap/sim/drift.hpp"
+#include "vdbmap/sim/trajectory.hpp"
 #include "vdbmap/sim/world.hpp"
 #include "vdbmap/types.hpp"
 

@@ -1,14 +1,14 @@
 // A 4-DOF pose graph (x, y, z, yaw), as VINS-Mono's loop fusion optimizes it: roll and pitch are
 // observable from gravity, so only position and yaw drift and only they are corrected.
 //
-// Nodes are flat poses (drift.hpp's FlatPose). An edge i -> j measures the pose of j in i's yaw
+// Nodes are flat poses (trajectory.hpp's FlatPose). An edge i -> j measures the pose of j in i's yaw
 // frame: dp = Rz(yaw_i)^T (p_j - p_i) and dyaw = yaw_j - yaw_i, with independent standard
 // deviations for translation (per axis) and yaw. Optimization minimises the sum of squared
 // whitened residuals with Ceres (sparse normal Cholesky, automatic derivatives), keeping the
 // fixed nodes (node 0 by default) where they are.
 #pragma once
 
-#include "vdbmap/sim/drift.hpp"
+#include "vdbmap/sim/trajectory.hpp"
 
 #include <cstddef>
 #include <vector>

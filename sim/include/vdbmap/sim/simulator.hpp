@@ -73,6 +73,7 @@ struct SimFrame {
   Pose3d T_W_S_true = Pose3d::Identity();
   Pose3d T_W_S_estimate = Pose3d::Identity();  ///< what the robot believes at capture time
   FlatPose body_true, body_estimate;
+  FlatPose body_odometry;  ///< the raw drifting odometry, without loop-closure corrections
   std::optional<CorrectionEvent> correction;
 };
 
@@ -89,6 +90,9 @@ class Simulator {
   SimFrame capture();
 
   double time() const { return odometry_.time(); }
+  double startTime() const { return t0_; }
+  /// When the next frame is due: frames are captured every camera period from the start time.
+  double nextFrameTime() const { return t0_ + double(frames()) * camera_.period_s(); }
   const FlatPose& bodyTrue() const { return truth_; }
   /// The pose estimate now: the odometry re-anchored by the last correction.
   FlatPose bodyEstimate() const;
@@ -114,6 +118,7 @@ class Simulator {
   LoopDetector detector_;
   PoseGraph4Dof graph_;
   std::mt19937_64 loop_noise_rng_;
+  double t0_ = 0.0;
   FlatPose truth_;
   FlatPose anchor_;                    ///< estimate = anchor_ composed with raw odometry
   std::vector<double> frames_t_;       ///< capture time per frame

@@ -30,9 +30,17 @@ struct FlatState {
   double yaw_rate = 0.0;  ///< rad/s
 };
 
+/// A flat body pose: position and yaw (what drift, loop closure and the pose graph act on).
+struct FlatPose {
+  Vec3d p_W = Vec3d::Zero();
+  double yaw = 0.0;
+};
+
 /// The body pose T_W_B of a flat state (rotation about z by yaw).
 Pose3d bodyPose(const Vec3d& p_W, double yaw);
 inline Pose3d bodyPose(const FlatState& s) { return bodyPose(s.p_W, s.yaw); }
+inline Pose3d bodyPose(const FlatPose& p) { return bodyPose(p.p_W, p.yaw); }
+inline FlatPose flatPose(const FlatState& s) { return {s.p_W, s.yaw}; }
 
 /// The paper's simulated vehicle: 2.0 m/s, 2.0 m/s^2, 0.9 rad/s.
 struct MotionLimits {
