@@ -24,7 +24,7 @@ if(NOT TARGET vdbmap_ompl)
   target_link_libraries(vdbmap_ompl INTERFACE ${OMPL_LIBRARIES})
 endif()
 
-find_package(Ceres QUIET)               # optional: the 4-DOF pose graph falls back to Eigen
+find_package(Ceres REQUIRED)            # Ceres::ceres, the simulator's 4-DOF pose graph (sim/pose_graph.hpp)
 
 if(VDBMAP_BUILD_TESTS)
   find_package(Catch2 2 REQUIRED)       # Catch2::Catch2WithMain

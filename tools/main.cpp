@@ -14,6 +14,10 @@ std::map<std::string, CommandSetup>& registry() {
   static std::map<std::string, CommandSetup> commands;
   return commands;
 }
+std::map<std::string, std::map<std::string, CommandSetup>>& groupRegistry() {
+  static std::map<std::string, std::map<std::string, CommandSetup>> groups;
+  return groups;
+}
 }  // namespace
 
 Registration::Registration(std::string name, CommandSetup setup) {
@@ -22,6 +26,16 @@ Registration::Registration(std::string name, CommandSetup setup) {
 
 std::vector<std::pair<std::string, CommandSetup>> registeredCommands() {
   return {registry().begin(), registry().end()};
+}
+
+GroupRegistration::GroupRegistration(std::string group, std::string name, CommandSetup setup) {
+  groupRegistry()[std::move(group)].emplace(std::move(name), std::move(setup));
+}
+
+std::vector<std::pair<std::string, CommandSetup>> registeredCommands(const std::string& group) {
+  const auto it = groupRegistry().find(group);
+  if (it == groupRegistry().end()) return {};
+  return {it->second.begin(), it->second.end()};
 }
 }  // namespace vdbmap::cli
 

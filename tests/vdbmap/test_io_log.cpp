@@ -141,6 +141,31 @@ TEST_CASE("LogWriter refuses misuse", "[io][log][bad-input]") {
   CHECK_THROWS_AS(LogWriter(dir / "log", smallDepthSensor()), std::runtime_error);
 }
 
+TEST_CASE("LogWriter overwriting a log drops the old log's corrections and ground truth", "[io][log]") {
+  TempDir dir;
+  {
+    LogWriter w(dir / "log", smallDepthSensor());
+    w.addDepthFrame(1.0, depthAt(0), poseAt(0));
+    w.addDepthFrame(2.0, depthAt(1), poseAt(1));
+    w.addCorrection(2.0, {{1.0, poseAt(2)}});
+    w.addGroundTruth(1.0, poseAt(0));
+    w.close();
+  }
+  REQUIRE(openDataset(dir / "log")->corrections().size() == 1);
+  LogWriterOptions options;
+  options.overwrite = true;
+  {
+    LogWriter w(dir / "log", smallDepthSensor(), options);
+    w.addDepthFrame(1.0, depthAt(0), poseAt(0));
+    w.addDepthFrame(2.0, depthAt(1), poseAt(1));
+    w.close();
+  }
+  const auto log = openDataset(dir / "log");
+  CHECK(log->size() == 2);
+  CHECK(log->corrections().empty());  // a stale correction would move the new frames
+  CHECK(log->groundTruth().empty());
+}
+
 TEST_CASE("openDataset rejects bad logs naming the file and line", "[io][log][bad-input]") {
   TempDir dir;
   const auto log = dir / "log";

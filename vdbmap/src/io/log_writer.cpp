@@ -23,8 +23,14 @@ LogWriter::LogWriter(const std::filesystem::path& folder, const SensorInfo& sens
   sensor_.validate();
   options_.validate();
   std::error_code ec;
-  if (std::filesystem::exists(folder_ / "frames.csv", ec) && !options_.overwrite)
-    throw FileError(folder_.string() + ": already holds a log (frames.csv); choose another folder or allow overwrite");
+  if (std::filesystem::exists(folder_ / "frames.csv", ec)) {
+    if (!options_.overwrite)
+      throw FileError(folder_.string() + ": already holds a log (frames.csv); choose another folder or allow overwrite");
+    // The old log's corrections and ground truth name the old frames: they must not apply to the new ones.
+    std::filesystem::remove_all(folder_ / "corrections", ec);
+    std::filesystem::remove(folder_ / "groundtruth.txt", ec);
+    if (ec) throw FileError("cannot remove the old corrections of " + folder_.string() + ": " + ec.message());
+  }
   std::filesystem::create_directories(folder_, ec);
   if (ec) throw FileError("cannot create " + folder_.string() + ": " + ec.message());
   writeSensorJson(folder_ / "sensor.json", sensor_);

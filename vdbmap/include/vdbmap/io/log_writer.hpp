@@ -20,7 +20,8 @@ struct LogWriterOptions {
   /// Rewrite frames.csv (atomically) every this many frames, so a crash loses at most this many
   /// listings; 0 = only at flush()/close(). Must be >= 0.
   std::size_t flush_every_frames = 100;
-  /// Allow writing into a folder that already holds a frames.csv (its frames.csv is replaced).
+  /// Allow writing into a folder that already holds a frames.csv (its frames.csv is replaced, and
+  /// its corrections/ and groundtruth.txt are removed, since they name the old frames).
   bool overwrite = false;
 
   void validate() const;

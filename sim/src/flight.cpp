@@ -1,0 +1,143 @@
+#include "vdbmap/sim/flight.hpp"
+
+#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/io/log_writer.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+namespace vdbmap::sim {
+namespace {
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+nlohmann::json describe(const SimulatorConfig& c) {
+  const CameraIntrinsics& K = c.camera.intrinsics;
+  return {{"camera",
+           {{"width", K.width},
+            {"height", K.height},
+            {"fx", K.fx},
+            {"fy", K.fy},
+            {"cx", K.cx},
+            {"cy", K.cy},
+            {"rate_hz", c.camera.rate_hz},
+            {"min_range_m", c.camera.min_range_m},
+            {"max_range_m", c.camera.max_range_m},
+            {"far_clip_m", c.camera.far_clip_m},
+            {"noise_sigma_m", c.camera.noise_sigma_m},
+            {"pitch_rad", c.camera_pitch_rad}}},
+          {"drift",
+           {{"mu_xyz_mps", c.drift.mu_xyz_mps},
+            {"sigma2_xyz_m2ps2", c.drift.sigma2_xyz_m2ps2},
+            {"mu_yaw_radps", c.drift.mu_yaw_radps},
+            {"sigma2_yaw_rad2ps2", c.drift.sigma2_yaw_rad2ps2},
+            {"rate_hz", c.drift.rate_hz},
+            {"seed", c.drift.seed},
+            {"frame", "body"}}},
+          {"loop_closure",
+           {{"mode", toString(c.loop_closure)},
+            {"max_distance_m", c.loop.max_distance_m},
+            {"max_yaw_rad", c.loop.max_yaw_rad},
+            {"min_age_s", c.loop.min_age_s},
+            {"min_interval_s", c.loop.min_interval_s},
+            {"min_view_overlap", c.loop.min_view_overlap},
+            {"loop_sigma_m", c.loop_sigma_m},
+            {"loop_sigma_yaw_rad", c.loop_sigma_yaw_rad}}}};
+}
+}  // namespace
+
+void flyAlong(Simulator& sim, const Trajectory& trajectory, double t_end_s,
+              const std::function<void(SimFrame&)>& on_frame) {
+  if (trajectory.empty()) throw std::invalid_argument("flyAlong: empty trajectory");
+  const double dt = 1.0 / sim.config().drift.rate_hz, t0 = sim.startTime();
+  const auto advanceTo = [&](double t) { sim.advance(t, flatPose(trajectory.sample(t))); };
+  for (;;) {
+    const double t_frame = sim.nextFrameTime(), t_stop = std::min(t_frame, t_end_s);
+    // Drift ticks on the grid t0 + k dt up to the stop, then the stop itself.
+    for (double k = std::floor((sim.time() - t0) / dt + 1e-9) + 1.0;; k += 1.0) {
+      const double t = t0 + k * dt;
+      if (t >= t_stop - 1e-9) break;
+      advanceTo(t);
+    }
+    if (t_stop > sim.time()) advanceTo(t_stop);
+    if (t_frame > t_end_s + 1e-9) return;
+    SimFrame frame = sim.capture();
+    on_frame(frame);
+  }
+}
+
+FlightResult simulateFlight(const World& world, const Trajectory& trajectory, const SimulatorConfig& config,
+                            const std::filesystem::path& log_dir, const FlightOptions& options) {
+  config.validate();
+  if (trajectory.empty()) throw std::invalid_argument("simulateFlight: empty trajectory");
+  const auto wall0 = Clock::now();
+  const double t0 = trajectory.startTime(), t_end = trajectory.endTime();
+  Simulator sim(world, config, flatPose(trajectory.sample(t0)), t0);
+  io::LogWriterOptions writer_options;
+  writer_options.overwrite = options.overwrite;
+  io::LogWriter writer(log_dir, sim.camera().sensorInfo(), writer_options);
+
+  const std::size_t n_frames = std::size_t(std::floor((t_end - t0) / sim.camera().period_s() + 1e-9)) + 1;
+  FlightResult result;
+  result.duration_s = t_end - t0;
+  result.path_length_m = trajectory.length_m();
+  std::vector<double> frame_t, frame_ms;
+  double sq_error = 0.0;
+  auto last = Clock::now();
+  flyAlong(sim, trajectory, t_end, [&](SimFrame& frame) {
+    writer.addDepthFrame(frame.t_s, frame.depth, frame.T_W_S_estimate);
+    writer.addGroundTruth(frame.t_s, frame.T_W_S_true);
+    frame_t.push_back(frame.t_s);
+    if (frame.correction) {
+      std::vector<io::StampedPose> poses;
+      poses.reserve(frame.correction->T_W_S_by_frame.size());
+      for (const auto& [i, T] : frame.correction->T_W_S_by_frame) poses.push_back({frame_t.at(i), T});
+      writer.addCorrection(frame.t_s, poses);
+      result.loop_closures.push_back(frame.correction->loop);
+    }
+    const double odom_error = (frame.body_odometry.p_W - frame.body_true.p_W).norm();
+    const double estimate_error = (frame.body_estimate.p_W - frame.body_true.p_W).norm();
+    result.odometry_error_max_m = std::max(result.odometry_error_max_m, odom_error);
+    result.odometry_error_final_m = odom_error;
+    result.estimate_error_max_m = std::max(result.estimate_error_max_m, estimate_error);
+    sq_error += estimate_error * estimate_error;
+    frame_ms.push_back(msSince(last));
+    last = Clock::now();
+    if (options.progress) options.progress(frame_t.size(), n_frames);
+  });
+  result.frames = frame_t.size();
+  writer.close();
+  result.estimate_error_rmse_m = std::sqrt(sq_error / double(result.frames));
+  std::nth_element(frame_ms.begin(), frame_ms.begin() + frame_ms.size() / 2, frame_ms.end());
+  result.frame_ms_median = frame_ms[frame_ms.size() / 2];
+  result.wall_s = msSince(wall0) / 1e3;
+
+  nlohmann::json loops = nlohmann::json::array();
+  for (const LoopClosure& l : result.loop_closures)
+    loops.push_back({{"old_frame", l.old_frame},
+                     {"new_frame", l.new_frame},
+                     {"t_s", frame_t.at(l.new_frame)},
+                     {"distance_m", l.distance_m},
+                     {"yaw_difference_rad", l.yaw_difference_rad},
+                     {"view_overlap", l.view_overlap}});
+  nlohmann::json summary = describe(config);
+  summary["description"] = options.description;
+  summary["frames"] = result.frames;
+  summary["duration_s"] = result.duration_s;
+  summary["path_length_m"] = result.path_length_m;
+  summary["loop_closures"] = loops;
+  summary["odometry_error_final_m"] = result.odometry_error_final_m;
+  summary["odometry_error_max_m"] = result.odometry_error_max_m;
+  summary["estimate_error_rmse_m"] = result.estimate_error_rmse_m;
+  summary["estimate_error_max_m"] = result.estimate_error_max_m;
+  summary["frame_ms_median"] = result.frame_ms_median;
+  summary["wall_s"] = result.wall_s;
+  io::writeFileAtomically(log_dir / "simulation.json", [&](std::ostream& os) { os << summary.dump(2) << "\n"; });
+  return result;
+}
+
+}  // namespace vdbmap::sim
