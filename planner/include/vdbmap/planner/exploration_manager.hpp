@@ -1,0 +1,243 @@
+// The exploration manager: FUEL's finite-state logic (Zhou et al. 2021, exploration_fsm), on the
+// planner's building blocks, knowing nothing of where the map and the vehicle state come from.
+//
+// The caller feeds it, once per map update (e.g. per integrated depth frame), the map (a MapQuery
+// valid for that call only: re-create TsdfMapQuery every cycle), the region the map reports as
+// changed, the vehicle's estimated state and the time. The manager then
+//  1. refreshes frontiers in that region (FrontierMap::update) and the viewpoints of the clusters
+//     that changed (computeViewpoints);
+//  2. decides whether to replan, for one of FUEL's reasons:
+//     - the current trajectory is nearly done (less than replan_time_left_s to go; FUEL thresh1),
+//     - the target cluster is covered (more than covered_fraction of its frontier voxels are no
+//       longer frontier) and the trajectory has run replan_covered_after_s (FUEL thresh2),
+//     - periodically, replan_period_s into a trajectory (FUEL thresh3),
+//     - collision risk: the rest of the trajectory no longer keeps collision_radius_m of
+//       known-free space around it in the new map (checked every update),
+//     - a frame shift (shiftFrame: a loop closure moved the estimate), or a failed replan to retry;
+//  3. replans: the global tour over the best viewpoint of every live cluster (planGlobalTour), local
+//     refinement over the next clusters' top viewpoints (refineLocalTour), a path to the chosen
+//     viewpoint (PathPlanner) and a trajectory along it (planTrajectory). When the first target
+//     fails (no path, no trajectory) the next ones of the tour are tried, up to
+//     max_targets_per_replan;
+//  4. counts failures per target and blacklists targets that keep failing: a failure is a failed
+//     path or trajectory to it, or a visit (the trajectory to it ended) after which most of its
+//     frontier voxels are still frontier (it cannot be observed from there). Failures are kept per
+//     frontier voxel, because a cluster changes its id whenever its voxels change: a cluster counts
+//     the median failure count of its voxels, and is blacklisted at max_failures;
+//  5. finishes when no target is left (no cluster with a viewpoint that is not blacklisted) and the
+//     vehicle has come to rest: no reachable frontier is left.
+// Before exploring, the vehicle turns once on the spot (initial_turn; FUEL's simulations start
+// by looking around too), so that its zero-pitch camera sees all round the start.
+//
+// The vehicle is expected to follow command(t) (the current trajectory, in the frame of the
+// vehicle's estimate); update() plans from the given state, which should be that command's state
+// (position and yaw from the estimate, velocity from the command). Every planner piece reads the
+// map through an AssumeFreeMap with a box around the start position, where unknown reads as free
+// (the camera cannot see there at take-off).
+//
+// Expected outcomes are statuses, never exceptions: Planned, Continue (keep flying), NoFrontier
+// (no target now, trajectory still running), Failed (a replan failed; it is retried on the next
+// update while the old trajectory, or a hold, continues) and Finished.
+//
+// Determinism: with the same inputs and no time limit hit (OMPL, ATSP), the decisions repeat.
+// Planner times (planner_ms) are measured wall times.
+#pragma once
+
+#include "vdbmap/planner/cost.hpp"
+#include "vdbmap/planner/frontier.hpp"
+#include "vdbmap/planner/local_refinement.hpp"
+#include "vdbmap/planner/path_planner.hpp"
+#include "vdbmap/planner/tour.hpp"
+#include "vdbmap/planner/trajectory.hpp"
+#include "vdbmap/planner/vehicle_state.hpp"
+#include "vdbmap/planner/viewpoint.hpp"
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+namespace vdbmap::planner {
+
+struct ExplorationParams {
+  /// The exploration box (world frame): frontiers, viewpoints and paths stay inside. Required.
+  Eigen::AlignedBox3d box_W;
+  /// The pieces' parameters. Their bounds_W are set from box_W by the manager (viewpoints use
+  /// box_W shrunk by viewpoint.min_clearance_m, so that a viewpoint's clear ball lies in the box).
+  FrontierParams frontier;
+  ViewpointParams viewpoint;
+  CostParams cost;
+  /// Paths the vehicle flies (a longer OMPL budget than the cost paths).
+  PathParams path = flightPathDefaults();
+  /// Paths only measured for costs (pair table, legs from the vehicle, refinement).
+  PathParams cost_path = costPathDefaults();
+  TourParams tour;
+  RefinementParams refinement;
+  TrajectoryParams trajectory;
+
+  /// Half-sizes of the box around the start position where unknown space reads free; each
+  /// [0, 10]. FUEL clears a box around the start too.
+  Vec3d start_free_half_size_m = Vec3d(0.6, 0.6, 0.4);
+  /// Turn once on the spot before exploring (FUEL-style look-around at take-off).
+  bool initial_turn = true;
+
+  /// Replan when less than this much of the trajectory is left (FUEL thresh_replan1); [0, 100]
+  double replan_time_left_s = 0.5;
+  /// Replan when the target is covered and the trajectory has run this long (FUEL thresh_replan2); [0, 100]
+  double replan_covered_after_s = 0.5;
+  /// Replan when the trajectory has run this long (FUEL thresh_replan3); (0, 1000]
+  double replan_period_s = 1.5;
+  /// A target is covered when more than this fraction of its frontier voxels (at planning time)
+  /// are no longer frontier; (0, 1]
+  double covered_fraction = 0.5;
+  /// The rest of the trajectory must keep this much known-free space around it (the vehicle's
+  /// radius; less than the planning clearance, so that a replan is not triggered by the margin
+  /// alone); [0, path.clearance_m]
+  double collision_radius_m = 0.15;
+  /// Failures of a target (failed path or trajectory, or a visit that did not observe it) before
+  /// it is blacklisted; [1, 100]
+  int max_failures = 3;
+  /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
+  int max_targets_per_replan = 3;
+
+  /// The defaults of `path` and `cost_path` (0.1 s and 0.01 s OMPL budgets).
+  static PathParams flightPathDefaults();
+  static PathParams costPathDefaults();
+  /// Throws std::invalid_argument naming the field and its allowed range (including the pieces').
+  void validate() const;
+};
+
+enum class ExplorationStatus {
+  Continue,    ///< no replan needed: keep following command()
+  Planned,     ///< a new trajectory starts now
+  NoFrontier,  ///< no target left, the vehicle still moving: it finishes its trajectory
+  Failed,      ///< a replan failed (retried on the next update); the old trajectory (or a hold) goes on
+  Finished,    ///< no reachable frontier is left and the vehicle is at rest
+};
+const char* toString(ExplorationStatus s);
+
+enum class ReplanReason {
+  None,
+  InitialTurn,    ///< the next part of the turn on the spot at take-off
+  Start,          ///< the first plan after take-off (or after a hold)
+  TrajectoryEnd,  ///< less than replan_time_left_s left
+  TargetCovered,
+  Periodic,
+  CollisionRisk,
+  FrameShift,     ///< shiftFrame() was called
+  Retry,          ///< the previous replan failed
+};
+const char* toString(ReplanReason r);
+
+/// What one update() did.
+struct ExplorationStep {
+  ExplorationStatus status = ExplorationStatus::Continue;
+  ReplanReason reason = ReplanReason::None;  ///< why a replan was attempted (None: not attempted)
+  ClusterId target = 0;                      ///< cluster the new trajectory flies to (0: none)
+  std::size_t clusters = 0;                  ///< live clusters
+  std::size_t targets = 0;                   ///< clusters with a viewpoint, not blacklisted
+  std::size_t frontier_voxels = 0;
+  double map_update_ms = 0.0;  ///< frontier and viewpoint refresh
+  double replan_ms = 0.0;      ///< tour, refinement, path and trajectory (0 without a replan)
+};
+
+/// Counters over the manager's life.
+struct ExplorationCounters {
+  std::size_t updates = 0;
+  std::size_t replans = 0;          ///< attempted (including the initial turn's parts)
+  std::size_t replans_failed = 0;
+  std::size_t collision_risks = 0;  ///< replans triggered by collision risk
+  std::size_t target_failures = 0;  ///< failures counted against targets
+  std::size_t blacklisted = 0;      ///< clusters skipped as blacklisted at the last replan
+  std::size_t holds = 0;            ///< times the vehicle was stopped by a hold
+};
+
+class ExplorationManager {
+ public:
+  /// Starts at `start` (at rest) at time t_s. Throws std::invalid_argument for invalid params or a
+  /// start outside the box.
+  ExplorationManager(const ExplorationParams& params, const VehicleState& start, double t_s);
+  ~ExplorationManager();
+
+  const ExplorationParams& params() const { return params_; }
+
+  /// One cycle: refresh frontiers and viewpoints from `map` in `dirty` (the region changed since
+  /// the last call; the first call scans the whole map), then decide and maybe replan from
+  /// `vehicle` at time t_s (not before the previous call). `map` is read during the call only.
+  ExplorationStep update(const MapQuery& map, const openvdb::CoordBBox& dirty, const VehicleState& vehicle,
+                         double t_s);
+
+  /// The commanded state at t_s: the current trajectory (held at its end), in the estimate frame.
+  TrajectoryState command(double t_s) const;
+  /// The current trajectory and when it started.
+  const Trajectory& trajectory() const { return trajectory_; }
+  double trajectoryStartTime() const { return trajectory_t0_; }
+  bool trajectoryDone(double t_s) const { return t_s >= trajectory_t0_ + trajectory_.duration(); }
+
+  /// The estimate frame moved (e.g. a loop closure re-anchored the odometry): a pose p in the old
+  /// estimate frame is now `shift * p` (a yaw rotation and a translation). The current trajectory
+  /// is re-expressed so that the vehicle's path in the world does not change, and a replan is
+  /// requested for the next update (the map is being corrected too).
+  void shiftFrame(const Eigen::Isometry3d& shift);
+
+  const FrontierMap& frontiers() const { return frontiers_; }
+  /// The viewpoints of every live cluster (best first), by cluster id.
+  const std::map<ClusterId, std::vector<Viewpoint>>& viewpoints() const { return views_; }
+  /// Failures counted against a cluster (the median over its voxels).
+  int failures(const FrontierCluster& cluster) const;
+  bool isBlacklisted(const FrontierCluster& cluster) const { return failures(cluster) >= params_.max_failures; }
+  /// The cluster the current trajectory flies to (0: none).
+  ClusterId target() const { return target_; }
+  /// True once the initial turn's last part has been flown (seen at the update after it).
+  bool initialTurnDone() const { return !turning_; }
+  const ExplorationCounters& counters() const { return counters_; }
+
+ private:
+  struct Target {
+    ClusterId cluster;
+    const std::vector<Viewpoint>* views;
+  };
+  enum class PlanOutcome { Ok, Failed, StartBlocked };
+  struct CoordHash {
+    std::size_t operator()(const openvdb::Coord& c) const noexcept {
+      return std::size_t(c.x()) * 73856093u ^ std::size_t(c.y()) * 19349663u ^ std::size_t(c.z()) * 83492791u;
+    }
+  };
+  void refreshFrontiers(const MapQuery& map, const openvdb::CoordBBox& dirty);
+  ReplanReason replanReason(const MapQuery& map, double t_s);
+  bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
+  double targetCoveredFraction() const;
+  void checkVisit();
+  std::vector<Target> liveTargets(const MapQuery& map);
+  ExplorationStatus replan(const MapQuery& map, const VehicleState& vehicle, double t_s, ExplorationStep& step);
+  PlanOutcome planTo(const MapQuery& map, const VehicleState& vehicle, const Viewpoint& view, double t_s);
+  void startTrajectory(Trajectory trajectory, double t_s);
+  void hold(const VehicleState& vehicle, double t_s);
+  void addFailure(const FrontierCluster& cluster);
+
+  ExplorationParams params_;
+  std::vector<Eigen::AlignedBox3d> free_boxes_;
+  FrontierMap frontiers_;
+  std::map<ClusterId, std::vector<Viewpoint>> views_;
+  std::unique_ptr<PairCostTable> table_;
+  std::unordered_map<openvdb::Coord, int, CoordHash> voxel_failures_;  ///< failures counted per frontier voxel
+
+  Trajectory trajectory_;
+  double trajectory_t0_ = 0.0;
+  Eigen::Isometry3d shift_ = Eigen::Isometry3d::Identity();  ///< applied to trajectory_ (frame shifts since it was planned)
+  ClusterId target_ = 0;
+  std::vector<openvdb::Coord> target_voxels_;  ///< the target's frontier voxels when it was planned
+  int turns_left_ = 0;                         ///< parts of the initial turn still to plan
+  bool turning_ = false;                       ///< the initial turn is not over
+  bool first_update_ = true;
+  bool shift_requested_ = false;
+  bool failed_last_ = false;
+  bool was_moving_ = false;  ///< the current trajectory moves (not a hold or a turn on the spot)
+  double last_t_ = 0.0;
+  ExplorationCounters counters_;
+};
+
+}  // namespace vdbmap::planner

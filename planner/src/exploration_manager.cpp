@@ -1,0 +1,374 @@
+#include "vdbmap/planner/exploration_manager.hpp"
+
+#include "vdbmap/planner/assume_free_map.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace vdbmap::planner {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+/// Parts of the initial turn on the spot: three turns of 120 deg (each shorter than half a turn,
+/// so the trajectory's shortest-way yaw profile turns the intended way).
+constexpr int kInitialTurnParts = 3;
+/// Spacing of the collision-risk check along the trajectory, in voxels.
+constexpr double kRiskCheckSpacingVox = 0.5;
+
+double yawOf(const Eigen::Isometry3d& T) { return std::atan2(T.linear()(1, 0), T.linear()(0, 0)); }
+}  // namespace
+
+const char* toString(ExplorationStatus s) {
+  switch (s) {
+    case ExplorationStatus::Continue: return "continue";
+    case ExplorationStatus::Planned: return "planned";
+    case ExplorationStatus::NoFrontier: return "no_frontier";
+    case ExplorationStatus::Failed: return "failed";
+    case ExplorationStatus::Finished: return "finished";
+  }
+  return "?";
+}
+
+const char* toString(ReplanReason r) {
+  switch (r) {
+    case ReplanReason::None: return "none";
+    case ReplanReason::InitialTurn: return "initial_turn";
+    case ReplanReason::Start: return "start";
+    case ReplanReason::TrajectoryEnd: return "trajectory_end";
+    case ReplanReason::TargetCovered: return "target_covered";
+    case ReplanReason::Periodic: return "periodic";
+    case ReplanReason::CollisionRisk: return "collision_risk";
+    case ReplanReason::FrameShift: return "frame_shift";
+    case ReplanReason::Retry: return "retry";
+  }
+  return "?";
+}
+
+PathParams ExplorationParams::flightPathDefaults() {
+  PathParams p;
+  p.time_limit_s = 0.1;
+  return p;
+}
+
+PathParams ExplorationParams::costPathDefaults() {
+  PathParams p;
+  p.time_limit_s = 0.01;
+  return p;
+}
+
+void ExplorationParams::validate() const {
+  auto fail = [](const std::string& field, const std::string& range) {
+    throw std::invalid_argument("ExplorationParams." + field + " must be in " + range);
+  };
+  if (box_W.isEmpty() || !box_W.min().allFinite() || !box_W.max().allFinite())
+    throw std::invalid_argument("ExplorationParams.box_W must be a finite, non-empty box");
+  frontier.validate();
+  viewpoint.validate();
+  cost.validate();
+  path.validate();
+  cost_path.validate();
+  tour.validate();
+  refinement.validate();
+  trajectory.validate();
+  for (int a = 0; a < 3; ++a)
+    if (!(start_free_half_size_m[a] >= 0.0 && start_free_half_size_m[a] <= 10.0))
+      fail("start_free_half_size_m", "[0, 10] per axis");
+  if (!(replan_time_left_s >= 0.0 && replan_time_left_s <= 100.0)) fail("replan_time_left_s", "[0, 100]");
+  if (!(replan_covered_after_s >= 0.0 && replan_covered_after_s <= 100.0)) fail("replan_covered_after_s", "[0, 100]");
+  if (!(replan_period_s > 0.0 && replan_period_s <= 1000.0)) fail("replan_period_s", "(0, 1000]");
+  if (!(covered_fraction > 0.0 && covered_fraction <= 1.0)) fail("covered_fraction", "(0, 1]");
+  if (!(collision_radius_m >= 0.0 && collision_radius_m <= path.clearance_m))
+    fail("collision_radius_m", "[0, path.clearance_m]");
+  if (max_failures < 1 || max_failures > 100) fail("max_failures", "[1, 100]");
+  if (max_targets_per_replan < 1 || max_targets_per_replan > 100) fail("max_targets_per_replan", "[1, 100]");
+}
+
+ExplorationManager::ExplorationManager(const ExplorationParams& params, const VehicleState& start, double t_s)
+    : params_(params) {
+  params_.validate();
+  if (!params_.box_W.contains(start.position_W))
+    throw std::invalid_argument("ExplorationManager: the start position lies outside the exploration box");
+  params_.frontier.bounds_W = params_.box_W;
+  const Vec3d margin = Vec3d::Constant(params_.viewpoint.min_clearance_m);
+  Eigen::AlignedBox3d view_box(params_.box_W.min() + margin, params_.box_W.max() - margin);
+  params_.viewpoint.bounds_W = view_box.isEmpty() ? params_.box_W : view_box;
+  params_.path.bounds_W = params_.box_W;
+  params_.cost_path.bounds_W = params_.box_W;
+  params_.trajectory.clearance_m = params_.path.clearance_m;
+  params_.trajectory.check_step_m = params_.path.check_step_m;
+  free_boxes_.push_back(boxAround(start.position_W, params_.start_free_half_size_m));
+  frontiers_ = FrontierMap(params_.frontier);
+  table_ = std::make_unique<PairCostTable>(params_.cost, params_.cost_path);
+  turns_left_ = params_.initial_turn ? kInitialTurnParts : 0;
+  turning_ = params_.initial_turn;
+  trajectory_ = Trajectory::hold(start.position_W, start.yaw_rad);
+  trajectory_t0_ = t_s;
+  last_t_ = t_s;
+}
+
+ExplorationManager::~ExplorationManager() = default;
+
+// ---- the commanded trajectory ------------------------------------------------------------------
+
+TrajectoryState ExplorationManager::command(double t_s) const {
+  TrajectoryState s = trajectory_.sample(t_s - trajectory_t0_);
+  s.position_W = shift_ * s.position_W;
+  s.velocity_W = shift_.linear() * s.velocity_W;
+  s.acceleration_W = shift_.linear() * s.acceleration_W;
+  s.yaw_rad = wrapAngle(s.yaw_rad + yawOf(shift_));
+  return s;
+}
+
+void ExplorationManager::shiftFrame(const Eigen::Isometry3d& shift) {
+  shift_ = shift * shift_;
+  shift_requested_ = true;
+}
+
+void ExplorationManager::startTrajectory(Trajectory trajectory, double t_s) {
+  trajectory_ = std::move(trajectory);
+  trajectory_t0_ = t_s;
+  shift_ = Eigen::Isometry3d::Identity();
+  was_moving_ = trajectory_.motionDuration() > 0.0;
+}
+
+void ExplorationManager::hold(const VehicleState& vehicle, double t_s) {
+  if (was_moving_ || !trajectoryDone(t_s)) ++counters_.holds;
+  startTrajectory(Trajectory::hold(vehicle.position_W, vehicle.yaw_rad), t_s);
+  target_ = 0;
+}
+
+// ---- frontiers, viewpoints, failures -----------------------------------------------------------
+
+void ExplorationManager::refreshFrontiers(const MapQuery& map, const openvdb::CoordBBox& dirty) {
+  const FrontierUpdate u = first_update_ ? frontiers_.rebuild(map) : frontiers_.update(map, dirty);
+  first_update_ = false;
+  for (ClusterId id : u.removed) views_.erase(id);
+  std::vector<const FrontierCluster*> fresh;
+  for (ClusterId id : u.added)
+    if (const FrontierCluster* c = frontiers_.find(id)) fresh.push_back(c);
+  if (fresh.empty()) return;
+  std::vector<std::vector<Viewpoint>> fresh_views = computeViewpoints(fresh, map, params_.viewpoint);
+  for (std::size_t i = 0; i < fresh.size(); ++i) views_[fresh[i]->id] = std::move(fresh_views[i]);
+}
+
+int ExplorationManager::failures(const FrontierCluster& cluster) const {
+  if (voxel_failures_.empty() || cluster.voxels.empty()) return 0;
+  std::vector<int> counts;
+  counts.reserve(cluster.voxels.size());
+  for (const openvdb::Coord& v : cluster.voxels) {
+    const auto it = voxel_failures_.find(v);
+    counts.push_back(it == voxel_failures_.end() ? 0 : it->second);
+  }
+  // The median: a cluster inherits failures when most of its voxels failed before.
+  const auto mid = counts.begin() + std::ptrdiff_t(counts.size() / 2);
+  std::nth_element(counts.begin(), mid, counts.end());
+  return *mid;
+}
+
+void ExplorationManager::addFailure(const FrontierCluster& cluster) {
+  const int count = failures(cluster) + 1;
+  for (const openvdb::Coord& v : cluster.voxels) {
+    int& f = voxel_failures_[v];
+    f = std::max(f, count);
+  }
+  ++counters_.target_failures;
+}
+
+std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const MapQuery& map) {
+  std::vector<Target> targets;
+  std::vector<const FrontierCluster*> stale;
+  MapProbe probe(map);
+  counters_.blacklisted = 0;
+  for (const FrontierCluster& c : frontiers_.clusters()) {
+    auto it = views_.find(c.id);
+    if (it == views_.end() || it->second.empty()) continue;
+    if (isBlacklisted(c)) {
+      ++counters_.blacklisted;
+      continue;
+    }
+    // Viewpoints were computed when the cluster appeared; the map may have changed around them.
+    if (!probe.isClear(it->second.front().position_W, params_.viewpoint.min_clearance_m)) stale.push_back(&c);
+    targets.push_back({c.id, &it->second});
+  }
+  if (stale.empty()) return targets;
+  std::vector<std::vector<Viewpoint>> fresh = computeViewpoints(stale, map, params_.viewpoint);
+  for (std::size_t i = 0; i < stale.size(); ++i) views_[stale[i]->id] = std::move(fresh[i]);
+  targets.erase(std::remove_if(targets.begin(), targets.end(), [](const Target& t) { return t.views->empty(); }),
+                targets.end());
+  return targets;
+}
+
+// ---- decisions ---------------------------------------------------------------------------------
+
+double ExplorationManager::targetCoveredFraction() const {
+  if (target_voxels_.empty()) return 1.0;
+  std::size_t gone = 0;
+  for (const openvdb::Coord& v : target_voxels_) gone += frontiers_.isFrontier(v) ? 0 : 1;
+  return double(gone) / double(target_voxels_.size());
+}
+
+bool ExplorationManager::remainingTrajectoryClear(const MapQuery& map, double t_s) const {
+  const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
+  if (t_rel >= t_end) return true;  // at rest (or turning at the goal): nothing left to fly through
+  MapProbe probe(map);
+  const double v_max = std::max(params_.trajectory.v_max_m_s, 1e-3);
+  const double dt = kRiskCheckSpacingVox * map.voxelSize() / v_max;
+  Vec3d prev = shift_ * trajectory_.sample(t_rel).position_W;
+  for (double t = t_rel + dt;; t += dt) {
+    const Vec3d p = shift_ * trajectory_.sample(std::min(t, t_end)).position_W;
+    if (!probe.isSegmentClear(prev, p, params_.collision_radius_m)) return false;
+    if (t >= t_end) return true;
+    prev = p;
+  }
+}
+
+ReplanReason ExplorationManager::replanReason(const MapQuery& map, double t_s) {
+  if (turning_) {
+    if (!trajectoryDone(t_s)) return ReplanReason::None;
+    if (turns_left_ > 0) return ReplanReason::InitialTurn;
+    turning_ = false;  // the last part is done
+  }
+  if (shift_requested_) return ReplanReason::FrameShift;
+  if (was_moving_ && !remainingTrajectoryClear(map, t_s)) return ReplanReason::CollisionRisk;
+  if (failed_last_) return ReplanReason::Retry;
+  if (target_ == 0) return ReplanReason::Start;
+  const double elapsed = t_s - trajectory_t0_;
+  const double left = trajectory_t0_ + trajectory_.duration() - t_s;
+  if (left < params_.replan_time_left_s) return ReplanReason::TrajectoryEnd;
+  if (elapsed > params_.replan_covered_after_s && targetCoveredFraction() > params_.covered_fraction)
+    return ReplanReason::TargetCovered;
+  if (elapsed > params_.replan_period_s) return ReplanReason::Periodic;
+  return ReplanReason::None;
+}
+
+ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openvdb::CoordBBox& dirty,
+                                           const VehicleState& vehicle, double t_s) {
+  if (t_s < last_t_) throw std::invalid_argument("ExplorationManager::update: time went backwards");
+  last_t_ = t_s;
+  ++counters_.updates;
+  const AssumeFreeMap map(base_map, free_boxes_);
+  ExplorationStep step;
+  const auto t0 = Clock::now();
+  refreshFrontiers(map, dirty);
+  step.map_update_ms = msSince(t0);
+  step.clusters = frontiers_.clusters().size();
+  step.frontier_voxels = frontiers_.frontierVoxelCount();
+
+  step.reason = replanReason(map, t_s);
+  if (step.reason == ReplanReason::None) {
+    step.status = ExplorationStatus::Continue;
+    step.targets = std::size_t(-1);
+    return step;
+  }
+  const auto t1 = Clock::now();
+  ++counters_.replans;
+  if (step.reason == ReplanReason::CollisionRisk) ++counters_.collision_risks;
+  shift_requested_ = false;
+  if (step.reason == ReplanReason::InitialTurn) {
+    --turns_left_;
+    VehicleState at_rest = vehicle;
+    at_rest.velocity_W.setZero();
+    const TrajectoryResult turn = planTrajectory({vehicle.position_W}, at_rest,
+                                                 wrapAngle(vehicle.yaw_rad + 2.0 * M_PI / kInitialTurnParts), map,
+                                                 params_.trajectory);
+    if (turn.ok()) {
+      startTrajectory(turn.trajectory, t_s);
+      step.status = ExplorationStatus::Planned;
+    } else {
+      turns_left_ = 0;  // cannot turn here: start exploring right away
+      turning_ = false;
+      step.status = ExplorationStatus::Failed;
+    }
+  } else {
+    step.status = replan(map, vehicle, t_s, step);
+  }
+  failed_last_ = step.status == ExplorationStatus::Failed;
+  if (failed_last_) ++counters_.replans_failed;
+  step.replan_ms = msSince(t1);
+  return step;
+}
+
+// ---- replanning --------------------------------------------------------------------------------
+
+void ExplorationManager::checkVisit() {
+  // The vehicle reached (or nearly reached) its target: if the target's frontier is still mostly
+  // there, it cannot be observed from that viewpoint.
+  if (target_ == 0 || target_voxels_.empty()) return;
+  if (targetCoveredFraction() > params_.covered_fraction) return;
+  FrontierCluster visited;
+  visited.voxels = target_voxels_;
+  addFailure(visited);
+}
+
+ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleState& vehicle, double t_s,
+                                             ExplorationStep& step) {
+  if (step.reason == ReplanReason::TrajectoryEnd) checkVisit();
+  const std::vector<Target> targets = liveTargets(map);
+  step.targets = targets.size();
+  if (targets.empty()) {
+    target_ = 0;
+    target_voxels_.clear();
+    if (!trajectoryDone(t_s) && step.reason != ReplanReason::CollisionRisk) return ExplorationStatus::NoFrontier;
+    if (!trajectoryDone(t_s) || was_moving_) hold(vehicle, t_s);
+    return ExplorationStatus::Finished;
+  }
+
+  // The global tour over every target's best viewpoint, then local refinement of its start.
+  std::vector<TourTarget> tour_targets;
+  for (const Target& t : targets) tour_targets.push_back({t.cluster, {t.views->front().position_W, t.views->front().yaw_rad}});
+  const GlobalTour global = planGlobalTour(map, vehicle, tour_targets, *table_, params_.tour);
+  std::vector<std::vector<Viewpoint>> in_order;
+  for (std::size_t i : global.tour.order) in_order.push_back(*targets[i].views);
+  const std::vector<std::vector<Viewpoint>> layers = refinementLayers(vehicle, in_order, params_.refinement);
+  const RefinementResult refined = refineLocalTour(map, vehicle, layers, params_.cost, params_.cost_path);
+
+  // Fly to the refined viewpoint of the first cluster; if that fails, to the next clusters' best.
+  const std::size_t tries = std::min<std::size_t>(global.tour.order.size(), std::size_t(params_.max_targets_per_replan));
+  for (std::size_t k = 0; k < tries; ++k) {
+    const Target& t = targets[global.tour.order[k]];
+    const FrontierCluster* cluster = frontiers_.find(t.cluster);
+    const Viewpoint& view = (k == 0 && !refined.choice.empty()) ? layers[0][refined.choice[0]] : t.views->front();
+    const PlanOutcome outcome = planTo(map, vehicle, view, t_s);
+    if (outcome == PlanOutcome::Ok) {
+      target_ = t.cluster;
+      target_voxels_ = cluster->voxels;
+      step.target = t.cluster;
+      return ExplorationStatus::Planned;
+    }
+    if (outcome == PlanOutcome::StartBlocked) break;  // not the target's fault
+    addFailure(*cluster);
+  }
+  if (step.reason == ReplanReason::CollisionRisk) hold(vehicle, t_s);
+  return ExplorationStatus::Failed;
+}
+
+ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, const VehicleState& vehicle,
+                                                           const Viewpoint& view, double t_s) {
+  // Seeded by the replan count, so that a retry samples differently from the attempt before.
+  const std::uint64_t query_seed = counters_.replans;
+  PathResult path = PathPlanner(map, params_.path).plan(vehicle.position_W, view.position_W, query_seed);
+  const MapQuery* plan_map = &map;
+  std::unique_ptr<AssumeFreeMap> escape;
+  if (path.status == PathStatus::StartInvalid) {
+    // The vehicle stands where the map has unknown voxels within the clearance (e.g. where a
+    // re-integrated frame moved the map): it is there, so space within its clearance reads free.
+    const double r = params_.path.clearance_m + map.voxelSize();
+    escape = std::make_unique<AssumeFreeMap>(
+        map, std::vector<Eigen::AlignedBox3d>{boxAround(vehicle.position_W, Vec3d::Constant(r))});
+    plan_map = escape.get();
+    path = PathPlanner(*plan_map, params_.path).plan(vehicle.position_W, view.position_W, query_seed);
+    if (path.status == PathStatus::StartInvalid) return PlanOutcome::StartBlocked;
+  }
+  if (!path.ok()) return PlanOutcome::Failed;
+  TrajectoryResult traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, params_.trajectory);
+  if (!traj.ok()) return PlanOutcome::Failed;
+  startTrajectory(std::move(traj.trajectory), t_s);
+  return PlanOutcome::Ok;
+}
+
+}  // namespace vdbmap::planner

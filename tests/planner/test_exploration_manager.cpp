@@ -1,0 +1,247 @@
+// The exploration manager's decisions on synthetic maps: finishing, the initial turn, planning to a
+// viewpoint, each replan trigger (trajectory end, target covered, period, collision risk, frame
+// shift), retries and blacklisting of targets that cannot be reached or observed.
+#include "planner/planner_test_maps.hpp"
+
+#include "vdbmap/planner/exploration_manager.hpp"
+
+#include <catch2/catch.hpp>
+
+using namespace vdbmap;
+using namespace vdbmap::planner;
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+namespace {
+constexpr double kVoxel = 0.1;
+/// Positions agree within this (the manager plans from the state it is given).
+constexpr double kTolM = 1e-6;
+
+/// A room `length_vox` x 6 x 3 m at 0.1 m: walls occupied, inside free where x < known_vox / 10 m,
+/// unknown beyond: that plane is one big frontier (split into clusters by PCA).
+DenseMap halfKnownRoom(int length_vox = 80, int known_vox = 40) {
+  DenseMap map(kVoxel, CoordBBox(Coord(-2), Coord(length_vox + 2, 62, 32)));
+  map.fill(CoordBBox(Coord(0), Coord(length_vox - 1, 59, 29)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(1), Coord(known_vox - 1, 58, 28)), Occupancy::Free);
+  map.fill(CoordBBox(Coord(known_vox, 1, 1), Coord(length_vox - 2, 58, 28)), Occupancy::Unknown);
+  return map;
+}
+
+ExplorationParams roomParams(double length_m = 8.0) {
+  ExplorationParams p;
+  p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(length_m, 6, 3));
+  p.initial_turn = false;
+  p.path.time_limit_s = 0.05;
+  p.cost_path.time_limit_s = 0.005;
+  return p;
+}
+
+VehicleState at(const Vec3d& p, double yaw = 0.0) {
+  VehicleState s;
+  s.position_W = p;
+  s.yaw_rad = yaw;
+  return s;
+}
+
+/// The vehicle as the manager commands it at t (exactly on its trajectory).
+VehicleState onTrajectory(const ExplorationManager& m, double t) {
+  const TrajectoryState c = m.command(t);
+  VehicleState s;
+  s.position_W = c.position_W;
+  s.velocity_W = c.velocity_W;
+  s.yaw_rad = c.yaw_rad;
+  return s;
+}
+
+/// Every sample of the manager's trajectory keeps `radius` of known-free space (brute force).
+bool trajectoryClear(const ExplorationManager& m, const DenseMap& map, double radius) {
+  const Trajectory& t = m.trajectory();
+  for (double s = 0.0; s <= t.duration(); s += 0.02)
+    if (!test::bruteClear(map, t.sample(s).position_W, radius)) return false;
+  return true;
+}
+}  // namespace
+
+TEST_CASE("ExplorationParams::validate names the field", "[planner][exploration]") {
+  ExplorationParams p = roomParams();
+  CHECK_NOTHROW(p.validate());
+  p.replan_period_s = 0.0;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("replan_period_s"));
+  p = roomParams();
+  p.collision_radius_m = 1.0;  // more than the path clearance
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("collision_radius_m"));
+  p = roomParams();
+  p.box_W = Eigen::AlignedBox3d();
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("box_W"));
+  CHECK_THROWS_AS(ExplorationManager(roomParams(), at(Vec3d(9, 3, 1.5)), 0.0), std::invalid_argument);
+}
+
+TEST_CASE("A fully known room has nothing to explore: the manager finishes at once", "[planner][exploration]") {
+  const DenseMap map = test::makeRoom(Eigen::Vector3i(80, 60, 30));
+  ExplorationManager m(roomParams(), at(Vec3d(2, 3, 1.5)), 0.0);
+  const ExplorationStep step = m.update(map, CoordBBox(), at(Vec3d(2, 3, 1.5)), 0.0);
+  CHECK(step.status == ExplorationStatus::Finished);
+  CHECK(step.clusters == 0);
+  CHECK(step.targets == 0);
+  CHECK(m.target() == 0);
+  CHECK((m.command(5.0).position_W - Vec3d(2, 3, 1.5)).norm() < kTolM);  // it holds
+}
+
+TEST_CASE("The initial turn looks all round in three parts before exploring", "[planner][exploration]") {
+  const DenseMap map = halfKnownRoom();
+  ExplorationParams p = roomParams();
+  p.initial_turn = true;
+  const Vec3d start(1.5, 3, 1.5);
+  ExplorationManager m(p, at(start), 0.0);
+  double t = 0.0, yaw = 0.0;
+  for (int part = 0; part < 3; ++part) {
+    const ExplorationStep step = m.update(map, CoordBBox(), at(start, yaw), t);
+    REQUIRE(step.status == ExplorationStatus::Planned);
+    CHECK(step.reason == ReplanReason::InitialTurn);
+    CHECK(m.trajectory().length_m() == 0.0);  // on the spot
+    const double end = m.trajectoryStartTime() + m.trajectory().duration();
+    CHECK(m.update(map, CoordBBox(), at(start, yaw), t + 0.5 * (end - t)).status == ExplorationStatus::Continue);
+    t = end;
+    const double next = m.command(t).yaw_rad;
+    CHECK(yawDistance(next, yaw + 2.0 * M_PI / 3.0) < 1e-6);
+    yaw = next;
+  }
+  CHECK_FALSE(m.initialTurnDone());
+  const ExplorationStep step = m.update(map, CoordBBox(), at(start, yaw), t);
+  CHECK(m.initialTurnDone());
+  CHECK(step.status == ExplorationStatus::Planned);
+  CHECK(step.reason == ReplanReason::Start);
+}
+
+TEST_CASE("The first plan flies a clear trajectory to a viewpoint of a frontier cluster", "[planner][exploration]") {
+  const DenseMap map = halfKnownRoom();
+  const Vec3d start(1.5, 3, 1.5);
+  ExplorationManager m(roomParams(), at(start), 0.0);
+  const ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  CHECK(step.reason == ReplanReason::Start);
+  CHECK(step.clusters >= 2);  // the 5.8 m wide frontier plane is split
+  REQUIRE(step.target != 0);
+  CHECK(step.target == m.target());
+  const FrontierCluster* target = m.frontiers().find(step.target);
+  REQUIRE(target != nullptr);
+  // The trajectory ends at one of the target's viewpoints, looking at it.
+  const TrajectoryState end = m.command(m.trajectory().duration());
+  const std::vector<Viewpoint>& views = m.viewpoints().at(step.target);
+  const bool at_viewpoint = std::any_of(views.begin(), views.end(), [&](const Viewpoint& v) {
+    return (v.position_W - end.position_W).norm() < 1e-6 && yawDistance(v.yaw_rad, end.yaw_rad) < 1e-6;
+  });
+  CHECK(at_viewpoint);
+  CHECK((m.command(0.0).position_W - start).norm() < kTolM);
+  CHECK(trajectoryClear(m, map, m.params().path.clearance_m - 1e-9));
+  // Nothing changed: no replan until a trigger fires.
+  CHECK(m.update(map, CoordBBox(), onTrajectory(m, 0.1), 0.1).status == ExplorationStatus::Continue);
+}
+
+TEST_CASE("Replan triggers: trajectory end, period, collision risk, target covered, frame shift",
+          "[planner][exploration]") {
+  // A 12 m room known up to x = 8 m: the first target is some 5 m away.
+  const Vec3d start(1.0, 3.0, 1.5);
+  DenseMap map = halfKnownRoom(120, 80);
+  ExplorationParams p = roomParams(12.0);
+  ExplorationManager m(p, at(start), 0.0);
+  REQUIRE(m.update(map, CoordBBox(), at(start), 0.0).status == ExplorationStatus::Planned);
+  double t0 = m.trajectoryStartTime(), duration = m.trajectory().duration();
+  REQUIRE(duration > p.replan_period_s + p.replan_time_left_s);
+
+  SECTION("periodic") {
+    const double t = t0 + p.replan_period_s + 0.05;
+    CHECK(m.update(map, CoordBBox(), onTrajectory(m, t), t).reason == ReplanReason::Periodic);
+  }
+  SECTION("trajectory nearly done") {
+    const double t = t0 + duration - 0.5 * p.replan_time_left_s;
+    const ExplorationStep step = m.update(map, CoordBBox(), onTrajectory(m, t), t);
+    CHECK(step.reason == ReplanReason::TrajectoryEnd);
+  }
+  SECTION("collision risk: an obstacle appears on the rest of the trajectory") {
+    const double t = t0 + 0.2;
+    const Vec3d ahead = m.command(t0 + 0.6 * m.trajectory().motionDuration()).position_W;
+    const CoordBBox block(map.worldToVoxel(ahead) - Coord(1), map.worldToVoxel(ahead) + Coord(1));
+    map.fill(block, Occupancy::Occupied);
+    const ExplorationStep step = m.update(map, block, onTrajectory(m, t), t);
+    CHECK(step.reason == ReplanReason::CollisionRisk);
+    CHECK(m.counters().collision_risks == 1);
+    if (step.status == ExplorationStatus::Planned) CHECK(trajectoryClear(m, map, p.collision_radius_m));
+  }
+  SECTION("target covered: the space behind the target's frontier becomes known") {
+    const FrontierCluster* target = m.frontiers().find(m.target());
+    REQUIRE(target != nullptr);
+    CoordBBox behind = target->bbox;
+    behind.max().x() += 3;
+    map.fill(behind, Occupancy::Free);
+    const double t = t0 + p.replan_covered_after_s + 0.05;
+    CHECK(m.update(map, behind, onTrajectory(m, t), t).reason == ReplanReason::TargetCovered);
+  }
+  SECTION("frame shift: the command keeps the world path and a replan follows") {
+    const double t = t0 + 0.3;
+    const TrajectoryState before = m.command(t);
+    Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+    shift.linear() = Eigen::AngleAxisd(0.1, Vec3d::UnitZ()).toRotationMatrix();
+    shift.translation() = Vec3d(0.2, -0.1, 0.05);
+    m.shiftFrame(shift);
+    const TrajectoryState after = m.command(t);
+    CHECK((after.position_W - shift * before.position_W).norm() < 1e-9);
+    CHECK((after.velocity_W - shift.linear() * before.velocity_W).norm() < 1e-9);
+    CHECK(yawDistance(after.yaw_rad, before.yaw_rad + 0.1) < 1e-9);
+    CHECK(m.update(map, CoordBBox(), onTrajectory(m, t), t).reason == ReplanReason::FrameShift);
+  }
+}
+
+TEST_CASE("A frontier that cannot be reached is retried, blacklisted, and exploration finishes",
+          "[planner][exploration]") {
+  // Two known rooms separated by a solid wall: the vehicle's room (x < 3.5 m) is closed; the other
+  // (x > 4 m) has an unknown hole in its far wall, so its frontier is seen but cannot be reached.
+  DenseMap map = test::makeRoom(Eigen::Vector3i(80, 60, 30));
+  map.fill(CoordBBox(Coord(35, 0, 0), Coord(40, 59, 29)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(79, 20, 8), Coord(79, 40, 22)), Occupancy::Unknown);
+  ExplorationParams p = roomParams();
+  p.path.time_limit_s = 0.02;
+  const Vec3d start(1.5, 3, 1.5);
+  ExplorationManager m(p, at(start), 0.0);
+  double t = 0.0;
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), t);
+  REQUIRE(step.targets >= 1);
+  int failed = 0;
+  while (step.status == ExplorationStatus::Failed && failed < 20) {
+    ++failed;
+    CHECK(m.target() == 0);
+    t += 0.1;
+    step = m.update(map, CoordBBox(), at(start), t);
+    if (step.status == ExplorationStatus::Failed) CHECK(step.reason == ReplanReason::Retry);
+  }
+  CHECK(failed == p.max_failures);  // one failure per target per replan, the last one blacklists
+  CHECK(step.status == ExplorationStatus::Finished);
+  CHECK(m.counters().blacklisted == step.clusters);
+  for (const FrontierCluster& c : m.frontiers().clusters()) CHECK(m.isBlacklisted(c));
+}
+
+TEST_CASE("A frontier that stays unobserved after visits is blacklisted, then exploration finishes",
+          "[planner][exploration]") {
+  // The map never changes (nothing integrates what the vehicle would see): every arrival leaves the
+  // target's frontier in place, so each target fails once per visit until all are blacklisted.
+  const DenseMap map = halfKnownRoom();
+  ExplorationManager m(roomParams(), at(Vec3d(1.5, 3, 1.5)), 0.0);
+  double t = 0.0;
+  ExplorationStep step = m.update(map, CoordBBox(), at(Vec3d(1.5, 3, 1.5)), t);
+  const std::size_t clusters = step.clusters;
+  REQUIRE(clusters >= 2);
+  int visits = 0;
+  while (step.status != ExplorationStatus::Finished && visits < 100) {
+    REQUIRE(step.status == ExplorationStatus::Planned);
+    CHECK(trajectoryClear(m, map, m.params().path.clearance_m - 1e-9));
+    // Arrive: the next update comes when the trajectory is done.
+    t = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
+    VehicleState s = onTrajectory(m, t);
+    step = m.update(map, CoordBBox(), s, t);
+    ++visits;
+  }
+  CHECK(step.status == ExplorationStatus::Finished);
+  CHECK(visits >= int(clusters) * m.params().max_failures);
+  CHECK(m.counters().target_failures >= clusters * std::size_t(m.params().max_failures));
+  CHECK(m.counters().blacklisted == clusters);
+}
