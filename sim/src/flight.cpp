@@ -53,8 +53,13 @@ nlohmann::json describe(const SimulatorConfig& c) {
 void flyAlong(Simulator& sim, const Trajectory& trajectory, double t_end_s,
               const std::function<void(SimFrame&)>& on_frame) {
   if (trajectory.empty()) throw std::invalid_argument("flyAlong: empty trajectory");
+  flyAlong(sim, [&](double t) { return flatPose(trajectory.sample(t)); }, t_end_s, on_frame);
+}
+
+void flyAlong(Simulator& sim, const std::function<FlatPose(double)>& truth_at, double t_end_s,
+              const std::function<void(SimFrame&)>& on_frame) {
   const double dt = 1.0 / sim.config().drift.rate_hz, t0 = sim.startTime();
-  const auto advanceTo = [&](double t) { sim.advance(t, flatPose(trajectory.sample(t))); };
+  const auto advanceTo = [&](double t) { sim.advance(t, truth_at(t)); };
   for (;;) {
     const double t_frame = sim.nextFrameTime(), t_stop = std::min(t_frame, t_end_s);
     // Drift ticks on the grid t0 + k dt up to the stop, then the stop itself.
@@ -70,62 +75,70 @@ void flyAlong(Simulator& sim, const Trajectory& trajectory, double t_end_s,
   }
 }
 
-FlightResult simulateFlight(const World& world, const Trajectory& trajectory, const SimulatorConfig& config,
-                            const std::filesystem::path& log_dir, const FlightOptions& options) {
-  config.validate();
-  if (trajectory.empty()) throw std::invalid_argument("simulateFlight: empty trajectory");
-  const auto wall0 = Clock::now();
-  const double t0 = trajectory.startTime(), t_end = trajectory.endTime();
-  Simulator sim(world, config, flatPose(trajectory.sample(t0)), t0);
-  io::LogWriterOptions writer_options;
-  writer_options.overwrite = options.overwrite;
-  io::LogWriter writer(log_dir, sim.camera().sensorInfo(), writer_options);
+// ---- recording ---------------------------------------------------------------------------------
 
-  const std::size_t n_frames = std::size_t(std::floor((t_end - t0) / sim.camera().period_s() + 1e-9)) + 1;
-  FlightResult result;
-  result.duration_s = t_end - t0;
-  result.path_length_m = trajectory.length_m();
-  std::vector<double> frame_t, frame_ms;
-  double sq_error = 0.0;
-  auto last = Clock::now();
-  flyAlong(sim, trajectory, t_end, [&](SimFrame& frame) {
-    writer.addDepthFrame(frame.t_s, frame.depth, frame.T_W_S_estimate);
-    writer.addGroundTruth(frame.t_s, frame.T_W_S_true);
-    frame_t.push_back(frame.t_s);
-    if (frame.correction) {
-      std::vector<io::StampedPose> poses;
-      poses.reserve(frame.correction->T_W_S_by_frame.size());
-      for (const auto& [i, T] : frame.correction->T_W_S_by_frame) poses.push_back({frame_t.at(i), T});
-      writer.addCorrection(frame.t_s, poses);
-      result.loop_closures.push_back(frame.correction->loop);
-    }
-    const double odom_error = (frame.body_odometry.p_W - frame.body_true.p_W).norm();
-    const double estimate_error = (frame.body_estimate.p_W - frame.body_true.p_W).norm();
-    result.odometry_error_max_m = std::max(result.odometry_error_max_m, odom_error);
-    result.odometry_error_final_m = odom_error;
-    result.estimate_error_max_m = std::max(result.estimate_error_max_m, estimate_error);
-    sq_error += estimate_error * estimate_error;
-    frame_ms.push_back(msSince(last));
-    last = Clock::now();
-    if (options.progress) options.progress(frame_t.size(), n_frames);
-  });
-  result.frames = frame_t.size();
-  writer.close();
-  result.estimate_error_rmse_m = std::sqrt(sq_error / double(result.frames));
-  std::nth_element(frame_ms.begin(), frame_ms.begin() + frame_ms.size() / 2, frame_ms.end());
-  result.frame_ms_median = frame_ms[frame_ms.size() / 2];
-  result.wall_s = msSince(wall0) / 1e3;
+struct FlightRecorder::Log {
+  io::LogWriter writer;
+  Log(const std::filesystem::path& dir, const io::SensorInfo& sensor, const io::LogWriterOptions& options)
+      : writer(dir, sensor, options) {}
+};
+
+FlightRecorder::FlightRecorder(const std::filesystem::path& log_dir, const Simulator& sim, bool overwrite)
+    : start_(Clock::now()), last_(start_) {
+  io::LogWriterOptions options;
+  options.overwrite = overwrite;
+  log_ = std::make_unique<Log>(log_dir, sim.camera().sensorInfo(), options);
+}
+
+FlightRecorder::~FlightRecorder() = default;
+
+void FlightRecorder::record(const SimFrame& frame) {
+  io::LogWriter& writer = log_->writer;
+  writer.addDepthFrame(frame.t_s, frame.depth, frame.T_W_S_estimate);
+  writer.addGroundTruth(frame.t_s, frame.T_W_S_true);
+  frame_t_.push_back(frame.t_s);
+  if (frame.correction) {
+    std::vector<io::StampedPose> poses;
+    poses.reserve(frame.correction->T_W_S_by_frame.size());
+    for (const auto& [i, T] : frame.correction->T_W_S_by_frame) poses.push_back({frame_t_.at(i), T});
+    writer.addCorrection(frame.t_s, poses);
+    result_.loop_closures.push_back(frame.correction->loop);
+  }
+  const double odom_error = (frame.body_odometry.p_W - frame.body_true.p_W).norm();
+  const double estimate_error = (frame.body_estimate.p_W - frame.body_true.p_W).norm();
+  result_.odometry_error_max_m = std::max(result_.odometry_error_max_m, odom_error);
+  result_.odometry_error_final_m = odom_error;
+  result_.estimate_error_max_m = std::max(result_.estimate_error_max_m, estimate_error);
+  sq_error_ += estimate_error * estimate_error;
+  frame_ms_.push_back(msSince(last_));
+  last_ = Clock::now();
+}
+
+FlightResult FlightRecorder::finish(const SimulatorConfig& config, const std::string& description, double duration_s,
+                                    double path_length_m) {
+  log_->writer.close();
+  FlightResult result = result_;
+  result.frames = frame_t_.size();
+  result.duration_s = duration_s;
+  result.path_length_m = path_length_m;
+  if (result.frames > 0) {
+    result.estimate_error_rmse_m = std::sqrt(sq_error_ / double(result.frames));
+    std::vector<double> ms = frame_ms_;
+    std::nth_element(ms.begin(), ms.begin() + std::ptrdiff_t(ms.size() / 2), ms.end());
+    result.frame_ms_median = ms[ms.size() / 2];
+  }
+  result.wall_s = msSince(start_) / 1e3;
 
   nlohmann::json loops = nlohmann::json::array();
   for (const LoopClosure& l : result.loop_closures)
     loops.push_back({{"old_frame", l.old_frame},
                      {"new_frame", l.new_frame},
-                     {"t_s", frame_t.at(l.new_frame)},
+                     {"t_s", frame_t_.at(l.new_frame)},
                      {"distance_m", l.distance_m},
                      {"yaw_difference_rad", l.yaw_difference_rad},
                      {"view_overlap", l.view_overlap}});
   nlohmann::json summary = describe(config);
-  summary["description"] = options.description;
+  summary["description"] = description;
   summary["frames"] = result.frames;
   summary["duration_s"] = result.duration_s;
   summary["path_length_m"] = result.path_length_m;
@@ -136,8 +149,24 @@ FlightResult simulateFlight(const World& world, const Trajectory& trajectory, co
   summary["estimate_error_max_m"] = result.estimate_error_max_m;
   summary["frame_ms_median"] = result.frame_ms_median;
   summary["wall_s"] = result.wall_s;
-  io::writeFileAtomically(log_dir / "simulation.json", [&](std::ostream& os) { os << summary.dump(2) << "\n"; });
+  io::writeFileAtomically(log_->writer.folder() / "simulation.json",
+                          [&](std::ostream& os) { os << summary.dump(2) << "\n"; });
   return result;
+}
+
+FlightResult simulateFlight(const World& world, const Trajectory& trajectory, const SimulatorConfig& config,
+                            const std::filesystem::path& log_dir, const FlightOptions& options) {
+  config.validate();
+  if (trajectory.empty()) throw std::invalid_argument("simulateFlight: empty trajectory");
+  const double t0 = trajectory.startTime(), t_end = trajectory.endTime();
+  Simulator sim(world, config, flatPose(trajectory.sample(t0)), t0);
+  FlightRecorder recorder(log_dir, sim, options.overwrite);
+  const std::size_t n_frames = std::size_t(std::floor((t_end - t0) / sim.camera().period_s() + 1e-9)) + 1;
+  flyAlong(sim, trajectory, t_end, [&](SimFrame& frame) {
+    recorder.record(frame);
+    if (options.progress) options.progress(recorder.frames(), n_frames);
+  });
+  return recorder.finish(config, options.description, t_end - t0, trajectory.length_m());
 }
 
 }  // namespace vdbmap::sim

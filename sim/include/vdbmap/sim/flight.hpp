@@ -10,8 +10,10 @@
 #include "vdbmap/sim/simulator.hpp"
 #include "vdbmap/sim/trajectory.hpp"
 
+#include <chrono>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -48,6 +50,42 @@ struct FlightResult {
 /// empty trajectory.
 void flyAlong(Simulator& sim, const Trajectory& trajectory, double t_end_s,
               const std::function<void(SimFrame&)>& on_frame);
+
+/// The same with the true pose given per step by `truth_at(t)`, called once per drift step (and
+/// at each frame time) in increasing t, after the simulator has advanced to the step before: a
+/// closed loop computes the true pose there from the estimate the simulator holds.
+void flyAlong(Simulator& sim, const std::function<FlatPose(double)>& truth_at, double t_end_s,
+              const std::function<void(SimFrame&)>& on_frame);
+
+/// Records a flight frame by frame as a log (see the file comment) and gathers its statistics:
+/// the recording part of simulateFlight, shared with closed-loop flights.
+class FlightRecorder {
+ public:
+  /// Opens the log (io::LogWriter). Throws std::runtime_error when `log_dir` holds a log and
+  /// overwrite is false, or a file cannot be written.
+  FlightRecorder(const std::filesystem::path& log_dir, const Simulator& sim, bool overwrite);
+  ~FlightRecorder();
+  FlightRecorder(const FlightRecorder&) = delete;
+  FlightRecorder& operator=(const FlightRecorder&) = delete;
+
+  /// Writes the frame (depth with its pose estimate, ground truth, the correction if any) and
+  /// updates the error statistics.
+  void record(const SimFrame& frame);
+  std::size_t frames() const { return frame_t_.size(); }
+
+  /// Closes the log and writes simulation.json (settings, description, loop closures, drift
+  /// statistics). Returns the statistics; the caller gives the flight's duration and path length.
+  FlightResult finish(const SimulatorConfig& config, const std::string& description, double duration_s,
+                      double path_length_m);
+
+ private:
+  struct Log;
+  std::unique_ptr<Log> log_;
+  FlightResult result_;
+  std::vector<double> frame_t_, frame_ms_;
+  double sq_error_ = 0.0;
+  std::chrono::steady_clock::time_point start_, last_;
+};
 
 /// Flies `trajectory` and writes the log to `log_dir`. Throws std::invalid_argument for an empty
 /// trajectory or an invalid config, std::runtime_error when `log_dir` holds a log and overwrite

@@ -1,0 +1,163 @@
+// Exploration in closed loop: the simulated vehicle flies the exploration manager's trajectories,
+// its camera's frames go to the Mapper with the drifting pose ESTIMATE, loop-closure corrections
+// re-integrate the map, and the planner sees only that map and the estimated vehicle state.
+//
+// Per drift step (200 Hz) the vehicle tracks the commanded trajectory in the estimate frame, as a
+// controller closing the loop on the odometry would: its TRUE pose is the commanded pose mapped
+// through the current offset between the true and estimated poses (which the simulator knows and
+// the planner does not), so the odometry's drift turns into a drift of the true path. Collisions
+// are checked on the true pose against the world: a collision event starts when the true position
+// comes closer than vehicle_radius_m to a surface (and ends when it leaves that distance).
+//
+// Per camera frame (15 Hz), in this order: the frame is recorded in the log (if any) and integrated
+// by the Mapper at its estimated pose; a correction event goes to Mapper::updatePoses, and the
+// manager is told that the estimate frame moved (ExplorationManager::shiftFrame, so the vehicle's
+// true path does not jump); one budgeted re-integration cycle runs; then the manager updates
+// frontiers from the map's dirty region and may replan.
+//
+// Time: simulated time stands still while the planner computes (the vehicle neither waits nor
+// moves on during a replan). This keeps a run deterministic for a seed (as long as OMPL and ATSP
+// time limits are not hit) and independent of the machine's load; the planner's wall time per
+// replan is measured and reported (planner_ms), so whether it would keep up in real time can be
+// judged: a replan that takes longer than a frame period (67 ms) would, on a real vehicle, be
+// flown on the old trajectory for that long. At take-off the vehicle hovers through its first
+// replan in the same way (no time passes).
+//
+// The run finishes when the manager reports Finished (no reachable frontier left, vehicle at
+// rest) and no re-integration is pending, or when max_time_s of simulated time have passed.
+#pragma once
+
+#include "vdbmap/io/tum_trajectory.hpp"
+#include "vdbmap/mapper.hpp"
+#include "vdbmap/planner/exploration_manager.hpp"
+#include "vdbmap/sim/flight.hpp"
+#include "vdbmap/sim/simulator.hpp"
+#include "vdbmap/sim/surface_coverage.hpp"
+#include "vdbmap/sim/world.hpp"
+
+#include <Eigen/Geometry>
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace vdbmap::sim {
+
+struct ExplorationConfig {
+  /// Camera, drift and loop closure. The default camera reports surfaces up to far_clip_m = 30 m,
+  /// beyond the sensor's 5 m range, so that the Mapper carves free space up to 5 m toward far
+  /// walls (see depth_camera.hpp); pixels that see nothing at all stay invalid (0), as on a real
+  /// camera, so close the world (a ceiling cap) where the camera would look into the void.
+  SimulatorConfig simulator = defaultSimulator();
+  /// Mode (keyframes by default), voxel size and the rest; the integrator's ranges are set from
+  /// the camera's.
+  MapperConfig mapper;
+  /// The exploration manager; box_W is required (exploration_setup below gives defaults).
+  planner::ExplorationParams planner;
+  /// Where the vehicle starts (true and estimated pose agree there), at t = 0.
+  FlatPose start;
+  static constexpr double kDefaultMaxTime_s = 900.0;
+  /// Simulated time limit; (0, 1e5]
+  double max_time_s = kDefaultMaxTime_s;
+  /// A collision: the true position closer than this to a surface; [0, 10]
+  double vehicle_radius_m = 0.2;
+
+  static SimulatorConfig defaultSimulator();
+  void validate() const;
+};
+
+/// What one frame of the run looked like (for progress display).
+struct ExplorationProgress {
+  double t_s = 0.0;
+  std::size_t frames = 0;
+  std::size_t clusters = 0;
+  std::size_t frontier_voxels = 0;
+  std::size_t replans = 0;
+  std::size_t loop_closures = 0;
+  std::size_t collisions = 0;
+  double path_length_m = 0.0;
+  planner::ExplorationStatus status = planner::ExplorationStatus::Continue;
+};
+
+struct ExplorationOptions {
+  /// Record the flight as a log here (replayable by `vdbmap integrate`); empty: no log.
+  std::filesystem::path log_dir;
+  bool overwrite = false;
+  std::string description;  ///< stored in the log's simulation.json
+  /// Called after every frame.
+  std::function<void(const ExplorationProgress&)> progress;
+};
+
+struct ExplorationResult {
+  bool finished = false;            ///< the manager finished (false: the time limit ended the run)
+  double exploration_time_s = 0.0;  ///< simulated time from take-off to the finish (or the limit)
+  double path_length_m = 0.0;       ///< length of the TRUE path
+  std::size_t frames_total = 0;
+  std::size_t loop_closures = 0;
+  std::size_t collisions = 0;       ///< distinct collision events (true pose vs world)
+  double min_clearance_m = 0.0;     ///< smallest true distance to a surface (capped at 2 vehicle radii)
+  std::vector<double> planner_ms;   ///< wall time of every update that replanned (frontiers, viewpoints, replan)
+  double planner_ms_median = 0.0;
+  double planner_ms_max = 0.0;
+  double map_update_ms_median = 0.0;  ///< frontier and viewpoint refresh per frame
+  double frame_wall_ms_median = 0.0;  ///< everything per frame (render, map, planner, log)
+  planner::ExplorationCounters planner_counters;
+  std::size_t keyframes_kept = 0;
+  std::size_t reintegrated_frames = 0;
+  /// Sensor poses T_W_S at every frame: true, and estimated (what the Mapper integrated with).
+  std::vector<io::StampedPose> trajectory_true, trajectory_estimate;
+  FlightResult flight;              ///< the log's statistics (when a log was recorded)
+  std::unique_ptr<Mapper> mapper;   ///< the final map (re-integration queue drained)
+  double wall_s = 0.0;
+};
+
+/// Runs the exploration. Throws std::invalid_argument for an invalid config or a start that is not
+/// clear of the world; std::runtime_error when the log cannot be written.
+ExplorationResult runExploration(const World& world, const ExplorationConfig& config,
+                                 const ExplorationOptions& options = {});
+
+/// The defaults for a world: the exploration box is the world's bounding box (after its ceiling
+/// clip), and the start is the point nearest the box's centre (x, y) at `start_height_m` above the
+/// box's floor whose clearance from every surface is at least `start_clearance_m` (searched on a
+/// 0.1 m grid). Throws std::invalid_argument when there is no such point.
+Eigen::AlignedBox3d defaultExplorationBox(const World& world);
+Vec3d defaultStartPosition(const World& world, const Eigen::AlignedBox3d& box, double start_height_m = 1.0,
+                           double start_clearance_m = 0.6);
+
+/// A run folder's summary (summary.json holds these and more).
+struct ExplorationSummary {
+  double exploration_time_s = 0.0;
+  double path_length_m = 0.0;
+  double coverage = 0.0;  ///< surface_coverage.hpp
+  std::size_t loop_closures = 0;
+  std::size_t collisions = 0;
+  double planner_ms_median = 0.0;
+  double planner_ms_max = 0.0;
+  std::size_t frames_total = 0;
+  std::size_t keyframes_kept = 0;
+  double accuracy_rmse_m = 0.0;  ///< map surface vs the world mesh (vdbmap/eval.hpp), as bench drift
+  double completeness = 0.0;     ///< of the WHOLE world mesh within 2 voxels (hidden surfaces included)
+  bool finished = false;
+  ObservableSurfaceStats observable;
+  double wall_s = 0.0;
+};
+
+struct ExplorationRunOptions {
+  SurfaceCoverageConfig coverage;  ///< max_view_distance_m and the fov are set from the planner's camera
+  double completeness_threshold_vox = 2.0;  ///< (0, 100]
+  bool overwrite = false;                   ///< replace a run already in the folder
+  std::string description;                  ///< e.g. the command line
+  std::function<void(const ExplorationProgress&)> progress;
+  /// Called with a line of text at each stage after the flight (coverage, evaluation, files).
+  std::function<void(const std::string&)> report;
+};
+
+/// Runs the exploration and writes the run folder: log/ (replayable), map.vdb, mesh.ply,
+/// trajectory_true.txt and trajectory_odom.txt (TUM, sensor poses per frame, true and estimated),
+/// and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
+ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
+                                   const std::filesystem::path& run_dir, const ExplorationRunOptions& options = {});
+
+}  // namespace vdbmap::sim

@@ -1,0 +1,341 @@
+#include "vdbmap/sim/exploration.hpp"
+
+#include "vdbmap/eval.hpp"
+#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/io/mesh_io.hpp"
+#include "vdbmap/mesh.hpp"
+#include "vdbmap/planner/tsdf_map_query.hpp"
+#include "vdbmap/sim/pose_graph.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace vdbmap::sim {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+/// The inverse of a flat pose (compose(inverse(a), a) = identity).
+FlatPose inverse(const FlatPose& a) { return relativePose(a, FlatPose{}); }
+
+/// Far surfaces are reported up to this distance, beyond the sensor's range, so that rays toward
+/// them carve free space up to the range (within the 16-bit PNG range of the logs).
+constexpr double kFarClip_m = 30.0;
+}  // namespace
+
+SimulatorConfig ExplorationConfig::defaultSimulator() {
+  SimulatorConfig c;
+  c.camera.far_clip_m = kFarClip_m;
+  return c;
+}
+
+void ExplorationConfig::validate() const {
+  auto fail = [](const std::string& field, const std::string& range) {
+    throw std::invalid_argument("ExplorationConfig." + field + " must be in " + range);
+  };
+  simulator.validate();
+  mapper.validate();
+  planner.validate();
+  if (!start.p_W.allFinite() || !std::isfinite(start.yaw)) fail("start", "finite values");
+  if (!(max_time_s > 0.0 && max_time_s <= 1e5)) fail("max_time_s", "(0, 1e5]");
+  if (!(vehicle_radius_m >= 0.0 && vehicle_radius_m <= 10.0)) fail("vehicle_radius_m", "[0, 10]");
+}
+
+// ---- the closed loop ---------------------------------------------------------------------------
+
+namespace {
+
+/// The vehicle in closed loop: true pose from the command through the true <- estimate offset,
+/// collision events, path length.
+class Vehicle {
+ public:
+  Vehicle(const World& world, const Simulator& sim, const planner::ExplorationManager& manager, double radius_m)
+      : world_(world), sim_(sim), manager_(manager), radius_(radius_m), last_(sim.bodyTrue()) {}
+
+  /// The true pose at t: the commanded pose (estimate frame) through the offset of the last step.
+  FlatPose truthAt(double t) {
+    const FlatPose offset = compose(sim_.bodyTrue(), inverse(sim_.bodyEstimate()));
+    const planner::TrajectoryState cmd = manager_.command(t);
+    FlatPose truth = compose(offset, FlatPose{cmd.position_W, cmd.yaw_rad});
+    truth.yaw = last_.yaw + angleDifference(truth.yaw, last_.yaw);  // continuous yaw
+    checkCollision(truth.p_W);
+    path_length_m_ += (truth.p_W - last_.p_W).norm();
+    last_ = truth;
+    return truth;
+  }
+
+  std::size_t collisions() const { return collisions_; }
+  double minClearance() const { return min_clearance_; }
+  double pathLength() const { return path_length_m_; }
+
+ private:
+  void checkCollision(const Vec3d& p_W) {
+    const double d = world_.distance(p_W, 2.0 * radius_);
+    min_clearance_ = std::min(min_clearance_, d);
+    const bool colliding = d < radius_;
+    if (colliding && !colliding_) ++collisions_;
+    colliding_ = colliding;
+  }
+
+  const World& world_;
+  const Simulator& sim_;
+  const planner::ExplorationManager& manager_;
+  double radius_;
+  FlatPose last_;
+  bool colliding_ = false;
+  std::size_t collisions_ = 0;
+  double min_clearance_ = std::numeric_limits<double>::infinity();
+  double path_length_m_ = 0.0;
+};
+
+planner::VehicleState vehicleState(const FlatPose& estimate, const planner::TrajectoryState& command) {
+  planner::VehicleState s;
+  s.position_W = estimate.p_W;
+  s.yaw_rad = planner::wrapAngle(estimate.yaw);
+  s.velocity_W = command.velocity_W;
+  return s;
+}
+
+std::map<FrameId, Pose3d> byFrameId(const CorrectionEvent& event) {
+  std::map<FrameId, Pose3d> poses;
+  for (const auto& [i, T] : event.T_W_S_by_frame) poses.emplace(FrameId(i), T);
+  return poses;
+}
+}  // namespace
+
+ExplorationResult runExploration(const World& world, const ExplorationConfig& config, const ExplorationOptions& options) {
+  config.validate();
+  const auto wall0 = Clock::now();
+  if (!world.isClear(config.start.p_W, config.vehicle_radius_m))
+    throw std::invalid_argument("runExploration: the start position is within vehicle_radius_m of a surface");
+
+  Simulator sim(world, config.simulator, config.start, 0.0);
+  MapperConfig mc = config.mapper;
+  mc.integrator.min_range_m = config.simulator.camera.min_range_m;
+  mc.integrator.max_range_m = config.simulator.camera.max_range_m;
+  ExplorationResult result;
+  result.mapper = std::make_unique<Mapper>(mc);
+  Mapper& mapper = *result.mapper;
+  const auto K = std::make_shared<const CameraIntrinsics>(sim.camera().intrinsics());
+
+  planner::ExplorationManager manager(config.planner, vehicleState(config.start, planner::TrajectoryState{}), 0.0);
+  Vehicle vehicle(world, sim, manager, config.vehicle_radius_m);
+  std::unique_ptr<FlightRecorder> recorder;
+  if (!options.log_dir.empty()) recorder = std::make_unique<FlightRecorder>(options.log_dir, sim, options.overwrite);
+
+  std::vector<double> map_ms, frame_ms;
+  ExplorationProgress progress;
+  auto frame_start = Clock::now();
+  const auto onFrame = [&](SimFrame& frame) {
+    if (recorder) recorder->record(frame);
+    result.trajectory_true.push_back({frame.t_s, frame.T_W_S_true});
+    result.trajectory_estimate.push_back({frame.t_s, frame.T_W_S_estimate});
+    mapper.addDepthFrame(FrameId(frame.index), frame.t_s, frame.depth, K, frame.T_W_S_estimate);
+    if (frame.correction) {
+      ++result.loop_closures;
+      mapper.updatePoses(byFrameId(*frame.correction));
+      // The estimate jumped: the pose believed at capture is now sim.bodyEstimate().
+      const FlatPose shift = compose(sim.bodyEstimate(), inverse(frame.body_estimate));
+      manager.shiftFrame(bodyPose(shift));
+    }
+    const FlatPose estimate = sim.bodyEstimate();
+    mapper.reintegrate(estimate.p_W);
+    const planner::TsdfMapQuery map(mapper.volume());  // re-created every cycle: the volume changed
+    const planner::ExplorationStep step =
+        manager.update(map, mapper.takeDirtyRegion(), vehicleState(estimate, manager.command(frame.t_s)), frame.t_s);
+    map_ms.push_back(step.map_update_ms);
+    if (step.reason != planner::ReplanReason::None) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);
+    if (step.status == planner::ExplorationStatus::Finished && mapper.queuedFrames() == 0) result.finished = true;
+
+    result.frames_total = frame.index + 1;
+    result.exploration_time_s = frame.t_s;
+    frame_ms.push_back(msSince(frame_start));
+    frame_start = Clock::now();
+    if (options.progress) {
+      progress.t_s = frame.t_s;
+      progress.frames = result.frames_total;
+      progress.clusters = step.clusters;
+      progress.frontier_voxels = step.frontier_voxels;
+      progress.replans = manager.counters().replans;
+      progress.loop_closures = result.loop_closures;
+      progress.collisions = vehicle.collisions();
+      progress.path_length_m = vehicle.pathLength();
+      progress.status = step.status;
+      options.progress(progress);
+    }
+  };
+  const auto truthAt = [&](double t) { return vehicle.truthAt(t); };
+  while (!result.finished && sim.nextFrameTime() <= config.max_time_s + 1e-9)
+    flyAlong(sim, truthAt, sim.nextFrameTime(), onFrame);
+
+  mapper.reintegrateAll(sim.bodyEstimate().p_W);
+  result.path_length_m = vehicle.pathLength();
+  result.collisions = vehicle.collisions();
+  result.min_clearance_m = vehicle.minClearance();
+  result.planner_ms_median = median(result.planner_ms);
+  result.planner_ms_max = result.planner_ms.empty() ? 0.0 : *std::max_element(result.planner_ms.begin(), result.planner_ms.end());
+  result.map_update_ms_median = median(map_ms);
+  result.frame_wall_ms_median = median(frame_ms);
+  result.planner_counters = manager.counters();
+  result.keyframes_kept = mapper.keyframesKept();
+  result.reintegrated_frames = mapper.stats().reintegrated_frames;
+  if (recorder) result.flight = recorder->finish(config.simulator, options.description, result.exploration_time_s, result.path_length_m);
+  result.wall_s = msSince(wall0) / 1e3;
+  return result;
+}
+
+// ---- world defaults ----------------------------------------------------------------------------
+
+Eigen::AlignedBox3d defaultExplorationBox(const World& world) { return world.bounds(); }
+
+Vec3d defaultStartPosition(const World& world, const Eigen::AlignedBox3d& box, double start_height_m,
+                           double start_clearance_m) {
+  constexpr double kStep_m = 0.1;
+  const double z = box.min().z() + start_height_m;
+  const Eigen::Vector2d centre = box.center().head<2>();
+  const int nx = int(std::floor(0.5 * box.sizes().x() / kStep_m)), ny = int(std::floor(0.5 * box.sizes().y() / kStep_m));
+  Vec3d best = Vec3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  double best_d2 = std::numeric_limits<double>::infinity();
+  // Candidates in rings of growing distance: the first clear one in a ring closer than the best wins.
+  for (int ix = -nx; ix <= nx; ++ix)
+    for (int iy = -ny; iy <= ny; ++iy) {
+      const double d2 = double(ix * ix + iy * iy) * kStep_m * kStep_m;
+      if (d2 >= best_d2) continue;
+      const Vec3d p(centre.x() + ix * kStep_m, centre.y() + iy * kStep_m, z);
+      if (box.contains(p) && world.isClear(p, start_clearance_m)) {
+        best = p;
+        best_d2 = d2;
+      }
+    }
+  if (!best.allFinite())
+    throw std::invalid_argument("defaultStartPosition: no point at height " + std::to_string(start_height_m) +
+                                " m keeps " + std::to_string(start_clearance_m) + " m from every surface");
+  return best;
+}
+
+// ---- the run folder ----------------------------------------------------------------------------
+
+namespace {
+nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult& r, const ExplorationConfig& c,
+                           const std::string& description) {
+  nlohmann::json j;
+  j["exploration_time_s"] = s.exploration_time_s;
+  j["path_length_m"] = s.path_length_m;
+  j["coverage"] = s.coverage;
+  j["loop_closures"] = s.loop_closures;
+  j["collisions"] = s.collisions;
+  j["planner_ms_median"] = s.planner_ms_median;
+  j["planner_ms_max"] = s.planner_ms_max;
+  j["frames_total"] = s.frames_total;
+  j["keyframes_kept"] = s.keyframes_kept;
+  j["accuracy_rmse_m"] = s.accuracy_rmse_m;
+  j["completeness"] = s.completeness;
+  j["finished"] = s.finished;
+  j["description"] = description;
+  j["mode"] = toString(c.mapper.mode);
+  j["voxel_size_m"] = c.mapper.tsdf.voxel_size_m;
+  j["max_time_s"] = c.max_time_s;
+  j["start"] = {c.start.p_W.x(), c.start.p_W.y(), c.start.p_W.z(), c.start.yaw};
+  j["box"] = {{"min", {c.planner.box_W.min().x(), c.planner.box_W.min().y(), c.planner.box_W.min().z()}},
+              {"max", {c.planner.box_W.max().x(), c.planner.box_W.max().y(), c.planner.box_W.max().z()}}};
+  j["min_clearance_m"] = r.min_clearance_m;
+  j["vehicle_radius_m"] = c.vehicle_radius_m;
+  j["replans"] = r.planner_counters.replans;
+  j["replans_failed"] = r.planner_counters.replans_failed;
+  j["collision_risk_replans"] = r.planner_counters.collision_risks;
+  j["target_failures"] = r.planner_counters.target_failures;
+  j["blacklisted_clusters"] = r.planner_counters.blacklisted;
+  j["holds"] = r.planner_counters.holds;
+  j["map_update_ms_median"] = r.map_update_ms_median;
+  j["frame_wall_ms_median"] = r.frame_wall_ms_median;
+  j["reintegrated_frames"] = r.reintegrated_frames;
+  j["estimate_error_rmse_m"] = r.flight.estimate_error_rmse_m;
+  j["estimate_error_max_m"] = r.flight.estimate_error_max_m;
+  j["odometry_error_final_m"] = r.flight.odometry_error_final_m;
+  j["observable_surface"] = {{"samples_in_box", s.observable.samples_in_box},
+                             {"observable_samples", s.observable.observable},
+                             {"observable_area_m2", s.observable.observable_area_m2},
+                             {"reachable_cells", s.observable.reachable_cells}};
+  j["wall_s"] = s.wall_s;
+  return j;
+}
+}  // namespace
+
+ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
+                                   const std::filesystem::path& run_dir, const ExplorationRunOptions& options) {
+  config.validate();
+  if (!(options.completeness_threshold_vox > 0.0 && options.completeness_threshold_vox <= 100.0))
+    throw std::invalid_argument("ExplorationRunOptions.completeness_threshold_vox must be in (0, 100]");
+  const auto wall0 = Clock::now();
+  const auto report = [&](const std::string& line) {
+    if (options.report) options.report(line);
+  };
+  if (std::filesystem::exists(run_dir / "summary.json") && !options.overwrite)
+    throw std::runtime_error(run_dir.string() + " already holds an exploration run (summary.json); overwrite it explicitly");
+  std::filesystem::create_directories(run_dir);
+
+  // The observable surface first: it fails early on a start the coverage cannot use.
+  SurfaceCoverageConfig cc = options.coverage;
+  const planner::CameraFrustum& camera = config.planner.viewpoint.camera;
+  cc.max_view_distance_m = camera.max_range_m;
+  cc.half_fov_vertical_rad = std::atan(camera.tan_half_fov_y);
+  const ObservableSurface observable(world, config.planner.box_W, config.start.p_W, cc);
+  report("observable surface: " + std::to_string(observable.stats().observable) + " of " +
+         std::to_string(observable.stats().samples_in_box) + " samples in the box (" +
+         std::to_string(int(observable.stats().observable_area_m2)) + " m^2)");
+
+  ExplorationOptions eo;
+  eo.log_dir = run_dir / "log";
+  eo.overwrite = options.overwrite;
+  eo.description = options.description;
+  eo.progress = options.progress;
+  ExplorationResult r = runExploration(world, config, eo);
+  const TsdfVolume& volume = r.mapper->volume();
+
+  ExplorationSummary s;
+  s.exploration_time_s = r.exploration_time_s;
+  s.path_length_m = r.path_length_m;
+  s.coverage = observable.coverage(planner::TsdfMapQuery(volume));
+  s.loop_closures = r.loop_closures;
+  s.collisions = r.collisions;
+  s.planner_ms_median = r.planner_ms_median;
+  s.planner_ms_max = r.planner_ms_max;
+  s.frames_total = r.frames_total;
+  s.keyframes_kept = r.keyframes_kept;
+  s.finished = r.finished;
+  s.observable = observable.stats();
+
+  volume.save(run_dir / "map.vdb");
+  const TriangleMesh mesh = extractMesh(volume);
+  io::writePlyMesh(run_dir / "mesh.ply", mesh);
+  if (!mesh.vertices.empty()) {
+    EvalConfig eval;
+    eval.completeness_threshold_m = options.completeness_threshold_vox * config.mapper.tsdf.voxel_size_m;
+    eval.sample_spacing_m = 0.5 * config.mapper.tsdf.voxel_size_m;
+    const SurfaceEval e = evaluateSurface(mesh, world.mesh(), eval);
+    s.accuracy_rmse_m = e.accuracy_rmse_m;
+    s.completeness = e.completeness;
+  }
+  io::writeTumTrajectory(run_dir / "trajectory_true.txt", r.trajectory_true);
+  io::writeTumTrajectory(run_dir / "trajectory_odom.txt", r.trajectory_estimate);
+  s.wall_s = msSince(wall0) / 1e3;
+  const nlohmann::json j = summaryJson(s, r, config, options.description);
+  io::writeFileAtomically(run_dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; });
+  report("wrote " + run_dir.string());
+  return s;
+}
+
+}  // namespace vdbmap::sim

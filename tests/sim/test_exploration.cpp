@@ -1,0 +1,98 @@
+// Exploration in closed loop on a small world: two rooms joined by a door, 0.1 m voxels, a camera
+// of reduced resolution (same field of view). The run must finish, cover the observable surface,
+// never collide, and record a log that replays.
+#include "sim/sim_test_helpers.hpp"
+
+#include "vdbmap/io/frame_source.hpp"
+#include "vdbmap/log_replay.hpp"
+#include "vdbmap/planner/tsdf_map_query.hpp"
+#include "vdbmap/sim/exploration.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+
+using namespace vdbmap;
+using namespace vdbmap::sim;
+
+namespace {
+/// Two 4 x 4 x 2.5 m rooms side by side, the wall between them 0.2 m thick with a 1 x 2 m door.
+TriangleMesh twoRooms() {
+  TriangleMesh m;
+  test::addBox(m, Vec3d(0, 0, 0), Vec3d(8, 4, 2.5));
+  test::addBox(m, Vec3d(3.9, 0, 0), Vec3d(4.1, 1.5, 2.5));
+  test::addBox(m, Vec3d(3.9, 2.5, 0), Vec3d(4.1, 4, 2.5));
+  test::addBox(m, Vec3d(3.9, 1.5, 2.0), Vec3d(4.1, 2.5, 2.5));
+  return m;
+}
+
+/// The default camera's field of view at a quarter of its resolution.
+CameraIntrinsics smallCamera() {
+  CameraIntrinsics K;
+  K.width = 160;
+  K.height = 120;
+  K.fx = K.fy = 387.229 / 4.0;
+  K.cx = 80.0;
+  K.cy = 60.0;
+  return K;
+}
+
+ExplorationConfig twoRoomConfig(const std::string& drift) {
+  ExplorationConfig c;
+  c.simulator.camera.intrinsics = smallCamera();
+  c.simulator.drift = DriftConfig::preset(drift, 3);
+  c.mapper.tsdf.voxel_size_m = 0.1;
+  c.planner.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(8, 4, 2.5));
+  c.start.p_W = Vec3d(2.0, 2.0, 1.2);
+  c.max_time_s = 150.0;
+  return c;
+}
+}  // namespace
+
+TEST_CASE("Closed-loop exploration of two rooms finishes, covers them, and never collides", "[sim][exploration]") {
+  const World world(twoRooms());
+  const ExplorationConfig config = twoRoomConfig("s1");
+  const std::filesystem::path log = std::filesystem::temp_directory_path() / "vdbmap_test_explore_log";
+  std::filesystem::remove_all(log);
+  ExplorationOptions options;
+  options.log_dir = log;
+  const ExplorationResult r = runExploration(world, config, options);
+  INFO("time " << r.exploration_time_s << " s, path " << r.path_length_m << " m, replans " << r.planner_counters.replans
+               << ", failed " << r.planner_counters.replans_failed << ", blacklisted " << r.planner_counters.blacklisted);
+  CHECK(r.finished);
+  CHECK(r.collisions == 0);
+  CHECK(r.min_clearance_m >= config.vehicle_radius_m);
+  CHECK(r.path_length_m > 4.0);  // it went through the door into the second room
+  const ObservableSurface observable(world, config.planner.box_W, config.start.p_W);
+  const double coverage = observable.coverage(planner::TsdfMapQuery(r.mapper->volume()));
+  INFO("coverage " << coverage);
+  CHECK(coverage >= 0.95);
+  CHECK(r.frames_total == r.trajectory_true.size());
+  CHECK(r.planner_ms.size() == r.planner_counters.replans);
+  CHECK(r.planner_ms_max >= r.planner_ms_median);
+
+  // The log replays: the same frames, every one integrated.
+  const std::unique_ptr<io::FrameSource> source = io::openDataset(log, io::DatasetFormat::Log);
+  MapperConfig mc = config.mapper;
+  Mapper replay(mc);
+  const ReplayResult replayed = replayLog(*source, replay, ReplayOptions{});
+  CHECK(replayed.frames_integrated == r.frames_total);
+  CHECK(replayed.correction_events == r.loop_closures);
+  std::filesystem::remove_all(log);
+}
+
+TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", "[sim][exploration]") {
+  const World world(twoRooms());
+  const ExplorationConfig config = twoRoomConfig("s3");
+  const ExplorationResult r = runExploration(world, config);
+  INFO("time " << r.exploration_time_s << " s, loops " << r.loop_closures);
+  CHECK(r.finished);
+  CHECK(r.collisions == 0);
+  // The vehicle's true path drifts from the estimate it tracks.
+  double max_gap = 0.0;
+  for (std::size_t i = 0; i < r.trajectory_true.size(); ++i)
+    max_gap = std::max(max_gap, (r.trajectory_true[i].T_W_S.translation() - r.trajectory_estimate[i].T_W_S.translation()).norm());
+  CHECK(max_gap > 0.0);
+  const ObservableSurface observable(world, config.planner.box_W, config.start.p_W);
+  CHECK(observable.coverage(planner::TsdfMapQuery(r.mapper->volume())) >= 0.9);
+}

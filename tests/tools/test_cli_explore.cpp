@@ -1,0 +1,90 @@
+// `vdbmap explore` writes a complete run folder whose log `vdbmap integrate` replays; bad
+// arguments fail loudly.
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include "vdbmap/io/mesh_io.hpp"
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+int run(const std::string& args, const fs::path& out_file) {
+  const std::string cmd = std::string(VDBMAP_CLI_PATH) + " " + args + " > " + out_file.string() + " 2>&1";
+  return std::system(cmd.c_str());
+}
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+std::size_t lineCount(const fs::path& p) {
+  std::ifstream in(p);
+  std::size_t n = 0;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') ++n;
+  return n;
+}
+/// A closed 5 x 4 x 2.5 m room with a box standing in it (walls, floor and ceiling).
+vdbmap::TriangleMesh room() {
+  vdbmap::TriangleMesh m;
+  auto box = [&m](float x0, float y0, float z0, float x1, float y1, float z1) {
+    const int base = int(m.vertices.size());
+    for (int k = 0; k < 8; ++k) m.vertices.emplace_back(k & 1 ? x1 : x0, k & 2 ? y1 : y0, k & 4 ? z1 : z0);
+    const int quads[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
+    for (const auto& q : quads) {
+      m.triangles.emplace_back(base + q[0], base + q[1], base + q[2]);
+      m.triangles.emplace_back(base + q[0], base + q[2], base + q[3]);
+    }
+  };
+  box(-2.5f, -2.0f, 0.0f, 2.5f, 2.0f, 2.5f);
+  box(1.0f, -1.5f, 0.0f, 1.8f, -0.7f, 1.0f);
+  return m;
+}
+}  // namespace
+
+TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays", "[cli][explore]") {
+  const fs::path dir = fs::temp_directory_path() / "vdbmap_cli_explore";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  vdbmap::io::writePlyMesh(dir / "room.ply", room());
+  const fs::path runs = dir / "run", out = dir / "out.txt";
+  REQUIRE(run("explore --world " + (dir / "room.ply").string() + " --drift s2 --seed 3 --max-time-s 90 -o " +
+                  runs.string(),
+              out) == 0);
+  INFO(slurp(out));
+  CHECK(slurp(out).find("coverage") != std::string::npos);
+  for (const char* f : {"map.vdb", "mesh.ply", "trajectory_true.txt", "trajectory_odom.txt", "summary.json",
+                        "log/sensor.json", "log/frames.csv", "log/groundtruth.txt", "log/simulation.json"})
+    CHECK(fs::exists(runs / f));
+  const auto s = nlohmann::json::parse(slurp(runs / "summary.json"));
+  for (const char* key : {"exploration_time_s", "path_length_m", "coverage", "loop_closures", "collisions",
+                          "planner_ms_median", "planner_ms_max", "frames_total", "keyframes_kept", "accuracy_rmse_m",
+                          "completeness", "finished"})
+    CHECK(s.contains(key));
+  CHECK(s.at("finished") == true);
+  CHECK(s.at("collisions") == 0);
+  CHECK(s.at("coverage").get<double>() >= 0.95);
+  const std::size_t frames = s.at("frames_total");
+  CHECK(frames > 30);
+  CHECK(lineCount(runs / "trajectory_true.txt") == frames);
+  CHECK(lineCount(runs / "trajectory_odom.txt") == frames);
+
+  REQUIRE(run("integrate " + (runs / "log").string() + " -o " + (dir / "replay.vdb").string() + " --json " +
+                  (dir / "integrate.json").string(),
+              out) == 0);
+  const auto replay = nlohmann::json::parse(slurp(dir / "integrate.json"));
+  CHECK(replay.at("frames_integrated") == frames);
+  CHECK(replay.at("format") == "log");
+
+  // The same folder again without --overwrite is refused; bad options fail.
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --max-time-s 5 -o " + runs.string(), out) != 0);
+  CHECK(slurp(out).find("already holds") != std::string::npos);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --drift s7 -o " + (dir / "x").string(), out) != 0);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 2.0,1.0 -o " + (dir / "x").string(), out) != 0);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 9,9,1 -o " + (dir / "x").string(), out) != 0);
+  fs::remove_all(dir);
+}

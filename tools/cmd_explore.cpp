@@ -1,0 +1,138 @@
+// `vdbmap explore --world W.ply [--drift s1..s4] [--seed N] [--voxel-size M] [--max-time-s T]
+// [--mode keyframes|all|none|submap] [--start x,y,z] [--box ...] [--ceiling Z] -o RUNDIR`: explores
+// the world with the simulated vehicle, the mapper and the exploration planner in closed loop, and
+// writes the run folder (see sim/exploration.hpp).
+#include "cli_util.hpp"
+#include "command.hpp"
+
+#include "vdbmap/sim/exploration.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace vdbmap::cli {
+namespace {
+
+struct ExploreOptions {
+  std::filesystem::path world, output;
+  std::string drift = "s1";
+  std::string mode = toString(MapperConfig{}.mode);
+  std::string loop_closure = sim::toString(sim::SimulatorConfig{}.loop_closure);
+  std::uint64_t seed = 1;
+  double voxel_size_m = TsdfConfig{}.voxel_size_m;
+  double max_time_s = sim::ExplorationConfig::kDefaultMaxTime_s;
+  double ceiling_m = 2.5;
+  double start_yaw = 0.0;
+  std::vector<double> start, box;
+  bool no_initial_turn = false;
+  bool overwrite = false;
+};
+
+/// A progress line on a terminal (rewritten in place), else a line every 10 s of simulated time.
+class ExploreProgress {
+ public:
+  ExploreProgress() : tty_(::isatty(STDERR_FILENO) != 0) {}
+  void update(const sim::ExplorationProgress& p) {
+    if (!tty_ && p.t_s < next_line_t_) return;
+    next_line_t_ = p.t_s + 10.0;
+    std::fprintf(stderr, "%sexplore t %6.1f s  frames %5zu  clusters %3zu  replans %4zu  path %6.1f m  loops %zu  collisions %zu  %s%s",
+                 tty_ ? "\r" : "", p.t_s, p.frames, p.clusters, p.replans, p.path_length_m, p.loop_closures,
+                 p.collisions, planner::toString(p.status), tty_ ? "   " : "\n");
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (tty_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  bool tty_;
+  double next_line_t_ = 0.0;
+};
+
+void runExplore(const ExploreOptions& o) {
+  sim::WorldConfig wc;
+  if (o.ceiling_m > 0.0) {
+    wc.ceiling_clip_z_m = o.ceiling_m;
+    wc.cap_ceiling = true;
+  }
+  const sim::World world = sim::World::load(o.world, wc);
+
+  sim::ExplorationConfig config;
+  config.simulator.drift = sim::DriftConfig::preset(o.drift, o.seed);
+  config.simulator.loop_closure = sim::parseLoopClosureMode(o.loop_closure);
+  config.mapper.mode = parseConsistencyMode(o.mode);
+  config.mapper.tsdf.voxel_size_m = o.voxel_size_m;
+  config.max_time_s = o.max_time_s;
+  config.planner.initial_turn = !o.no_initial_turn;
+  config.planner.path.seed = o.seed;
+  config.planner.cost_path.seed = o.seed;
+  config.planner.tour.seed = o.seed;
+  config.planner.box_W = o.box.empty() ? sim::defaultExplorationBox(world)
+                                       : Eigen::AlignedBox3d(Vec3d(o.box[0], o.box[1], o.box[2]),
+                                                             Vec3d(o.box[3], o.box[4], o.box[5]));
+  config.start.p_W = o.start.empty() ? sim::defaultStartPosition(world, config.planner.box_W)
+                                     : Vec3d(o.start[0], o.start[1], o.start[2]);
+  config.start.yaw = o.start_yaw;
+
+  std::string description = "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " +
+                            std::to_string(o.seed) + " --mode " + o.mode;
+  const Eigen::AlignedBox3d& b = config.planner.box_W;
+  std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
+               o.world.c_str(), world.stats().triangles, b.min().x(), b.min().y(), b.min().z(), b.max().x(),
+               b.max().y(), b.max().z(), config.start.p_W.x(), config.start.p_W.y(), config.start.p_W.z());
+
+  sim::ExplorationRunOptions ro;
+  ro.overwrite = o.overwrite;
+  ro.description = description;
+  ExploreProgress progress;
+  ro.progress = [&](const sim::ExplorationProgress& p) { progress.update(p); };
+  ro.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  const sim::ExplorationSummary s = sim::exploreToFolder(world, config, o.output, ro);
+  progress.finish();
+  std::printf("%s: %s after %.1f s (%.1f m), coverage %.3f, %zu collisions, %zu loop closures\n", o.output.c_str(),
+              s.finished ? "finished" : "time limit reached", s.exploration_time_s, s.path_length_m, s.coverage,
+              s.collisions, s.loop_closures);
+  std::printf("planner %.1f ms median, %.1f ms max per replan; %zu frames, %zu keyframes kept; map RMSE %.4f m, "
+              "completeness %.3f; %.0f s wall\n",
+              s.planner_ms_median, s.planner_ms_max, s.frames_total, s.keyframes_kept, s.accuracy_rmse_m,
+              s.completeness, s.wall_s);
+}
+
+const Registration registration("explore", [](CLI::App& app) {
+  auto o = std::make_shared<ExploreOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "explore", "Explore a world with the simulated vehicle, the mapper and the exploration planner in closed loop");
+  sub->option_defaults()->always_capture_default();
+  sub->add_option("--world", o->world, "World mesh (PLY, OBJ, OFF), metres, z up")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--drift", o->drift, "Odometry drift level of the paper's Table I")
+      ->check(CLI::IsMember({"s1", "s2", "s3", "s4"}));
+  sub->add_option("--seed", o->seed, "Seed of the drift, the loop-edge noise and the planner's sampling");
+  sub->add_option("--voxel-size", o->voxel_size_m, "Voxel edge in metres")->check(CLI::Range(0.02, 1.0));
+  sub->add_option("--max-time-s", o->max_time_s, "Simulated time limit in seconds")->check(CLI::Range(1.0, 1e5));
+  sub->add_option("--mode", o->mode, "Consistency under corrections: none, submap, all, keyframes")
+      ->check(CLI::IsMember({"none", "submap", "all", "keyframes"}));
+  sub->add_option("--loop-closure", o->loop_closure, "Correction on loop closure: pose-graph optimization, ground truth, or none")
+      ->check(CLI::IsMember({"pgo", "perfect", "off"}));
+  sub->add_option("--ceiling", o->ceiling_m,
+                  "Cut the world at this height and close it with a flat ceiling there (metres; 0 keeps the mesh as is)")
+      ->check(CLI::Range(0.0, 1e3));
+  sub->add_option("--start", o->start, "Start position x,y,z (default: the clear point nearest the box's centre, 1 m up)")
+      ->delimiter(',')
+      ->expected(3);
+  sub->add_option("--start-yaw", o->start_yaw, "Start yaw in radians");
+  sub->add_option("--box", o->box, "Exploration box xmin,ymin,zmin,xmax,ymax,zmax (default: the world's bounds)")
+      ->delimiter(',')
+      ->expected(6);
+  sub->add_flag("--no-initial-turn", o->no_initial_turn, "Skip the turn on the spot at take-off");
+  sub->add_flag("--overwrite", o->overwrite, "Replace a run already in RUNDIR");
+  sub->add_option("-o,--output", o->output, "Run folder to write")->required();
+  sub->callback([o] { runExplore(*o); });
+});
+
+}  // namespace
+}  // namespace vdbmap::cli
