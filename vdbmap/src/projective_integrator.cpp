@@ -1,5 +1,6 @@
 #include "internal/projective_integrator.hpp"
 
+#include "internal/grid_dda.hpp"
 #include "internal/voxel_blocks.hpp"
 
 #include <tbb/blocked_range.h>
@@ -179,32 +180,13 @@ void candidateLeaves(const PixelTable& px, const CameraIntrinsics& K, const Pose
       reach += delta;
       const double uc = 0.5 * (u0 + u1 - 1), vc = 0.5 * (v0 + v1 - 1);
       const Vec3d dir = (T_W_S.linear() * Vec3d((uc - K.cx) / K.fx, (vc - K.cy) / K.fy, 1.0)).normalized();
-      // 3D DDA over leaves (Amanatides & Woo) from the camera to `reach`.
-      int L[3], step[3];
-      double t_max[3], t_delta[3];
-      for (int a = 0; a < 3; ++a) {
-        L[a] = int(std::floor(q0[a]));
-        const double g = dir[a] / leaf_m;  // leaf units per metre
-        if (g > 0.0) {
-          step[a] = 1;
-          t_max[a] = (L[a] + 1 - q0[a]) / g;
-          t_delta[a] = 1.0 / g;
-        } else if (g < 0.0) {
-          step[a] = -1;
-          t_max[a] = (L[a] - q0[a]) / g;
-          t_delta[a] = -1.0 / g;
-        } else {
-          step[a] = 0;
-          t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
-        }
-      }
+      // 3D DDA over leaves from the camera to `reach`.
+      GridDda dda(q0, dir, 1.0 / leaf_m);
       while (true) {
-        mark(openvdb::Coord(L[0], L[1], L[2]));
-        int a = t_max[1] < t_max[0] ? 1 : 0;
-        a = t_max[2] < t_max[a] ? 2 : a;
-        if (t_max[a] > reach) break;
-        L[a] += step[a];
-        t_max[a] += t_delta[a];
+        mark(openvdb::Coord(dda.cell[0], dda.cell[1], dda.cell[2]));
+        const int a = dda.nextAxis();
+        if (dda.t_max[a] > reach) break;
+        dda.advance(a);
       }
     }
   }
