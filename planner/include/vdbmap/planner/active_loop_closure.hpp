@@ -23,13 +23,15 @@
 // never chosen again. There is no ALC during the first initial_period_s of a flight, nor within
 // loop_quiet_s after any detected loop closure (drift was just corrected).
 //
-// Defaults follow the authors' code (github.com/yzhangec/Exploration-with-Global-Consistency):
-//   give_up_timeout_s  15 s  their alc_max_duration: time in a loop cluster without a loop;
-//   loop_quiet_s       30 s  their loop_max_duration: no ALC clusters for 30 s after a loop;
+// Defaults follow the authors' code and simulation launch file
+// (github.com/yzhangec/Exploration-with-Global-Consistency):
+//   give_up_timeout_s  15 s  their alc_max_duration: time in a loop cluster without a loop
+//                            (their real-robot launch file sets 30 s);
+//   loop_quiet_s       30 s  their loop_max_duration: no ALC clusters for 30 s after a loop (45 s);
 //   initial_period_s   20 s  no ALC in the first 20 s after exploration starts;
 //   suspension_s       10 s  after giving up, ALC is off for 10 s (hard-coded there);
 //   search_radius_m     3 m  their KD-tree radius around the vehicle;
-//   epsilon           0.2    the issue's; their code compares with a scale of 1.0 (epsilon 0).
+//   epsilon           0.2    their alc_cost_scale = 1.2 in both launch files.
 #pragma once
 
 #include "vdbmap/planner/cost.hpp"
