@@ -1,5 +1,6 @@
 #include "internal/projective_integrator.hpp"
 
+#include "internal/grid_dda.hpp"
 #include "internal/voxel_blocks.hpp"
 
 #include <tbb/blocked_range.h>
@@ -28,6 +29,10 @@ inline int fastFloor(double x) {
 struct PixelRay {
   std::int64_t weight_q = 0;
   float range_m = 0.0f;
+  /// A voxel at distance d on this ray is free space when d^2 <= free2 (sdf >= truncation), and in
+  /// the band when free2 < d^2 <= band2; squared, so most voxels need no square root.
+  float free2 = -1.0f;
+  float band2 = -1.0f;
   std::uint32_t surface = 0;
 };
 
@@ -119,6 +124,9 @@ PixelTable classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, co
           ray.surface = 1;
         }
         ray.range_m = float(r);
+        const double delta = tsdf.truncation_m();
+        ray.free2 = r >= delta ? float((r - delta) * (r - delta)) : -1.0f;
+        ray.band2 = ray.surface ? float((r + delta) * (r + delta)) : ray.free2;
         ray.weight_q = constant ? kWeightScale : roundToInt64(double(kWeightScale) / (z_eff * z_eff));
         far_most = std::max(far_most, double(ray.range_m));
       }
@@ -172,32 +180,13 @@ void candidateLeaves(const PixelTable& px, const CameraIntrinsics& K, const Pose
       reach += delta;
       const double uc = 0.5 * (u0 + u1 - 1), vc = 0.5 * (v0 + v1 - 1);
       const Vec3d dir = (T_W_S.linear() * Vec3d((uc - K.cx) / K.fx, (vc - K.cy) / K.fy, 1.0)).normalized();
-      // 3D DDA over leaves (Amanatides & Woo) from the camera to `reach`.
-      int L[3], step[3];
-      double t_max[3], t_delta[3];
-      for (int a = 0; a < 3; ++a) {
-        L[a] = int(std::floor(q0[a]));
-        const double g = dir[a] / leaf_m;  // leaf units per metre
-        if (g > 0.0) {
-          step[a] = 1;
-          t_max[a] = (L[a] + 1 - q0[a]) / g;
-          t_delta[a] = 1.0 / g;
-        } else if (g < 0.0) {
-          step[a] = -1;
-          t_max[a] = (L[a] - q0[a]) / g;
-          t_delta[a] = -1.0 / g;
-        } else {
-          step[a] = 0;
-          t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
-        }
-      }
+      // 3D DDA over leaves from the camera to `reach`.
+      GridDda dda(q0, dir, 1.0 / leaf_m);
       while (true) {
-        mark(openvdb::Coord(L[0], L[1], L[2]));
-        int a = t_max[1] < t_max[0] ? 1 : 0;
-        a = t_max[2] < t_max[a] ? 2 : a;
-        if (t_max[a] > reach) break;
-        L[a] += step[a];
-        t_max[a] += t_delta[a];
+        mark(openvdb::Coord(dda.cell[0], dda.cell[1], dda.cell[2]));
+        const int a = dda.nextAxis();
+        if (dda.t_max[a] > reach) break;
+        dda.advance(a);
       }
     }
   }
@@ -279,29 +268,33 @@ class FrustumCull {
 };
 
 /// Tests the 512 voxels of one leaf against the image and writes their updates into `block`.
-std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3d& A, const Vec3d& b,
+/// Single precision: positions are relative to the camera (metres, well within float's range), and
+/// the same arithmetic runs for integration and de-integration, so the result stays exact.
+std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3f& A, const Eigen::Vector3f& b,
                           const SdfUpdate& update, std::int64_t sign, Block& block) {
   std::size_t updates = 0;
-  const double delta = update.truncation();
-  const double u_max = px.width - 0.5, v_max = px.height - 0.5;
+  const float fx = float(K.fx), fy = float(K.fy), cx = float(K.cx) + 0.5f, cy = float(K.cy) + 0.5f;
+  const float u_end = float(px.width), v_end = float(px.height);
+  const Eigen::Vector3f step = A.col(2);
   for (int i = 0; i < 8; ++i) {
     for (int j = 0; j < 8; ++j) {
-      Vec3d p = A.col(0) * i + A.col(1) * j + b;  // voxel (i, j, 0) of the leaf in the sensor frame
+      Eigen::Vector3f p = A.col(0) * float(i) + A.col(1) * float(j) + b;  // voxel (i, j, 0) in the sensor frame
       openvdb::Index n = openvdb::Index(i * 64 + j * 8);
-      for (int k = 0; k < 8; ++k, ++n, p += A.col(2)) {
-        if (!(p.z() > 0.0)) continue;
-        const double inv_z = 1.0 / p.z();
-        const double uf = K.fx * p.x() * inv_z + K.cx, vf = K.fy * p.y() * inv_z + K.cy;
-        if (!(uf >= -0.5 && uf < u_max && vf >= -0.5 && vf < v_max)) continue;
-        const std::size_t pixel = std::size_t(fastFloor(vf + 0.5)) * std::size_t(px.width) + std::size_t(fastFloor(uf + 0.5));
-        const PixelRay& ray = px.rays[pixel];
+      for (int k = 0; k < 8; ++k, ++n, p += step) {
+        if (!(p.z() > 0.0f)) continue;
+        const float inv_z = 1.0f / p.z();
+        // Pixel coordinates + 0.5: the nearest pixel centre is their floor.
+        const float u = fx * p.x() * inv_z + cx, v = fy * p.y() * inv_z + cy;
+        if (!(u >= 0.0f && u < u_end && v >= 0.0f && v < v_end)) continue;
+        const PixelRay& ray = px.rays[std::size_t(v) * std::size_t(px.width) + std::size_t(u)];
         if (ray.weight_q == 0) continue;
-        const double sdf = double(ray.range_m) - p.norm();
-        if (ray.surface) {
-          updates += update.apply(block, n, sdf, ray.weight_q, sign) ? 1 : 0;
-        } else if (sdf >= delta) {  // beyond max range: free space only
+        const float d2 = p.squaredNorm();
+        if (d2 <= ray.free2) {  // free space: the update does not depend on the distance
           block.addFree(n, sign * ray.weight_q);
           ++updates;
+        } else if (d2 <= ray.band2) {
+          const double sdf = double(ray.range_m) - std::sqrt(double(d2));
+          updates += update.apply(block, n, sdf, ray.weight_q, sign) ? 1 : 0;
         }
       }
     }
@@ -329,7 +322,8 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
 
   struct Placement {
     FrustumCull cull;
-    Eigen::Matrix3d R_S_W, A;  // A: sensor-frame step per voxel index
+    Eigen::Matrix3d R_S_W;
+    Eigen::Matrix3f A;  // sensor-frame step per voxel index
     Vec3d t_W;
     std::int64_t sign;
   };
@@ -337,7 +331,7 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
   const double vs = tsdf.voxel_size_m;
   for (const ImagePlacement& p : placements) {
     const Eigen::Matrix3d R_S_W = p.T_W_S.linear().transpose();
-    views.push_back({FrustumCull(px, K, p.T_W_S, vs, tsdf.truncation_m()), R_S_W, R_S_W * vs,
+    views.push_back({FrustumCull(px, K, p.T_W_S, vs, tsdf.truncation_m()), R_S_W, (R_S_W * vs).cast<float>(),
                      p.T_W_S.translation(), p.sign});
   }
   const SdfUpdate update(tsdf);
@@ -351,7 +345,7 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
         if (view.cull.outside(origin)) continue;
         if (!blocks[l]) blocks[l] = acquireBlock(origin);
         const Vec3d b = view.R_S_W * (Vec3d(origin.x(), origin.y(), origin.z()) * vs - view.t_W);
-        updates[l] += integrateLeaf(px, K, view.A, b, update, view.sign, *blocks[l]);
+        updates[l] += integrateLeaf(px, K, view.A, b.cast<float>(), update, view.sign, *blocks[l]);
       }
     }
   });

@@ -1,5 +1,6 @@
 #include "internal/ray_integrator.hpp"
 
+#include "internal/grid_dda.hpp"
 #include "internal/voxel_blocks.hpp"
 
 #include <tbb/blocked_range.h>
@@ -181,37 +182,18 @@ void castOne(const RayBundle& b, const Vec3d& origin_W, const TsdfConfig& tsdf, 
   if (t_end <= 0.0 || b.weight_q <= 0) return;
 
   // Index space shifted by +0.5, where voxel i spans [i, i + 1).
-  const Vec3d o = origin_W * inv_vs + Vec3d::Constant(0.5);
-  int ijk[3], step[3];
-  double t_max[3], t_delta[3];
-  for (int a = 0; a < 3; ++a) {
-    ijk[a] = int(std::floor(o[a]));
-    const double g = dir[a] * inv_vs;  // index units per metre along the ray
-    if (g > 0.0) {
-      step[a] = 1;
-      t_max[a] = (ijk[a] + 1 - o[a]) / g;
-      t_delta[a] = 1.0 / g;
-    } else if (g < 0.0) {
-      step[a] = -1;
-      t_max[a] = (ijk[a] - o[a]) / g;
-      t_delta[a] = -1.0 / g;
-    } else {
-      step[a] = 0;
-      t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
-    }
-  }
+  GridDda dda(origin_W * inv_vs + Vec3d::Constant(0.5), dir, inv_vs);
+  const int* ijk = dda.cell;
   VoxelCursor cursor(out, ijk);
   // One DDA step: to the next voxel along the axis whose boundary comes first; false when the ray
   // ends in the current voxel. `t_exit` gets the ray parameter where the current voxel is left.
   double t_exit = 0.0;
   auto advance = [&]() {
-    int a = t_max[1] < t_max[0] ? 1 : 0;
-    a = t_max[2] < t_max[a] ? 2 : a;
-    t_exit = t_max[a];
+    const int a = dda.nextAxis();
+    t_exit = dda.t_max[a];
     if (t_exit > t_end) return false;
-    ijk[a] += step[a];
-    t_max[a] += t_delta[a];
-    cursor.move(a, step[a]);
+    dda.advance(a);
+    cursor.move(a, dda.step[a]);
     return true;
   };
 

@@ -19,6 +19,7 @@
 //   and the greedy takes them all (a non-empty unselected set has r(c) >= 1 on each of its cells).
 #include "vdbmap/set_cover.hpp"
 
+#include "internal/grid_dda.hpp"
 #include "internal/ray_integrator.hpp"
 
 #include <tbb/blocked_range.h>
@@ -245,32 +246,14 @@ CellSet visibleCells(const PointCloud& points_S, const Pose3d& T_W_S, const Tsdf
     }
   };
 
-  // Coarse 3D DDA (Amanatides & Woo) per segment; t in metres along the ray.
+  // Coarse 3D DDA per segment; t in metres along the ray.
   for (const Segment& seg : segments) {
-    int ijk[3], step[3];
-    double t_max[3], t_delta[3];
-    for (int a = 0; a < 3; ++a) {
-      ijk[a] = int(std::floor(o[a]));
-      const double g = seg.dir[a] * s;
-      if (g > 0.0) {
-        step[a] = 1;
-        t_max[a] = (ijk[a] + 1 - o[a]) / g;
-        t_delta[a] = 1.0 / g;
-      } else if (g < 0.0) {
-        step[a] = -1;
-        t_max[a] = (ijk[a] - o[a]) / g;
-        t_delta[a] = -1.0 / g;
-      } else {
-        step[a] = 0;
-        t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
-      }
-    }
+    internal::GridDda dda(o, seg.dir, s);
     while (true) {
-      mark(ijk[0], ijk[1], ijk[2]);
-      const int a = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
-      if (t_max[a] > seg.t_end) break;
-      ijk[a] += step[a];
-      t_max[a] += t_delta[a];
+      mark(dda.cell[0], dda.cell[1], dda.cell[2]);
+      const int a = dda.nextAxis();
+      if (dda.t_max[a] > seg.t_end) break;
+      dda.advance(a);
     }
   }
   if (segments.empty()) return CellSet();
