@@ -97,7 +97,7 @@ openvdb::Coord cellOf(const Vec3d& p_W, double voxel_size_m, double cell_size_vo
 openvdb::math::Transform::Ptr cellTransform(double voxel_size_m, double cell_size_vox);
 
 /// The coarse cells the frame's rays touch, free space included. The rays are the integrator's
-/// (internal::bundleRays with `integrator`, so Merged bundles by default) and each is walked with a
+/// (internal::bundleRays with `integrator`; Projective walks the Merged bundles) and each is walked with a
 /// coarse 3D DDA over the same extent as the TSDF integration: from the sensor origin to the end
 /// point + truncation for surface rays, and to max range - truncation for carve-only rays (points
 /// beyond max_range_m). Invalid points are skipped. Uses TBB (bundling) like the integrator.
