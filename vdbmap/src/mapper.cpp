@@ -111,6 +111,14 @@ IntegrationStats applyFrame(TsdfVolume& volume, FrameId id, const EncodedFrame& 
   const PointCloud points_S = frame.decode();
   return add ? volume.integrate(id, points_S, T_W_S) : volume.deintegrate(id, points_S, T_W_S);
 }
+
+/// The frame's set for the pruner: the coarse cells its integration touches.
+CellSet frameCells(const EncodedFrame& frame, const Pose3d& T_W_S, const MapperConfig& config) {
+  if (frame.isDepth())
+    return visibleCells(frame.decodeDepth(), *frame.intrinsics(), T_W_S, config.tsdf, config.integrator,
+                        config.set_cover.cell_size_vox);
+  return visibleCells(frame.decode(), T_W_S, config.tsdf, config.integrator, config.set_cover.cell_size_vox);
+}
 }  // namespace
 
 IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) {
@@ -153,9 +161,7 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
 
   if (config_.mode == ConsistencyMode::Keyframes) {
     const Keyframe& stored = store_.at(id);
-    pruner_->addFrame(id, T_W_S.translation(),
-                      visibleCells(stored.data.decode(), T_W_S, config_.tsdf, config_.integrator,
-                                   config_.set_cover.cell_size_vox));
+    pruner_->addFrame(id, T_W_S.translation(), frameCells(stored.data, T_W_S, config_));
     if (++frames_since_solve_ >= std::size_t(config_.set_cover.solve_period_frames)) prune();
   }
   return stats;

@@ -267,12 +267,14 @@ class FrustumCull {
   double vs_, delta_, reach_;
 };
 
-/// Tests the 512 voxels of one leaf against the image and writes their updates into `block`.
-/// Single precision: positions are relative to the camera (metres, well within float's range), and
-/// the same arithmetic runs for integration and de-integration, so the result stays exact.
-std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3f& A, const Eigen::Vector3f& b,
-                          const SdfUpdate& update, std::int64_t sign, Block& block) {
-  std::size_t updates = 0;
+/// Projects the 512 voxels of one leaf into the image and calls visit(n, ray, d2) for each voxel
+/// within its pixel's reach (free space or band): n its offset in the leaf, ray its pixel, d2 its
+/// squared distance from the camera. Single precision: positions are relative to the camera
+/// (metres, well within float's range), and the same arithmetic runs for integration,
+/// de-integration and the footprint, so they agree exactly.
+template <typename Visit>
+void visitLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3f& A, const Eigen::Vector3f& b,
+               Visit&& visit) {
   const float fx = float(K.fx), fy = float(K.fy), cx = float(K.cx) + 0.5f, cy = float(K.cy) + 0.5f;
   const float u_end = float(px.width), v_end = float(px.height);
   const Eigen::Vector3f step = A.col(2);
@@ -289,17 +291,56 @@ std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const
         const PixelRay& ray = px.rays[std::size_t(v) * std::size_t(px.width) + std::size_t(u)];
         if (ray.weight_q == 0) continue;
         const float d2 = p.squaredNorm();
-        if (d2 <= ray.free2) {  // free space: the update does not depend on the distance
-          block.addFree(n, sign * ray.weight_q);
-          ++updates;
-        } else if (d2 <= ray.band2) {
-          const double sdf = double(ray.range_m) - std::sqrt(double(d2));
-          updates += update.apply(block, n, sdf, ray.weight_q, sign) ? 1 : 0;
-        }
+        if (d2 <= ray.band2) visit(n, ray, d2);
       }
     }
   }
+}
+
+/// Tests the 512 voxels of one leaf against the image and writes their updates into `block`.
+std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3f& A, const Eigen::Vector3f& b,
+                          const SdfUpdate& update, std::int64_t sign, Block& block) {
+  std::size_t updates = 0;
+  visitLeaf(px, K, A, b, [&](openvdb::Index n, const PixelRay& ray, float d2) {
+    if (d2 <= ray.free2) {  // free space: the update does not depend on the distance
+      block.addFree(n, sign * ray.weight_q);
+      ++updates;
+    } else {
+      const double sdf = double(ray.range_m) - std::sqrt(double(d2));
+      updates += update.apply(block, n, sdf, ray.weight_q, sign) ? 1 : 0;
+    }
+  });
   return updates;
+}
+
+/// A placement's frustum cull and its leaf-to-sensor mapping.
+struct View {
+  FrustumCull cull;
+  Eigen::Matrix3d R_S_W;
+  Eigen::Matrix3f A;  // sensor-frame step per voxel index
+  Vec3d t_W;
+  std::int64_t sign;
+
+  View(const PixelTable& px, const CameraIntrinsics& K, const Pose3d& T_W_S, std::int64_t sign_, const TsdfConfig& tsdf)
+      : cull(px, K, T_W_S, tsdf.voxel_size_m, tsdf.truncation_m()),
+        R_S_W(T_W_S.linear().transpose()),
+        A((R_S_W * tsdf.voxel_size_m).cast<float>()),
+        t_W(T_W_S.translation()),
+        sign(sign_) {}
+
+  /// The sensor-frame position of the leaf's voxel (0, 0, 0).
+  Eigen::Vector3f leafOrigin(const openvdb::Coord& origin, double voxel_size_m) const {
+    return (R_S_W * (Vec3d(origin.x(), origin.y(), origin.z()) * voxel_size_m - t_W)).cast<float>();
+  }
+};
+
+void checkImageSize(const DepthImage& depth_m, const CameraIntrinsics& K) {
+  K.validate();
+  if (depth_m.width != K.width || depth_m.height != K.height ||
+      depth_m.depth_m.size() != std::size_t(K.width) * std::size_t(K.height))
+    throw std::invalid_argument("depth image is " + std::to_string(depth_m.width) + "x" +
+                                std::to_string(depth_m.height) + " but the camera is " + std::to_string(K.width) + "x" +
+                                std::to_string(K.height));
 }
 
 }  // namespace
@@ -308,44 +349,27 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
                          const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
                          const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
                          IntegrationStats& stats) {
-  K.validate();
-  if (depth_m.width != K.width || depth_m.height != K.height ||
-      depth_m.depth_m.size() != std::size_t(K.width) * std::size_t(K.height))
-    throw std::invalid_argument("depth image is " + std::to_string(depth_m.width) + "x" +
-                                std::to_string(depth_m.height) + " but the camera is " + std::to_string(K.width) + "x" +
-                                std::to_string(K.height));
+  checkImageSize(depth_m, K);
   const PixelTable px = classifyPixels(depth_m, K, tsdf, integrator, stats);
   if (px.max_range_m <= 0.0 || placements.empty()) return;  // no valid pixel
   KeyIndex index(4096);
   std::vector<openvdb::Coord> leaves;
   for (const ImagePlacement& p : placements) candidateLeaves(px, K, p.T_W_S, tsdf, index, leaves);
 
-  struct Placement {
-    FrustumCull cull;
-    Eigen::Matrix3d R_S_W;
-    Eigen::Matrix3f A;  // sensor-frame step per voxel index
-    Vec3d t_W;
-    std::int64_t sign;
-  };
-  std::vector<Placement> views;
-  const double vs = tsdf.voxel_size_m;
-  for (const ImagePlacement& p : placements) {
-    const Eigen::Matrix3d R_S_W = p.T_W_S.linear().transpose();
-    views.push_back({FrustumCull(px, K, p.T_W_S, vs, tsdf.truncation_m()), R_S_W, (R_S_W * vs).cast<float>(),
-                     p.T_W_S.translation(), p.sign});
-  }
+  std::vector<View> views;
+  for (const ImagePlacement& p : placements) views.emplace_back(px, K, p.T_W_S, p.sign, tsdf);
   const SdfUpdate update(tsdf);
+  const double vs = tsdf.voxel_size_m;
 
   std::vector<std::unique_ptr<Block>> blocks(leaves.size());
   std::vector<std::size_t> updates(leaves.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 4), [&](const auto& r) {
     for (std::size_t l = r.begin(); l != r.end(); ++l) {
       const openvdb::Coord& origin = leaves[l];
-      for (const Placement& view : views) {
+      for (const View& view : views) {
         if (view.cull.outside(origin)) continue;
         if (!blocks[l]) blocks[l] = acquireBlock(origin);
-        const Vec3d b = view.R_S_W * (Vec3d(origin.x(), origin.y(), origin.z()) * vs - view.t_W);
-        updates[l] += integrateLeaf(px, K, view.A, b.cast<float>(), update, view.sign, *blocks[l]);
+        updates[l] += integrateLeaf(px, K, view.A, view.leafOrigin(origin, vs), update, view.sign, *blocks[l]);
       }
     }
   });
@@ -359,6 +383,32 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
   }
   applyBlocks(touched, weight_q.tree(), wsdf_q.tree(), +1);
   releaseBlocks(blocks);
+}
+
+std::vector<LeafFootprint> projectiveFootprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
+                                               const TsdfConfig& tsdf, const IntegratorConfig& integrator) {
+  checkImageSize(depth_m, K);
+  IntegrationStats stats;
+  const PixelTable px = classifyPixels(depth_m, K, tsdf, integrator, stats);
+  if (px.max_range_m <= 0.0) return {};
+  KeyIndex index(4096);
+  std::vector<openvdb::Coord> leaves;
+  candidateLeaves(px, K, T_W_S, tsdf, index, leaves);
+  const View view(px, K, T_W_S, +1, tsdf);
+
+  std::vector<LeafFootprint> footprints(leaves.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 4), [&](const auto& r) {
+    for (std::size_t l = r.begin(); l != r.end(); ++l) {
+      LeafFootprint& f = footprints[l];
+      f.origin = leaves[l];
+      if (view.cull.outside(f.origin)) continue;
+      visitLeaf(px, K, view.A, view.leafOrigin(f.origin, tsdf.voxel_size_m),
+                [&f](openvdb::Index n, const PixelRay&, float) { f.voxels[n >> 6] |= std::uint64_t(1) << (n & 63); });
+    }
+  });
+  footprints.erase(std::remove_if(footprints.begin(), footprints.end(), [](const LeafFootprint& f) { return f.empty(); }),
+                   footprints.end());
+  return footprints;
 }
 
 }  // namespace vdbmap::internal

@@ -259,7 +259,7 @@ std::vector<RayBundle> bundleRays(const PointCloud& points_S, const Pose3d& T_W_
                                   const IntegratorConfig& integrator, IntegrationStats& stats) {
   stats.points_total += points_S.size();
   const std::size_t chunks = (points_S.size() + kPointChunk - 1) / kPointChunk;
-  const bool merged = integrator.ray_mode == RayMode::Merged;
+  const bool merged = integrator.ray_mode != RayMode::PerRay;  // point clouds under Projective: Merged
   const double inv_vs = 1.0 / tsdf.voxel_size_m;
 
   // 1. Classify points chunk by chunk; in merged mode collapse runs of points that end in the same

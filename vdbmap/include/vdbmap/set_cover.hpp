@@ -24,6 +24,7 @@
 // at 0.1 m cells) because cells are packed into 64-bit keys.
 #pragma once
 
+#include "vdbmap/camera.hpp"
 #include "vdbmap/config.hpp"
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/types.hpp"
@@ -97,11 +98,18 @@ openvdb::Coord cellOf(const Vec3d& p_W, double voxel_size_m, double cell_size_vo
 openvdb::math::Transform::Ptr cellTransform(double voxel_size_m, double cell_size_vox);
 
 /// The coarse cells the frame's rays touch, free space included. The rays are the integrator's
-/// (internal::bundleRays with `integrator`; Projective walks the Merged bundles) and each is walked with a
+/// (internal::bundleRays with `integrator`; point clouds under Projective are Merged) and each is walked with a
 /// coarse 3D DDA over the same extent as the TSDF integration: from the sensor origin to the end
 /// point + truncation for surface rays, and to max range - truncation for carve-only rays (points
 /// beyond max_range_m). Invalid points are skipped. Uses TBB (bundling) like the integrator.
 CellSet visibleCells(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+                     const IntegratorConfig& integrator, double cell_size_vox);
+
+/// The coarse cells of a depth image (metres, intrinsics K) seen from T_W_S: under Projective
+/// integration, the cells of exactly the voxels that integrating it updates (the integrator's own
+/// per-voxel tests, free space included), so frustum edges seen by few pixels count too; under the
+/// ray modes, the cells of its back-projected points' rays as above.
+CellSet visibleCells(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
                      const IntegratorConfig& integrator, double cell_size_vox);
 
 /// Greedy multi-cover over explicit sets (see the header comment). Returns the indices of the

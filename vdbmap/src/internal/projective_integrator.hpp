@@ -22,6 +22,8 @@
 #include "vdbmap/tsdf_volume.hpp"
 #include "vdbmap/types.hpp"
 
+#include <array>
+#include <cstdint>
 #include <vector>
 
 namespace vdbmap::internal {
@@ -40,5 +42,24 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
                          const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
                          const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
                          IntegrationStats& stats);
+
+/// The voxels of one leaf (8^3, origin its voxel (0, 0, 0)) that an integration updates: bit n of
+/// the 512 is the voxel at offset n = 64 i + 8 j + k, as in OpenVDB's leaf nodes.
+struct LeafFootprint {
+  openvdb::Coord origin;
+  std::array<std::uint64_t, 8> voxels{};
+  bool empty() const {
+    for (const std::uint64_t w : voxels)
+      if (w) return false;
+    return true;
+  }
+};
+
+/// The voxels integrateProjective would update for the image seen from T_W_S (free space and the
+/// band around the surface; a band voxel whose weight drops to zero behind the surface counts as
+/// updated), by the very same tests, without writing anything. Leaves with no such voxel are left
+/// out. Throws std::invalid_argument when the image size differs from the intrinsics.
+std::vector<LeafFootprint> projectiveFootprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
+                                               const TsdfConfig& tsdf, const IntegratorConfig& integrator);
 
 }  // namespace vdbmap::internal
