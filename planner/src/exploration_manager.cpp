@@ -78,6 +78,7 @@ void ExplorationParams::validate() const {
   for (int a = 0; a < 3; ++a)
     if (!(start_free_half_size_m[a] >= 0.0 && start_free_half_size_m[a] <= 10.0))
       fail("start_free_half_size_m", "[0, 10] per axis");
+  if (!(viewpoint_margin_z_m >= 0.0 && viewpoint_margin_z_m <= 10.0)) fail("viewpoint_margin_z_m", "[0, 10]");
   if (!(replan_time_left_s >= 0.0 && replan_time_left_s <= 100.0)) fail("replan_time_left_s", "[0, 100]");
   if (!(replan_covered_after_s >= 0.0 && replan_covered_after_s <= 100.0)) fail("replan_covered_after_s", "[0, 100]");
   if (!(replan_period_s > 0.0 && replan_period_s <= 1000.0)) fail("replan_period_s", "(0, 1000]");
@@ -94,7 +95,8 @@ ExplorationManager::ExplorationManager(const ExplorationParams& params, const Ve
   if (!params_.box_W.contains(start.position_W))
     throw std::invalid_argument("ExplorationManager: the start position lies outside the exploration box");
   params_.frontier.bounds_W = params_.box_W;
-  const Vec3d margin = Vec3d::Constant(params_.viewpoint.min_clearance_m);
+  const double clearance = params_.viewpoint.min_clearance_m;
+  const Vec3d margin(clearance, clearance, std::max(clearance, params_.viewpoint_margin_z_m));
   Eigen::AlignedBox3d view_box(params_.box_W.min() + margin, params_.box_W.max() - margin);
   params_.viewpoint.bounds_W = view_box.isEmpty() ? params_.box_W : view_box;
   params_.path.bounds_W = params_.box_W;

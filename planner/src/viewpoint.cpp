@@ -97,7 +97,10 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
                                                                  ring / (params.ring_count - 1);
       for (int k = 0; k < angles; ++k) {
         const double phi = -M_PI + k * step;
-        const Vec3d p = cluster.centroid_W + Vec3d(radius * std::cos(phi), radius * std::sin(phi), dz);
+        Vec3d p = cluster.centroid_W + Vec3d(radius * std::cos(phi), radius * std::sin(phi), dz);
+        // Clusters near the floor or the ceiling (a level camera sees them last) are viewed from
+        // the nearest allowed height, slightly below or above: they stay in the vertical field of view.
+        if (params.bounds_W) p.z() = std::clamp(p.z(), params.bounds_W->min().z(), params.bounds_W->max().z());
         if (params.bounds_W && !params.bounds_W->contains(p)) continue;
         if (!probe.isClear(p, params.min_clearance_m)) continue;
         const double yaw = yawToward(p, cluster.samples, map);

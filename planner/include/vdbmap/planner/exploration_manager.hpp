@@ -83,6 +83,10 @@ struct ExplorationParams {
   Vec3d start_free_half_size_m = Vec3d(0.6, 0.6, 0.4);
   /// Turn once on the spot before exploring (FUEL-style look-around at take-off).
   bool initial_turn = true;
+  /// Viewpoints keep at least this far from the box's bottom and top (and always
+  /// viewpoint.min_clearance_m): from there a level camera still sees the floor and the ceiling
+  /// from a metre away, and a vehicle whose height drifts keeps its distance from them; [0, 10]
+  double viewpoint_margin_z_m = 0.5;
 
   /// Replan when less than this much of the trajectory is left (FUEL thresh_replan1); [0, 100]
   double replan_time_left_s = 0.5;

@@ -30,8 +30,10 @@ namespace vdbmap::planner {
 
 struct PathParams {
   /// Every voxel within this distance of the path is known-free: the vehicle's radius plus a
-  /// margin (FUEL inflates obstacles by 0.2 m); [0, 5]
-  double clearance_m = 0.25;
+  /// margin (FUEL inflates obstacles by 0.2 m). 0.3 = the simulator's 0.2 m vehicle radius plus
+  /// one 0.1 m voxel, since a free voxel's centre can lie up to a voxel from the surface it
+  /// borders (with 0.25 m the house and warehouse flights grazed surfaces at 0.19 m); [0, 5]
+  double clearance_m = 0.3;
   /// OMPL's validity-check resolution in metres (segments themselves are checked exactly);
   /// 0 = half a voxel; [0, 1]
   double check_step_m = 0.0;

@@ -47,7 +47,7 @@ struct TrajectoryParams {
   /// Spacing of the speed profile's grid; (0, 1]
   double ds_m = 0.05;
   /// Clearance test of arcs and lead-ins: as PathParams (use the same values); [0, 5] and [0, 1]
-  double clearance_m = 0.25;
+  double clearance_m = 0.3;
   double check_step_m = 0.0;          ///< 0 = half a voxel
   /// How often an arc that is not clear is halved before the corner becomes a stop; [0, 30]
   int corner_shrink_steps = 6;

@@ -48,7 +48,8 @@ struct ViewpointParams {
   /// FUEL min_visib_num: a viewpoint must see more than this many cluster samples; [0, 1e6]
   int min_visible_samples = 15;
   CameraFrustum camera;
-  /// The exploration box: viewpoints outside are rejected. Unset: no limit.
+  /// The exploration box: candidates are moved to its height range (so clusters at the floor or
+  /// the ceiling get viewpoints just inside it) and rejected outside it in x-y. Unset: no limit.
   std::optional<Eigen::AlignedBox3d> bounds_W;
 
   void validate() const;
