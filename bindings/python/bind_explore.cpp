@@ -41,11 +41,12 @@ std::function<void(const ExplorationProgress&)> progressWithSignals(
 }
 
 void bindConfig(py::module_& m) {
-  py::class_<ExplorationConfig> c(m, "ExplorationConfig",
-                                  "A closed-loop exploration: simulator (camera, drift, loop closure), mapper, planner, "
-                                  "start and time limit. The main knobs are also attributes of their own (drift, seed, "
-                                  "voxel_size_m, mode, box, start); nested structs are edited in place. The box and the "
-                                  "start must be set (for_world gives those `vdbmap explore` picks).");
+  py::class_<ExplorationConfig> c(
+      m, "ExplorationConfig",
+      "A closed-loop exploration: simulator (camera, drift, loop closure), mapper, planner, "
+      "start and time limit. The main knobs are also attributes of their own (drift, seed, "
+      "voxel_size_m, mode, box, start); nested structs are edited in place. The box and the "
+      "start must be set (for_world gives those `vdbmap explore` picks).");
   addStructProtocol(c);
   c.def_readwrite("simulator", &ExplorationConfig::simulator,
                   "SimulatorConfig; its camera reports surfaces up to 30 m (far_clip_m) so rays carve free space")
@@ -214,7 +215,8 @@ void bindRuns(py::module_& m) {
         }
         // The summary as the run folder holds it, so Python sees exactly summary.json's keys.
         const py::object json = py::module_::import("json");
-        const py::object text = py::module_::import("pathlib").attr("Path")(run_dir / "summary.json").attr("read_text")();
+        const py::object text =
+            py::module_::import("pathlib").attr("Path")(run_dir / "summary.json").attr("read_text")();
         return json.attr("loads")(text);
       },
       py::arg("world"), py::arg("config"), py::arg("run_dir"), py::arg("overwrite") = false,

@@ -11,7 +11,8 @@ namespace {
 using namespace vdbmap::planner;
 
 void bindFrontierAndViewpoints(py::module_& m) {
-  py::class_<FrontierParams> f(m, "FrontierParams", "Frontier clusters (FUEL's cluster_min, cluster_size_xy, down_sample).");
+  py::class_<FrontierParams> f(m, "FrontierParams",
+                               "Frontier clusters (FUEL's cluster_min, cluster_size_xy, down_sample).");
   addStructProtocol(f);
   f.def_readwrite("min_cluster_size", &FrontierParams::min_cluster_size,
                   "smaller 26-connected components are dropped; [1, 1e8]")
@@ -31,8 +32,10 @@ void bindFrontierAndViewpoints(py::module_& m) {
 
   py::class_<ViewpointParams> v(m, "ViewpointParams", "Viewpoints sampled on rings around each cluster.");
   addStructProtocol(v);
-  v.def_readwrite("ring_radius_min_m", &ViewpointParams::ring_radius_min_m, "FUEL candidate_rmin; (0, ring_radius_max_m]")
-      .def_readwrite("ring_radius_max_m", &ViewpointParams::ring_radius_max_m, "FUEL candidate_rmax; [ring_radius_min_m, 100]")
+  v.def_readwrite("ring_radius_min_m", &ViewpointParams::ring_radius_min_m,
+                  "FUEL candidate_rmin; (0, ring_radius_max_m]")
+      .def_readwrite("ring_radius_max_m", &ViewpointParams::ring_radius_max_m,
+                     "FUEL candidate_rmax; [ring_radius_min_m, 100]")
       .def_readwrite("ring_count", &ViewpointParams::ring_count, "radii evenly spaced from min to max; [1, 100]")
       .def_readwrite("angle_step_deg", &ViewpointParams::angle_step_deg, "FUEL candidate_dphi; (0, 180]")
       .def_readwrite("height_offsets_m", &ViewpointParams::height_offsets_m,
@@ -46,7 +49,8 @@ void bindFrontierAndViewpoints(py::module_& m) {
 }
 
 void bindCostsAndPaths(py::module_& m) {
-  py::class_<CostParams> c(m, "CostParams", "Cost between viewpoints: max(path / v_max, yaw / yaw_rate) + direction term.");
+  py::class_<CostParams> c(m, "CostParams",
+                           "Cost between viewpoints: max(path / v_max, yaw / yaw_rate) + direction term.");
   addStructProtocol(c);
   c.def_readwrite("v_max_m_s", &CostParams::v_max_m_s, "(0, 100]")
       .def_readwrite("yaw_rate_max_rad_s", &CostParams::yaw_rate_max_rad_s, "(0, 100]")
@@ -76,7 +80,8 @@ void bindCostsAndPaths(py::module_& m) {
   r.def_readwrite("max_clusters", &RefinementParams::max_clusters, "clusters of the tour refined; [1, 100]")
       .def_readwrite("radius_m", &RefinementParams::radius_m, "refine no farther than this (after two); (0, 1e4]")
       .def_readwrite("top_viewpoints", &RefinementParams::top_viewpoints, "viewpoints per layer; [1, 1000]")
-      .def_readwrite("max_decay", &RefinementParams::max_decay, "keep viewpoints seeing this share of the best's; [0, 1]")
+      .def_readwrite("max_decay", &RefinementParams::max_decay,
+                     "keep viewpoints seeing this share of the best's; [0, 1]")
       .def_readwrite("min_distance_m", &RefinementParams::min_distance_m, "skip viewpoints this close; [0, 1e3]")
       .def("validate", &RefinementParams::validate, "Raises ValueError naming the field and its allowed range.");
 

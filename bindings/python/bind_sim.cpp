@@ -21,7 +21,8 @@ using namespace vdbmap::sim;
 std::vector<Waypoint> toWaypoints(py::handle waypoints, const char* arg) {
   const py::array a = py::module_::import("numpy").attr("asarray")(waypoints, "float64");
   if (a.ndim() != 2 || a.shape(1) != 4 || a.shape(0) == 0)
-    throw py::value_error(std::string(arg) + ": expected an (N, 4) array of [x, y, z, yaw] rows with N >= 1, got shape " +
+    throw py::value_error(std::string(arg) +
+                          ": expected an (N, 4) array of [x, y, z, yaw] rows with N >= 1, got shape " +
                           std::string(py::str(a.attr("shape"))));
   const auto w = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a).unchecked<2>();
   std::vector<Waypoint> out(std::size_t(w.shape(0)));
@@ -140,9 +141,8 @@ void bindWorld(py::module_& m) {
           py::arg("origins_W"), py::arg("directions_W"), py::arg("max_t") = std::numeric_limits<double>::infinity(),
           "First hits of rays (N, 3) from origins along directions (normalised here) within max_t: (t float64 "
           "(N,), inf where nothing is hit; triangle int32 (N,), -1 where nothing is hit).")
-      .def("__repr__", [](const World& self) {
-        return "World(triangles=" + std::to_string(self.stats().triangles) + ")";
-      });
+      .def("__repr__",
+           [](const World& self) { return "World(triangles=" + std::to_string(self.stats().triangles) + ")"; });
 }
 
 void bindCamera(py::module_& m) {
@@ -166,7 +166,8 @@ void bindCamera(py::module_& m) {
   py::class_<DepthCamera> cam(m, "DepthCamera",
                               "Renders a World's depth (distance along the optical axis; 0 = nothing within range) "
                               "from a sensor pose T_W_S, OpenCV axes (x right, y down, z forward).");
-  cam.def(py::init<const DepthCameraConfig&>(), py::arg("config") = DepthCameraConfig{}, "ValueError naming the field when the config is out of range.")
+  cam.def(py::init<const DepthCameraConfig&>(), py::arg("config") = DepthCameraConfig{},
+          "ValueError naming the field when the config is out of range.")
       .def_property_readonly("config", &DepthCamera::config, "DepthCameraConfig (a copy)")
       .def_property_readonly("intrinsics", &DepthCamera::intrinsics, "CameraIntrinsics of the images (a copy)")
       .def_property_readonly("period_s", &DepthCamera::period_s, "1 / rate_hz")
@@ -242,7 +243,8 @@ void bindSimulatorConfig(py::module_& m) {
 
   py::class_<LoopClosureConfig> l(m, "LoopClosureConfig", "When the simulator detects a loop closure.");
   addStructProtocol(l);
-  l.def_readwrite("max_distance_m", &LoopClosureConfig::max_distance_m, "true positions at most this far apart; (0, 100]")
+  l.def_readwrite("max_distance_m", &LoopClosureConfig::max_distance_m,
+                  "true positions at most this far apart; (0, 100]")
       .def_readwrite("max_yaw_rad", &LoopClosureConfig::max_yaw_rad, "true yaws at most this far apart; (0, pi]")
       .def_readwrite("min_age_s", &LoopClosureConfig::min_age_s, "the older frame at least this much older; [0, 1e6]")
       .def_readwrite("min_interval_s", &LoopClosureConfig::min_interval_s, "at most one loop closure per this time")
@@ -272,7 +274,8 @@ void bindSimulatorConfig(py::module_& m) {
   defEnumField(s, "loop_closure", &SimulatorConfig::loop_closure, &parseLoopClosureMode,
                "LoopClosureMode (or 'off', 'pgo', 'perfect')");
   s.def_readwrite("loop_sigma_m", &SimulatorConfig::loop_sigma_m, "noise of a loop edge per axis; [0, 1]")
-      .def_readwrite("loop_sigma_yaw_rad", &SimulatorConfig::loop_sigma_yaw_rad, "noise of a loop edge in yaw; [0, 0.5]")
+      .def_readwrite("loop_sigma_yaw_rad", &SimulatorConfig::loop_sigma_yaw_rad,
+                     "noise of a loop edge in yaw; [0, 0.5]")
       .def_readwrite("odometry_sigma_floor", &SimulatorConfig::odometry_sigma_floor,
                      "floor of the odometry edges' standard deviations; [1e-9, 1]")
       .def_readwrite("solve", &SimulatorConfig::solve, "PoseGraphSolveOptions")
@@ -337,7 +340,8 @@ void bindFlight(py::module_& m) {
       py::arg("progress") = py::none(),
       "Flies the simulated vehicle and records the flight as a log (depth PNGs, frames.csv with the drifting "
       "pose estimates, corrections/, groundtruth.txt, simulation.json), as `vdbmap simulate` does. waypoints: "
-      "(N, 4) [x, y, z, yaw] rows (metres, radians), flown stop and go within `limits`; None flies the world's built-in coverage pattern. progress: None or a callable(frames_done, "
+      "(N, 4) [x, y, z, yaw] rows (metres, radians), flown stop and go within `limits`; None flies the world's "
+      "built-in coverage pattern. progress: None or a callable(frames_done, "
       "frames_to_do). OSError when log_dir holds a log and overwrite is False.");
 }
 
