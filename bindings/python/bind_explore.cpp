@@ -67,13 +67,15 @@ void bindConfig(py::module_& m) {
           [](ExplorationConfig& self, py::handle box) { self.planner.box_W = toBox(box, "box"); },
           "planner.box_W: the exploration box (min (3,), max (3,)), or None (unset)")
       .def_property(
-          "drift", [](const ExplorationConfig& self) { return self.simulator.drift; },
+          "drift",
+          py::cpp_function([](ExplorationConfig& self) -> DriftConfig& { return self.simulator.drift; },
+                           py::return_value_policy::reference_internal),
           [](ExplorationConfig& self, py::handle drift) {
             self.simulator.drift = py::isinstance<py::str>(drift)
                                        ? DriftConfig::preset(drift.cast<std::string>(), self.simulator.drift.seed)
                                        : drift.cast<DriftConfig>();
           },
-          "simulator.drift (a copy); set a DriftConfig or a level name 's1'..'s4' (keeping the drift's seed)")
+          "simulator.drift (edited in place); set a DriftConfig or a level name 's1'..'s4' (keeping the drift's seed)")
       .def_property(
           "seed", [](const ExplorationConfig& self) { return self.simulator.drift.seed; },
           [](ExplorationConfig& self, std::uint64_t seed) {

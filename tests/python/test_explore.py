@@ -188,6 +188,8 @@ def test_exploration_config_defaults_and_shortcuts(room):
     assert config.simulator.drift.sigma2_xyz_m2ps2 == 5e-2 and config.simulator.drift.seed == 11
     config.drift = sim.DriftConfig(mu_xyz_mps=0.01)
     assert config.simulator.drift.mu_xyz_mps == 0.01
+    config.drift.sigma2_yaw_rad2ps2 = 0.03  # the shortcut is the nested struct itself
+    assert config.simulator.drift.sigma2_yaw_rad2ps2 == 0.03
     config.mode = "all"
     config.voxel_size_m = 0.15
     assert config.mapper.mode == vdbmap.ConsistencyMode.All and config.mapper.tsdf.voxel_size_m == 0.15
