@@ -23,12 +23,15 @@
 #include "vdbmap/triangle_mesh.hpp"
 #include "vdbmap/types.hpp"
 
+#include <Eigen/Geometry>
+
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -81,6 +84,8 @@ TriangleMesh toMesh(py::handle mesh, const char* arg);
 std::map<FrameId, Pose3d> toPoseMap(py::handle poses, const char* arg);
 /// (N, 3) integer voxel indices.
 std::vector<openvdb::Coord> toCoords(py::handle ijk, const char* arg);
+/// None (an empty box) or a (min (3,), max (3,)) pair of float vectors.
+Eigen::AlignedBox3d toBox(py::handle box, const char* arg);
 
 // ---- C++ -> numpy (new arrays owned by Python) ----------------------------------------------------
 
@@ -91,6 +96,8 @@ py::array_t<float> toArray(const DepthImage& depth);
 py::tuple toArrays(const TriangleMesh& mesh);
 py::dict toDict(const std::map<FrameId, Pose3d>& poses);
 py::tuple toTuple(const openvdb::Coord& c);
+/// None for an empty box, else (min (3,), max (3,)) float64.
+py::object toArrays(const Eigen::AlignedBox3d& box);
 /// None for an empty box, else ((i, j, k) min, (i, j, k) max), inclusive.
 py::object toTuple(const openvdb::CoordBBox& box);
 
@@ -129,7 +136,8 @@ std::string reprOfProperties(py::handle self);
 template <typename T, typename... Options>
 void addStructProtocol(py::class_<T, Options...>& cls) {
   cls.def(py::init([](const py::kwargs& fields) {
-            py::object obj = py::cast(T{});
+            // Made on the heap: GCC 12 warns (wrongly) that a stack default holding a vector may be uninitialized.
+            py::object obj = py::cast(std::make_unique<T>());
             for (const auto& [key, value] : fields) {
               const std::string name = py::str(key);
               if (name.empty() || name[0] == '_' || !py::hasattr(py::type::of(obj), key))

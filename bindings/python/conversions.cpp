@@ -219,6 +219,16 @@ std::vector<openvdb::Coord> toCoords(py::handle ijk, const char* arg) {
   return out;
 }
 
+Eigen::AlignedBox3d toBox(py::handle box, const char* arg) {
+  if (box.is_none()) return Eigen::AlignedBox3d();
+  if (!py::isinstance<py::sequence>(box) || py::isinstance<py::str>(box) || py::len(box) != 2)
+    throw py::value_error(std::string(arg) + ": expected None or a (min (3,), max (3,)) pair, got " +
+                          std::string(py::str(py::type::of(box).attr("__name__"))));
+  const py::sequence pair = py::reinterpret_borrow<py::sequence>(box);
+  const std::string lo = std::string(arg) + " min", hi = std::string(arg) + " max";
+  return Eigen::AlignedBox3d(toVec3(pair[0], lo.c_str()), toVec3(pair[1], hi.c_str()));
+}
+
 // ---- C++ -> numpy ---------------------------------------------------------------------------------
 
 py::array_t<double> toArray(const Pose3d& T) {
@@ -265,6 +275,11 @@ py::dict toDict(const std::map<FrameId, Pose3d>& poses) {
 }
 
 py::tuple toTuple(const openvdb::Coord& c) { return py::make_tuple(c.x(), c.y(), c.z()); }
+
+py::object toArrays(const Eigen::AlignedBox3d& box) {
+  if (box.isEmpty()) return py::none();
+  return py::make_tuple(toArray(Vec3d(box.min())), toArray(Vec3d(box.max())));
+}
 
 py::object toTuple(const openvdb::CoordBBox& box) {
   if (box.empty()) return py::none();

@@ -1,5 +1,6 @@
 """The Python examples run: integrate_log.py writes the map `vdbmap integrate` writes, and
-read_with_pyopenvdb.py reads it with pyopenvdb and finds the same values."""
+read_with_pyopenvdb.py reads it with pyopenvdb and finds the same values, and explore_world.py
+explores a small room, prints its summary and saves the map's mesh."""
 from __future__ import annotations
 
 import os
@@ -35,3 +36,13 @@ def test_read_with_pyopenvdb_example_agrees_with_our_reader(icl_nuim, tmp_path):
     out = run_example("read_with_pyopenvdb.py", tmp_path / "map.vdb")
     assert "grid tsdf: FloatGrid" in out and "grid weight: FloatGrid" in out
     assert "read the same" in out and out.strip().endswith("True")
+
+
+def test_explore_world_example_prints_the_summary_and_saves_the_mesh(tmp_path):
+    from test_sim import box_mesh
+    vdbmap.write_ply_mesh(tmp_path / "room.ply", box_mesh([0.0, 0.0, 0.0], [4.0, 3.0, 2.5]))
+    out = run_example("explore_world.py", tmp_path / "room.ply", "-o", tmp_path / "run", "--mesh",
+                      tmp_path / "mesh.ply", "--voxel-size", 0.2, "--camera-scale", 0.125, "--ceiling", 0)
+    assert "finished: True" in out and "collisions: 0" in out
+    assert (tmp_path / "run" / "summary.json").exists()
+    assert len(vdbmap.read_triangle_mesh(tmp_path / "mesh.ply")[1]) > 100

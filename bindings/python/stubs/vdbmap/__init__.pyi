@@ -14,6 +14,9 @@ from typing import Any, Callable, ClassVar, Optional, Union, overload
 import numpy as np
 import numpy.typing as npt
 
+from . import planner as planner
+from . import sim as sim
+
 __version__: str
 WEIGHT_SCALE: int
 SDF_SCALE: int

@@ -1,0 +1,172 @@
+// The exploration planner's parameters as `vdbmap.planner`: what vdbmap.sim.ExplorationConfig.planner
+// holds (frontiers, viewpoints, costs, paths, tour, refinement, trajectories), its counters and
+// statuses. The planner itself runs inside vdbmap.sim's exploration.
+#include "binding.hpp"
+
+#include "vdbmap/planner/exploration_manager.hpp"
+
+namespace vdbmap::python {
+namespace {
+
+using namespace vdbmap::planner;
+
+void bindFrontierAndViewpoints(py::module_& m) {
+  py::class_<FrontierParams> f(m, "FrontierParams",
+                               "Frontier clusters (FUEL's cluster_min, cluster_size_xy, down_sample).");
+  addStructProtocol(f);
+  f.def_readwrite("min_cluster_size", &FrontierParams::min_cluster_size,
+                  "smaller 26-connected components are dropped; [1, 1e8]")
+      .def_readwrite("split_radius_xy_m", &FrontierParams::split_radius_xy_m,
+                     "a cluster reaching farther than this from its centroid in x-y is split; (0, 1e4]")
+      .def_readwrite("sample_stride_vox", &FrontierParams::sample_stride_vox,
+                     "one representative voxel per cube of this many voxels a side; [1, 64]")
+      .def("validate", &FrontierParams::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::class_<CameraFrustum> c(m, "CameraFrustum", "The camera the planner scores viewpoints with.");
+  addStructProtocol(c);
+  c.def_readwrite("tan_half_fov_x", &CameraFrustum::tan_half_fov_x, "half image width / fx; (0, 100]")
+      .def_readwrite("tan_half_fov_y", &CameraFrustum::tan_half_fov_y, "half image height / fy; (0, 100]")
+      .def_readwrite("min_range_m", &CameraFrustum::min_range_m, "[0, max_range_m)")
+      .def_readwrite("max_range_m", &CameraFrustum::max_range_m, "(min_range_m, 1e3]")
+      .def("validate", &CameraFrustum::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::class_<ViewpointParams> v(m, "ViewpointParams", "Viewpoints sampled on rings around each cluster.");
+  addStructProtocol(v);
+  v.def_readwrite("ring_radius_min_m", &ViewpointParams::ring_radius_min_m,
+                  "FUEL candidate_rmin; (0, ring_radius_max_m]")
+      .def_readwrite("ring_radius_max_m", &ViewpointParams::ring_radius_max_m,
+                     "FUEL candidate_rmax; [ring_radius_min_m, 100]")
+      .def_readwrite("ring_count", &ViewpointParams::ring_count, "radii evenly spaced from min to max; [1, 100]")
+      .def_readwrite("angle_step_deg", &ViewpointParams::angle_step_deg, "FUEL candidate_dphi; (0, 180]")
+      .def_readwrite("height_offsets_m", &ViewpointParams::height_offsets_m,
+                     "list of ring heights relative to the centroid (assign a new list to change it)")
+      .def_readwrite("min_clearance_m", &ViewpointParams::min_clearance_m,
+                     "every voxel within this distance of a viewpoint is known-free; [0, 10]")
+      .def_readwrite("min_visible_samples", &ViewpointParams::min_visible_samples,
+                     "FUEL min_visib_num: a viewpoint must see more cluster samples than this; [0, 1e6]")
+      .def_readwrite("camera", &ViewpointParams::camera, "CameraFrustum")
+      .def("validate", &ViewpointParams::validate, "Raises ValueError naming the field and its allowed range.");
+}
+
+void bindCostsAndPaths(py::module_& m) {
+  py::class_<CostParams> c(m, "CostParams",
+                           "Cost between viewpoints: max(path / v_max, yaw / yaw_rate) + direction term.");
+  addStructProtocol(c);
+  c.def_readwrite("v_max_m_s", &CostParams::v_max_m_s, "(0, 100]")
+      .def_readwrite("yaw_rate_max_rad_s", &CostParams::yaw_rate_max_rad_s, "(0, 100]")
+      .def_readwrite("w_dir", &CostParams::w_dir, "FUEL's w_dir, seconds per radian; [0, 1e3]")
+      .def_readwrite("unreachable_cost_s", &CostParams::unreachable_cost_s, "cost of a pair without a path; (0, 1e9]")
+      .def("validate", &CostParams::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::class_<PathParams> p(m, "PathParams", "Collision-free paths in the map (straight line or OMPL RRTConnect).");
+  addStructProtocol(p);
+  p.def_readwrite("clearance_m", &PathParams::clearance_m, "known-free distance around the path; [0, 5]")
+      .def_readwrite("check_step_m", &PathParams::check_step_m, "OMPL's validity-check resolution; 0 = half a voxel")
+      .def_readwrite("time_limit_s", &PathParams::time_limit_s, "wall-clock budget of one search; (0, 60]")
+      .def_readwrite("rrt_range_m", &PathParams::rrt_range_m, "RRTConnect's extension length; 0 = OMPL's default")
+      .def_readwrite("simplify_rounds", &PathParams::simplify_rounds, "shortcutting rounds; [0, 100]")
+      .def_readwrite("seed", &PathParams::seed, "OMPL's seed")
+      .def("validate", &PathParams::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::class_<TourParams> t(m, "TourParams", "The global tour's ATSP solver.");
+  addStructProtocol(t);
+  t.def_readwrite("time_limit_s", &TourParams::time_limit_s, "solver budget; (0, 60]")
+      .def_readwrite("seed", &TourParams::seed, "solver seed")
+      .def_readwrite("max_iterations", &TourParams::max_iterations, "solver rounds; 0 = only the time limit")
+      .def("validate", &TourParams::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::class_<RefinementParams> r(m, "RefinementParams", "Local viewpoint refinement (FUEL's refined_*).");
+  addStructProtocol(r);
+  r.def_readwrite("max_clusters", &RefinementParams::max_clusters, "clusters of the tour refined; [1, 100]")
+      .def_readwrite("radius_m", &RefinementParams::radius_m, "refine no farther than this (after two); (0, 1e4]")
+      .def_readwrite("top_viewpoints", &RefinementParams::top_viewpoints, "viewpoints per layer; [1, 1000]")
+      .def_readwrite("max_decay", &RefinementParams::max_decay,
+                     "keep viewpoints seeing this share of the best's; [0, 1]")
+      .def_readwrite("min_distance_m", &RefinementParams::min_distance_m, "skip viewpoints this close; [0, 1e3]")
+      .def("validate", &RefinementParams::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::class_<TrajectoryParams> j(m, "TrajectoryParams", "Minimum-time trajectories along paths.");
+  addStructProtocol(j);
+  j.def_readwrite("v_max_m_s", &TrajectoryParams::v_max_m_s, "(0, 100]")
+      .def_readwrite("a_max_m_s2", &TrajectoryParams::a_max_m_s2, "(0, 100]")
+      .def_readwrite("yaw_rate_max_rad_s", &TrajectoryParams::yaw_rate_max_rad_s, "(0, 100]")
+      .def_readwrite("yaw_acc_max_rad_s2", &TrajectoryParams::yaw_acc_max_rad_s2, "(0, 1000]")
+      .def_readwrite("normal_acc_share", &TrajectoryParams::normal_acc_share, "share of a_max for turning; (0, 1)")
+      .def_readwrite("corner_fraction", &TrajectoryParams::corner_fraction, "arc start before a corner; (0, 0.5]")
+      .def_readwrite("ds_m", &TrajectoryParams::ds_m, "speed profile spacing; (0, 1]")
+      .def_readwrite("clearance_m", &TrajectoryParams::clearance_m, "clearance of arcs and lead-ins; [0, 5]")
+      .def_readwrite("check_step_m", &TrajectoryParams::check_step_m, "0 = half a voxel; [0, 1]")
+      .def_readwrite("corner_shrink_steps", &TrajectoryParams::corner_shrink_steps, "arc halvings; [0, 30]")
+      .def("validate", &TrajectoryParams::validate, "Raises ValueError naming the field and its allowed range.");
+}
+
+void bindExplorationParams(py::module_& m) {
+  py::class_<ExplorationParams> e(m, "ExplorationParams",
+                                  "The exploration manager (FUEL-style). box_W is required; the pieces' bounds are "
+                                  "set from it. Nested structs are edited in place.");
+  addStructProtocol(e);
+  e.def_property(
+       "box_W", [](const ExplorationParams& self) { return toArrays(self.box_W); },
+       [](ExplorationParams& self, py::handle value) { self.box_W = toBox(value, "box_W"); },
+       "the exploration box (min (3,), max (3,)) in the world frame, or None (unset)")
+      .def_readwrite("frontier", &ExplorationParams::frontier, "FrontierParams")
+      .def_readwrite("viewpoint", &ExplorationParams::viewpoint, "ViewpointParams")
+      .def_readwrite("cost", &ExplorationParams::cost, "CostParams")
+      .def_readwrite("path", &ExplorationParams::path, "PathParams of the flown paths (0.1 s OMPL budget)")
+      .def_readwrite("cost_path", &ExplorationParams::cost_path, "PathParams of paths only measured (0.01 s)")
+      .def_readwrite("tour", &ExplorationParams::tour, "TourParams")
+      .def_readwrite("refinement", &ExplorationParams::refinement, "RefinementParams")
+      .def_readwrite("trajectory", &ExplorationParams::trajectory, "TrajectoryParams")
+      .def_property(
+          "start_free_half_size_m", [](const ExplorationParams& self) { return toArray(self.start_free_half_size_m); },
+          [](ExplorationParams& self, py::handle v) {
+            self.start_free_half_size_m = toVec3(v, "start_free_half_size_m");
+          },
+          "(3,) half-sizes of the box around the start where unknown reads free; each [0, 10]")
+      .def_readwrite("initial_turn", &ExplorationParams::initial_turn, "turn once on the spot before exploring")
+      .def_readwrite("replan_time_left_s", &ExplorationParams::replan_time_left_s,
+                     "replan when less trajectory is left (FUEL thresh_replan1); [0, 100]")
+      .def_readwrite("replan_covered_after_s", &ExplorationParams::replan_covered_after_s,
+                     "replan when the target is covered after this long (thresh_replan2); [0, 100]")
+      .def_readwrite("replan_period_s", &ExplorationParams::replan_period_s, "replan at least this often; (0, 1000]")
+      .def_readwrite("covered_fraction", &ExplorationParams::covered_fraction,
+                     "a target is covered when this share of its frontier is gone; (0, 1]")
+      .def_readwrite("collision_radius_m", &ExplorationParams::collision_radius_m,
+                     "known-free space kept around the rest of the trajectory; [0, path.clearance_m]")
+      .def_readwrite("max_failures", &ExplorationParams::max_failures, "failures before a target is blacklisted")
+      .def_readwrite("max_targets_per_replan", &ExplorationParams::max_targets_per_replan, "targets tried per replan")
+      .def("validate", &ExplorationParams::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::enum_<ExplorationStatus> status(m, "ExplorationStatus", "What one exploration update decided.");
+  status.value("Continue", ExplorationStatus::Continue, "keep following the trajectory")
+      .value("Planned", ExplorationStatus::Planned, "a new trajectory starts now")
+      .value("NoFrontier", ExplorationStatus::NoFrontier, "no target left; the vehicle finishes its trajectory")
+      .value("Failed", ExplorationStatus::Failed, "a replan failed (retried on the next update)")
+      .value("Finished", ExplorationStatus::Finished, "no reachable frontier left, vehicle at rest");
+  status.attr("__str__") = py::cpp_function([](ExplorationStatus s) { return std::string(toString(s)); },
+                                            py::name("__str__"), py::is_method(status), "The name logs use.");
+
+  py::class_<ExplorationCounters> c(m, "ExplorationCounters", "Counters of the exploration manager.");
+  c.def_readonly("updates", &ExplorationCounters::updates, "update cycles")
+      .def_readonly("replans", &ExplorationCounters::replans, "replans attempted (with the initial turn's parts)")
+      .def_readonly("replans_failed", &ExplorationCounters::replans_failed, "replans that failed")
+      .def_readonly("collision_risks", &ExplorationCounters::collision_risks, "replans triggered by collision risk")
+      .def_readonly("target_failures", &ExplorationCounters::target_failures, "failures counted against targets")
+      .def_readonly("blacklisted", &ExplorationCounters::blacklisted, "clusters blacklisted at the last replan")
+      .def_readonly("holds", &ExplorationCounters::holds, "times the vehicle was stopped by a hold")
+      .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
+}
+
+void bindPlanner(py::module_& parent) {
+  py::module_ m = submodule(parent, "planner",
+                            "The exploration planner's parameters (vdbmap.sim.ExplorationConfig.planner), its "
+                            "counters and statuses.");
+  bindFrontierAndViewpoints(m);
+  bindCostsAndPaths(m);
+  bindExplorationParams(m);
+}
+
+const BindRegistration registration(kBindPlanner, "planner", &bindPlanner);
+
+}  // namespace
+}  // namespace vdbmap::python

@@ -1,0 +1,173 @@
+"""Type stubs of `vdbmap.planner` (bindings/python/bind_planner.cpp): the exploration planner's
+parameters (vdbmap.sim.ExplorationConfig.planner), its counters and statuses."""
+from __future__ import annotations
+
+from typing import Any, ClassVar, Optional
+
+import numpy as np
+import numpy.typing as npt
+
+class _Enum:
+    __members__: ClassVar[dict[str, Any]]
+    def __eq__(self, other: object) -> bool: ...
+    def __ne__(self, other: object) -> bool: ...
+    def __hash__(self) -> int: ...
+    def __index__(self) -> int: ...
+    def __int__(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def value(self) -> int: ...
+
+_F64 = npt.NDArray[np.float64]
+_BoxF = Optional[tuple[_F64, _F64]]
+
+class FrontierParams:
+    """Frontier clusters (FUEL's cluster_min, cluster_size_xy, down_sample)."""
+    min_cluster_size: int
+    split_radius_xy_m: float
+    sample_stride_vox: int
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> FrontierParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> FrontierParams: ...
+
+class CameraFrustum:
+    """The camera the planner scores viewpoints with."""
+    tan_half_fov_x: float
+    tan_half_fov_y: float
+    min_range_m: float
+    max_range_m: float
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> CameraFrustum: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> CameraFrustum: ...
+
+class ViewpointParams:
+    """Viewpoints sampled on rings around each cluster."""
+    ring_radius_min_m: float
+    ring_radius_max_m: float
+    ring_count: int
+    angle_step_deg: float
+    height_offsets_m: list[float]
+    min_clearance_m: float
+    min_visible_samples: int
+    camera: CameraFrustum
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> ViewpointParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> ViewpointParams: ...
+
+class CostParams:
+    """Cost between viewpoints."""
+    v_max_m_s: float
+    yaw_rate_max_rad_s: float
+    w_dir: float
+    unreachable_cost_s: float
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> CostParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> CostParams: ...
+
+class PathParams:
+    """Collision-free paths in the map (straight line or OMPL RRTConnect)."""
+    clearance_m: float
+    check_step_m: float
+    time_limit_s: float
+    rrt_range_m: float
+    simplify_rounds: int
+    seed: int
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> PathParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> PathParams: ...
+
+class TourParams:
+    """The global tour's ATSP solver."""
+    time_limit_s: float
+    seed: int
+    max_iterations: int
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> TourParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> TourParams: ...
+
+class RefinementParams:
+    """Local viewpoint refinement (FUEL's refined_*)."""
+    max_clusters: int
+    radius_m: float
+    top_viewpoints: int
+    max_decay: float
+    min_distance_m: float
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> RefinementParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> RefinementParams: ...
+
+class TrajectoryParams:
+    """Minimum-time trajectories along paths."""
+    v_max_m_s: float
+    a_max_m_s2: float
+    yaw_rate_max_rad_s: float
+    yaw_acc_max_rad_s2: float
+    normal_acc_share: float
+    corner_fraction: float
+    ds_m: float
+    clearance_m: float
+    check_step_m: float
+    corner_shrink_steps: int
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> TrajectoryParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> TrajectoryParams: ...
+
+class ExplorationParams:
+    """The exploration manager (FUEL-style); box_W is required."""
+    box_W: _BoxF
+    frontier: FrontierParams
+    viewpoint: ViewpointParams
+    cost: CostParams
+    path: PathParams
+    cost_path: PathParams
+    tour: TourParams
+    refinement: RefinementParams
+    trajectory: TrajectoryParams
+    start_free_half_size_m: _F64
+    initial_turn: bool
+    replan_time_left_s: float
+    replan_covered_after_s: float
+    replan_period_s: float
+    covered_fraction: float
+    collision_radius_m: float
+    max_failures: int
+    max_targets_per_replan: int
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> ExplorationParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> ExplorationParams: ...
+
+class ExplorationStatus(_Enum):
+    """What one exploration update decided."""
+    Continue: ClassVar[ExplorationStatus]
+    Planned: ClassVar[ExplorationStatus]
+    NoFrontier: ClassVar[ExplorationStatus]
+    Failed: ClassVar[ExplorationStatus]
+    Finished: ClassVar[ExplorationStatus]
+    def __init__(self, value: int) -> None: ...
+
+class ExplorationCounters:
+    """Counters of the exploration manager."""
+    @property
+    def updates(self) -> int: ...
+    @property
+    def replans(self) -> int: ...
+    @property
+    def replans_failed(self) -> int: ...
+    @property
+    def collision_risks(self) -> int: ...
+    @property
+    def target_failures(self) -> int: ...
+    @property
+    def blacklisted(self) -> int: ...
+    @property
+    def holds(self) -> int: ...

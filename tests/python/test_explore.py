@@ -1,0 +1,204 @@
+"""Closed-loop exploration from Python (vdbmap.sim): a small room explored at coarse voxels and a
+reduced camera resolution (seconds) finishes without collisions; `explore` writes the run folder
+and returns summary.json's content; `run_exploration` returns TUM trajectories, counters and the
+final Mapper, which the rest of the module can query; the run releases the GIL; configs start from
+C++'s defaults (as the CLI shows them) and their shortcuts edit the nested structs."""
+from __future__ import annotations
+
+import gc
+import json
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import vdbmap
+import vdbmap.sim as sim
+from test_sim import box_mesh, cli_default, small_camera_config
+
+# One 4 x 3 x 2.5 m room, seen at 0.2 m voxels by an 80x60 camera with the default field of view.
+ROOM_MIN = np.array([0.0, 0.0, 0.0])
+ROOM_MAX = np.array([4.0, 3.0, 2.5])
+START = np.array([2.0, 1.5, 1.2])
+# A drifting run (s2) must still keep this far from every wall: the vehicle's radius.
+SUMMARY_KEYS = {
+    "exploration_time_s", "path_length_m", "coverage", "loop_closures", "collisions", "planner_ms_median",
+    "planner_ms_max", "frames_total", "keyframes_kept", "accuracy_rmse_m", "completeness", "finished", "description",
+    "mode", "voxel_size_m", "max_time_s", "start", "box", "min_clearance_m", "vehicle_radius_m", "replans",
+    "replans_failed", "collision_risk_replans", "target_failures", "blacklisted_clusters", "holds",
+    "map_update_ms_median", "frame_wall_ms_median", "reintegrated_frames", "estimate_error_rmse_m",
+    "estimate_error_max_m", "odometry_error_final_m", "observable_surface", "wall_s",
+}
+# Quaternions of TUM rows are unit to rounding.
+UNIT_QUATERNION_TOLERANCE = 1e-9
+# A run that released the GIL lets a 1 ms ticker run at least this often (progress takes the GIL
+# back once a frame, briefly).
+MIN_TICKS = 20
+
+
+@pytest.fixture(scope="module")
+def room():
+    return sim.World(box_mesh(ROOM_MIN, ROOM_MAX))
+
+
+def tiny_config(drift="s1"):
+    config = sim.ExplorationConfig()
+    config.simulator.camera = small_camera_config(80, 60)
+    config.simulator.camera.far_clip_m = sim.ExplorationConfig().simulator.camera.far_clip_m
+    config.drift = drift
+    config.seed = 3
+    config.voxel_size_m = 0.2
+    config.box = (ROOM_MIN, ROOM_MAX)
+    config.start = START
+    config.max_time_s = 120.0
+    return config
+
+
+@pytest.fixture(scope="module")
+def run(room):
+    """One run_exploration, with the ticks a 1 ms Python thread made while it ran."""
+    ticks, stop = [0], threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            time.sleep(0.001)
+            ticks[0] += 1
+
+    progress = []
+    ticker = threading.Thread(target=tick)
+    ticker.start()
+    try:
+        result = sim.run_exploration(room, tiny_config("s2"), progress=progress.append)
+    finally:
+        stop.set()
+        ticker.join()
+    return result, ticks[0], progress
+
+
+def test_a_tiny_exploration_finishes_without_collisions(run):
+    result, _, progress = run
+    assert result.finished and result.collisions == 0
+    assert result.min_clearance_m >= tiny_config().vehicle_radius_m
+    assert result.path_length_m > 0.5 and result.frames_total > 0
+    assert result.planner_counters.replans == len(result.planner_ms) > 0
+    assert result.planner_ms_max == pytest.approx(result.planner_ms.max())
+    # progress came after every frame, in order, and the last update finished the run
+    assert [p.frames for p in progress] == list(range(1, result.frames_total + 1))
+    assert progress[-1].status == vdbmap.planner.ExplorationStatus.Finished
+
+
+def test_run_exploration_returns_tum_trajectories_and_the_mapper(run):
+    result, _, _ = run
+    for trajectory in (result.trajectory_true, result.trajectory_estimate):
+        assert trajectory.shape == (result.frames_total, 8) and trajectory.dtype == np.float64
+        assert (np.diff(trajectory[:, 0]) > 0).all()
+        np.testing.assert_allclose(np.linalg.norm(trajectory[:, 4:], axis=1), 1.0, atol=UNIT_QUATERNION_TOLERANCE)
+    np.testing.assert_array_equal(result.trajectory_true[:, 0], result.trajectory_estimate[:, 0])
+    # s2 drifts: the estimate the mapper used is not the truth
+    assert np.abs(result.trajectory_true[:, 1:4] - result.trajectory_estimate[:, 1:4]).max() > 0.0
+
+    mapper = result.mapper
+    assert isinstance(mapper, vdbmap.Mapper) and mapper.keyframes_kept == result.keyframes_kept
+    assert mapper.queued_frames == 0 and mapper.stats.frames_total == result.frames_total
+    vertices, triangles = vdbmap.extract_mesh(mapper.volume())
+    assert len(triangles) > 100
+    # The mesh lies on the room's walls (within two voxels of one of its six planes).
+    to_walls = np.minimum(np.abs(vertices - ROOM_MIN), np.abs(vertices - ROOM_MAX)).min(axis=1)
+    assert np.median(to_walls) < 2 * 0.2
+
+
+def test_the_mapper_keeps_its_result_alive(room):
+    config = tiny_config()
+    config.max_time_s = 2.0  # a short, unfinished run is enough here
+    mapper = sim.run_exploration(room, config).mapper
+    gc.collect()
+    assert mapper.stats.frames_total > 0 and mapper.volume().active_voxel_count > 0
+
+
+def test_the_run_releases_the_gil(run):
+    result, ticks, _ = run
+    assert result.wall_s > 0.1  # long enough to measure
+    assert ticks >= MIN_TICKS
+
+
+def test_explore_writes_the_run_folder_and_returns_its_summary(room, tmp_path):
+    lines = []
+    summary = sim.explore(room, tiny_config(), tmp_path / "run", description="pytest", report=lines.append)
+    assert SUMMARY_KEYS <= summary.keys()
+    assert summary == json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["finished"] and summary["collisions"] == 0 and summary["description"] == "pytest"
+    assert summary["mode"] == "keyframes" and summary["voxel_size_m"] == 0.2
+    assert summary["start"] == [*START, 0.0] and summary["box"] == {"min": [*ROOM_MIN], "max": [*ROOM_MAX]}
+    assert summary["coverage"] > 0.5 and lines and lines[-1].startswith("wrote")
+    for name in ("map.vdb", "mesh.ply", "trajectory_true.txt", "trajectory_odom.txt", "log/frames.csv"):
+        assert (tmp_path / "run" / name).exists(), name
+    # The recorded log replays with every frame; the map file loads.
+    source = vdbmap.open_dataset(tmp_path / "run" / "log")
+    assert len(source) == summary["frames_total"]
+    assert vdbmap.TsdfVolume.load(tmp_path / "run" / "map.vdb").active_voxel_count > 0
+
+    with pytest.raises(RuntimeError, match="already holds an exploration run"):
+        sim.explore(room, tiny_config(), tmp_path / "run")
+
+
+def test_errors_map_to_python_exceptions(room, tmp_path):
+    config = tiny_config()
+    config.box = None
+    with pytest.raises(ValueError, match="box"):
+        sim.run_exploration(room, config)
+    config = tiny_config()
+    config.start = [0.05, 0.05, 0.05]  # inside the wall's clearance
+    with pytest.raises(ValueError):
+        sim.run_exploration(room, config)
+    config = tiny_config()
+    config.max_time_s = -1.0
+    with pytest.raises(ValueError, match="max_time_s"):
+        sim.explore(room, config, tmp_path / "run")
+    with pytest.raises(ValueError, match=r"box min: expected a \(3,\)"):
+        config.box = ([0, 0], [1, 1, 1])
+    with pytest.raises(ValueError, match="start"):
+        config.start = np.zeros((3, 1))
+    with pytest.raises(ValueError, match="s9"):
+        config.drift = "s9"
+
+    def interrupt(progress):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        sim.run_exploration(room, tiny_config(), progress=interrupt)
+
+
+def test_exploration_config_defaults_and_shortcuts(room):
+    config = sim.ExplorationConfig()
+    # C++'s defaults, as `vdbmap explore --help` shows them.
+    assert config.voxel_size_m == float(cli_default("explore", "--voxel-size"))
+    assert config.max_time_s == float(cli_default("explore", "--max-time-s"))
+    assert str(config.mode) == cli_default("explore", "--mode") == "keyframes"
+    assert str(config.simulator.loop_closure) == cli_default("explore", "--loop-closure")
+    assert config.drift.is_zero() and config.box is None and config.vehicle_radius_m == 0.2
+    # The exploration's camera reports far surfaces (30 m) so rays carve free space up to the range.
+    assert config.simulator.camera.far_clip_m == 30.0 and sim.SimulatorConfig().camera.far_clip_m == 5.0
+    assert config.planner.path.time_limit_s == 0.1 and config.planner.cost_path.time_limit_s == 0.01
+
+    config.seed = 11
+    assert (config.simulator.drift.seed, config.planner.path.seed, config.planner.cost_path.seed,
+            config.planner.tour.seed) == (11, 11, 11, 11)
+    config.drift = "s3"
+    assert config.simulator.drift.sigma2_xyz_m2ps2 == 5e-2 and config.simulator.drift.seed == 11
+    config.drift = sim.DriftConfig(mu_xyz_mps=0.01)
+    assert config.simulator.drift.mu_xyz_mps == 0.01
+    config.drift.sigma2_yaw_rad2ps2 = 0.03  # the shortcut is the nested struct itself
+    assert config.simulator.drift.sigma2_yaw_rad2ps2 == 0.03
+    config.mode = "all"
+    config.voxel_size_m = 0.15
+    assert config.mapper.mode == vdbmap.ConsistencyMode.All and config.mapper.tsdf.voxel_size_m == 0.15
+    config.planner.viewpoint.camera.max_range_m = 3.0
+    assert config.planner.viewpoint.camera.max_range_m == 3.0
+
+    for_world = sim.ExplorationConfig.for_world(room)
+    lo, hi = for_world.box
+    np.testing.assert_array_equal(lo, ROOM_MIN)
+    np.testing.assert_array_equal(hi, ROOM_MAX)
+    np.testing.assert_array_equal(for_world.start, sim.default_start_position(room, for_world.box))
+    assert room.distance(for_world.start[None, :])[0] >= 0.6
