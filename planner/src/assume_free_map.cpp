@@ -6,12 +6,12 @@ namespace vdbmap::planner {
 namespace {
 class AssumeFreeReader : public MapReader {
  public:
-  AssumeFreeReader(std::unique_ptr<MapReader> base, const std::vector<openvdb::CoordBBox>& boxes)
-      : base_(std::move(base)), boxes_(boxes) {}
+  AssumeFreeReader(std::unique_ptr<MapReader> base, const std::vector<openvdb::CoordBBox>& boxes, bool occupied_too)
+      : base_(std::move(base)), boxes_(boxes), occupied_too_(occupied_too) {}
 
   Occupancy at(const openvdb::Coord& ijk) override {
     const Occupancy o = base_->at(ijk);
-    if (o != Occupancy::Unknown) return o;
+    if (!overridden(o)) return o;
     for (const openvdb::CoordBBox& b : boxes_)
       if (b.isInside(ijk)) return Occupancy::Free;
     return o;
@@ -30,18 +30,22 @@ class AssumeFreeReader : public MapReader {
             Occupancy& o = out[(std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
                                    std::size_t(dim.z()) +
                                std::size_t(z - box.min().z())];
-            if (o == Occupancy::Unknown) o = Occupancy::Free;
+            if (overridden(o)) o = Occupancy::Free;
           }
     }
   }
 
  private:
+  bool overridden(Occupancy o) const { return o == Occupancy::Unknown || (occupied_too_ && o == Occupancy::Occupied); }
+
   std::unique_ptr<MapReader> base_;
   const std::vector<openvdb::CoordBBox>& boxes_;
+  bool occupied_too_;
 };
 }  // namespace
 
-AssumeFreeMap::AssumeFreeMap(const MapQuery& base, std::vector<Eigen::AlignedBox3d> free_boxes_W) : base_(&base) {
+AssumeFreeMap::AssumeFreeMap(const MapQuery& base, std::vector<Eigen::AlignedBox3d> free_boxes_W, bool occupied_too)
+    : base_(&base), occupied_too_(occupied_too) {
   for (const Eigen::AlignedBox3d& b : free_boxes_W) {
     const openvdb::CoordBBox box = base.voxelsIn(b);
     if (!box.empty()) boxes_.push_back(box);
@@ -55,7 +59,7 @@ openvdb::CoordBBox AssumeFreeMap::knownBounds() const {
 }
 
 std::unique_ptr<MapReader> AssumeFreeMap::reader() const {
-  return std::make_unique<AssumeFreeReader>(base_->reader(), boxes_);
+  return std::make_unique<AssumeFreeReader>(base_->reader(), boxes_, occupied_too_);
 }
 
 Eigen::AlignedBox3d boxAround(const Vec3d& centre_W, const Vec3d& half_size_m) {

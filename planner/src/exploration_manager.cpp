@@ -342,7 +342,12 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
       step.target = t.cluster;
       return ExplorationStatus::Planned;
     }
-    if (outcome == PlanOutcome::StartBlocked) break;  // not the target's fault
+    if (outcome == PlanOutcome::StartBlocked) {  // not the target's fault
+      if (!escape(map, vehicle, t_s)) break;
+      target_ = 0;
+      target_voxels_.clear();
+      return ExplorationStatus::Planned;
+    }
     addFailure(*cluster);
   }
   if (step.reason == ReplanReason::CollisionRisk) hold(vehicle, t_s);
@@ -371,6 +376,62 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
   if (!traj.ok()) return PlanOutcome::Failed;
   startTrajectory(std::move(traj.trajectory), t_s);
   return PlanOutcome::Ok;
+}
+
+bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle, double t_s) {
+  constexpr double kEscapeReach_m = 1.0;
+  const double vs = map.voxelSize(), r = params_.path.clearance_m;
+  const Vec3d& p = vehicle.position_W;
+  MapProbe probe(map);
+
+  // Away from the occupied voxels within the clearance (+ a voxel for their extent).
+  Vec3d away = Vec3d::Zero();
+  const int n = int(std::ceil((r + vs) / vs));
+  const openvdb::Coord c = map.worldToVoxel(p);
+  for (int dx = -n; dx <= n; ++dx)
+    for (int dy = -n; dy <= n; ++dy)
+      for (int dz = -n; dz <= n; ++dz) {
+        const openvdb::Coord v = c.offsetBy(dx, dy, dz);
+        const Vec3d d = p - map.voxelCenter(v);
+        if (d.norm() > r + vs || probe.at(v) != Occupancy::Occupied) continue;
+        away += d.norm() > 1e-9 ? Vec3d(d.normalized()) : Vec3d::Zero();
+      }
+  // Candidate directions: away first, then the 26 grid directions most aligned with it.
+  std::vector<Vec3d> dirs;
+  if (away.norm() > 1e-9) dirs.push_back(away.normalized());
+  std::vector<Vec3d> grid;
+  for (int x = -1; x <= 1; ++x)
+    for (int y = -1; y <= 1; ++y)
+      for (int z = -1; z <= 1; ++z)
+        if (x || y || z) grid.push_back(Vec3d(x, y, z).normalized());
+  const Vec3d a = away.norm() > 1e-9 ? Vec3d(away.normalized()) : Vec3d::Zero();
+  std::stable_sort(grid.begin(), grid.end(), [&a](const Vec3d& u, const Vec3d& w) { return u.dot(a) > w.dot(a); });
+  dirs.insert(dirs.end(), grid.begin(), grid.end());
+
+  // The nearest clear point (preferring the away direction) whose straight way crosses no
+  // occupied voxel beyond the vehicle's own.
+  const auto wayFree = [&](const Vec3d& q) {
+    const double len = (q - p).norm();
+    for (double t = 0.5 * vs; t <= len; t += 0.5 * vs)
+      if (probe.atWorld(p + (q - p) * (t / len)) == Occupancy::Occupied) return false;
+    return true;
+  };
+  for (double d = vs; d <= kEscapeReach_m + 1e-9; d += vs) {
+    for (const Vec3d& u : dirs) {
+      const Vec3d q = p + u * d;
+      if (!params_.box_W.contains(q) || !probe.isClear(q, r) || !wayFree(q)) continue;
+      // The move was checked here: let the trajectory pass the voxels near the start.
+      Eigen::AlignedBox3d way(p.cwiseMin(q), p.cwiseMax(q));
+      way = Eigen::AlignedBox3d(way.min() - Vec3d::Constant(r + vs), way.max() + Vec3d::Constant(r + vs));
+      const AssumeFreeMap escape_map(map, {way}, /*occupied_too=*/true);
+      TrajectoryResult traj = planTrajectory({p, q}, vehicle, vehicle.yaw_rad, escape_map, params_.trajectory);
+      if (!traj.ok()) continue;
+      startTrajectory(std::move(traj.trajectory), t_s);
+      ++counters_.escapes;
+      return true;
+    }
+  }
+  return false;
 }
 
 }  // namespace vdbmap::planner

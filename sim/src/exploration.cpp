@@ -259,6 +259,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["target_failures"] = r.planner_counters.target_failures;
   j["blacklisted_clusters"] = r.planner_counters.blacklisted;
   j["holds"] = r.planner_counters.holds;
+  j["escapes"] = r.planner_counters.escapes;
   j["map_update_ms_median"] = r.map_update_ms_median;
   j["frame_wall_ms_median"] = r.frame_wall_ms_median;
   j["reintegrated_frames"] = r.reintegrated_frames;

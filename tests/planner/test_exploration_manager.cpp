@@ -245,3 +245,32 @@ TEST_CASE("A frontier that stays unobserved after visits is blacklisted, then ex
   CHECK(m.counters().target_failures >= clusters * std::size_t(m.params().max_failures));
   CHECK(m.counters().blacklisted == clusters);
 }
+
+TEST_CASE("A start blocked by a wall within the clearance escapes straight away from it, then explores",
+          "[planner][exploration]") {
+  // After a loop-closure correction moves the map (or drift brings the vehicle near a wall), the
+  // vehicle can stand closer to occupied voxels than the path clearance: no path may start there.
+  const DenseMap map = halfKnownRoom();
+  const Vec3d start(0.2, 3.0, 1.5);  // 0.2 m from the wall's voxel centres at x = 0
+  ExplorationManager m(roomParams(), at(start), 0.0);
+  const double clearance = m.params().path.clearance_m;
+  REQUIRE_FALSE(test::bruteClear(map, start, clearance));
+  const ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  CHECK(m.counters().escapes == 1);
+  CHECK(step.target == 0);  // no target: the move only gets out
+  const double T = m.trajectory().duration();
+  const Vec3d end = m.command(T).position_W;
+  CHECK(end.x() > start.x() + 0.05);                    // away from the wall
+  CHECK((end - start).norm() <= 1.0 + kTolM);           // within the escape reach
+  CHECK(test::bruteClear(map, end, clearance - 1e-9));  // and clear there
+  for (double s = 0.0; s <= T; s += 0.02)               // straight: never closer to the wall
+    CHECK(m.command(s).position_W.x() >= start.x() - kTolM);
+
+  // From there the next replan flies to a frontier as usual.
+  VehicleState there = at(end);
+  const ExplorationStep next = m.update(map, CoordBBox(), there, T + 0.1);
+  CHECK(next.status == ExplorationStatus::Planned);
+  CHECK(next.target != 0);
+  CHECK(m.counters().escapes == 1);
+}

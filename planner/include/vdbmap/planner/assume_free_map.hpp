@@ -18,8 +18,10 @@ namespace vdbmap::planner {
 
 class AssumeFreeMap : public MapQuery {
  public:
-  /// `base` must outlive this wrapper. A voxel is inside a box when its centre is.
-  AssumeFreeMap(const MapQuery& base, std::vector<Eigen::AlignedBox3d> free_boxes_W);
+  /// `base` must outlive this wrapper. A voxel is inside a box when its centre is. With
+  /// `occupied_too`, occupied voxels inside the boxes read free as well: only for a manoeuvre that
+  /// was checked otherwise (the exploration manager's escape from a blocked start).
+  AssumeFreeMap(const MapQuery& base, std::vector<Eigen::AlignedBox3d> free_boxes_W, bool occupied_too = false);
 
   double voxelSize() const override { return base_->voxelSize(); }
   /// The base map's bounds grown by the boxes.
@@ -31,6 +33,7 @@ class AssumeFreeMap : public MapQuery {
  private:
   const MapQuery* base_;
   std::vector<openvdb::CoordBBox> boxes_;  ///< index-space boxes of the voxels assumed free
+  bool occupied_too_ = false;
 };
 
 /// A box of half-extents `half_size_m` centred at `centre_W`: the usual start box.

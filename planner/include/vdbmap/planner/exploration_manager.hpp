@@ -157,6 +157,7 @@ struct ExplorationCounters {
   std::size_t target_failures = 0;  ///< failures counted against targets
   std::size_t blacklisted = 0;      ///< clusters skipped as blacklisted at the last replan
   std::size_t holds = 0;            ///< times the vehicle was stopped by a hold
+  std::size_t escapes = 0;          ///< straight moves out of a start blocked by occupied voxels
 };
 
 class ExplorationManager {
@@ -218,6 +219,10 @@ class ExplorationManager {
   std::vector<Target> liveTargets(const MapQuery& map);
   ExplorationStatus replan(const MapQuery& map, const VehicleState& vehicle, double t_s, ExplorationStep& step);
   PlanOutcome planTo(const MapQuery& map, const VehicleState& vehicle, const Viewpoint& view, double t_s);
+  /// The start is blocked by occupied voxels within the clearance (a correction moved the map, or
+  /// drift brought the vehicle close to a wall): moves straight away from them to the nearest clear
+  /// point within kEscapeReach_m, so that the next replan starts from there. False: none found.
+  bool escape(const MapQuery& map, const VehicleState& vehicle, double t_s);
   void startTrajectory(Trajectory trajectory, double t_s);
   void hold(const VehicleState& vehicle, double t_s);
   void addFailure(const FrontierCluster& cluster);
