@@ -1,5 +1,6 @@
 // Active loop closure inside the exploration manager, on synthetic maps: the manager flies a loop
-// detour when the loop cluster lies on the way (cheap) and not when it lies behind (expensive);
+// detour when the loop cluster is where the vehicle is (cheap) and not when it lies 3 m behind,
+// away from the frontier (expensive);
 // a detour that finds no loop is given up at its timeout (a replan of its own), and the cluster is
 // not chosen again until the suspension ends; a notified loop closure ends a detour; with ALC on,
 // exploration still finishes.
@@ -51,13 +52,16 @@ VehicleState at(const Vec3d& p, double yaw = 0.0) {
   return s;
 }
 
-/// Flies (as far as the manager can tell: the states it is given) through `place` along +x at
-/// y = 3, z = 1.5, then appears at `vehicle`, and lets time pass until the place is old enough to
-/// be a loop cluster. Returns the time reached.
+/// Flies (as far as the manager can tell: the states it is given) through a place, 0.75 m along
+/// +x from (place_x, 3, 1.5), then elsewhere (more than search_radius_m from `vehicle`, which ends
+/// the place's run), then appears at `vehicle` once the place is old enough to be a loop cluster.
+/// Returns the time reached.
 double flyPlaceThenGo(ExplorationManager& m, const DenseMap& map, double place_x, const Vec3d& vehicle) {
+  const Vec3d elsewhere(7.5, 0.6, 1.5);
   double t = 0.0;
   for (int k = 0; k < 4; ++k, t += 0.2) m.update(map, CoordBBox(), at(Vec3d(place_x + 0.25 * k, 3, 1.5)), t);
-  for (; t < 3.0; t += 0.5) m.update(map, CoordBBox(), at(vehicle), t);
+  for (; t < 2.5; t += 0.5) m.update(map, CoordBBox(), at(elsewhere), t);
+  for (; t < 3.5; t += 0.5) m.update(map, CoordBBox(), at(vehicle), t);
   return t;
 }
 
@@ -93,9 +97,9 @@ TEST_CASE("The manager detours to a loop cluster on the way, not to one behind i
   const DenseMap map = corridorRoom();
   const Vec3d vehicle(4.5, 3, 1.5);  // the frontier (x = 8 m) lies ahead
 
-  SECTION("cheap: the cluster lies between the vehicle and the frontier") {
-    ExplorationManager m(alcParams(), at(Vec3d(5.5, 3, 1.5)), 0.0);
-    const double t = flyPlaceThenGo(m, map, 5.5, vehicle);
+  SECTION("cheap: the vehicle is back at the place (the cluster's centre)") {
+    ExplorationManager m(alcParams(), at(Vec3d(4.0, 3, 1.5)), 0.0);
+    const double t = flyPlaceThenGo(m, map, 4.0, vehicle);
     const ExplorationStep step = replanAt(m, map, vehicle, t);
     REQUIRE(step.alc_status.has_value());
     CHECK(*step.alc_status == AlcStatus::kDetour);
@@ -110,9 +114,9 @@ TEST_CASE("The manager detours to a loop cluster on the way, not to one behind i
     if (m.trajectory().duration() - 0.5 * m.trajectory().duration() > m.params().replan_time_left_s)
       CHECK(m.update(map, CoordBBox(), at(m.command(mid).position_W), mid).reason == ReplanReason::None);
   }
-  SECTION("expensive: the cluster lies 2 m behind the vehicle") {
-    ExplorationManager m(alcParams(), at(Vec3d(1.75, 3, 1.5)), 0.0);
-    const double t = flyPlaceThenGo(m, map, 1.75, vehicle);
+  SECTION("expensive: the cluster's centre lies 3 m behind the vehicle") {
+    ExplorationManager m(alcParams(), at(Vec3d(1.0, 3, 1.5)), 0.0);
+    const double t = flyPlaceThenGo(m, map, 1.0, vehicle);
     const ExplorationStep step = replanAt(m, map, vehicle, t);
     REQUIRE(step.alc_status.has_value());
     CHECK(*step.alc_status == AlcStatus::kFrontierCheaper);
@@ -128,10 +132,11 @@ TEST_CASE("A detour without a loop is given up at its timeout and its cluster wa
   const DenseMap map = corridorRoom();
   const Vec3d vehicle(4.5, 3, 1.5);
   const ExplorationParams p = alcParams();
-  ExplorationManager m(p, at(Vec3d(5.5, 3, 1.5)), 0.0);
-  double t = flyPlaceThenGo(m, map, 5.5, vehicle);
+  ExplorationManager m(p, at(Vec3d(4.0, 3, 1.5)), 0.0);
+  double t = flyPlaceThenGo(m, map, 4.0, vehicle);
   REQUIRE(replanAt(m, map, vehicle, t).loop_detour);
   const double detour_start = t;
+  const LoopClusterId cluster = m.alc()->detour()->cluster;
 
   SECTION("timeout, suspension, then the same cluster again") {
     // The vehicle stays put (it never reaches the cluster): at the timeout, a replan of its own.
@@ -157,6 +162,8 @@ TEST_CASE("A detour without a loop is given up at its timeout and its cluster wa
     REQUIRE(step.alc_status.has_value());
     CHECK(*step.alc_status == AlcStatus::kDetour);
     CHECK(step.loop_detour);
+    CHECK(m.alc()->detour()->cluster == cluster);
+    CHECK(m.alc()->failures(cluster) == 1);
     CHECK(m.alcStats().detours == 2);
   }
   SECTION("a loop closure ends the detour; ALC is quiet after it") {
@@ -176,7 +183,7 @@ TEST_CASE("A detour without a loop is given up at its timeout and its cluster wa
   SECTION("a correction moves the history") {
     const Vec3d offset(0.0, 0.3, 0.0);
     m.notifyLoopClosure(t + 0.1, [&](const FlownViewpoint& v) { return PoseTarget{v.position_W + offset, v.yaw_rad}; });
-    CHECK((m.alc()->history()[0].position_W - Vec3d(5.5, 3.3, 1.5)).norm() < 1e-9);
+    CHECK((m.alc()->history()[0].position_W - Vec3d(4.0, 3.3, 1.5)).norm() < 1e-9);
   }
 }
 
