@@ -65,8 +65,9 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
       ->check(CLI::Range(0.0, 100.0));
   sub->add_option("--loop-closure", o->loop_closure, "Correction on loop closure: pgo, perfect or off")
       ->check(CLI::IsMember({"pgo", "perfect", "off"}));
-  sub->add_option("--ceiling", o->ceiling_m,
-                  "Cut the world at this height and close it with a flat ceiling there (metres; 0 keeps the mesh as is)")
+  sub->add_option(
+         "--ceiling", o->ceiling_m,
+         "Cut the world at this height and close it with a flat ceiling there (metres; 0 keeps the mesh as is)")
       ->check(CLI::Range(0.0, 1e3));
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep each run's log and map in OUTDIR/runs/ (large)");
   sub->add_option("-o,--output", o->output, "Output folder")->required();

@@ -114,10 +114,11 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
       const std::string name = std::string(arm) + "_seed" + std::to_string(seed);
       const AlcBenchmarkRun run{arm, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
       const ExplorationSummary& s = run.summary;
-      report(name + ": " + (s.finished ? "finished" : "time limit") + " after " + format("%.1f s", s.exploration_time_s) +
-             ", " + std::to_string(s.loop_closures) + " loop closures, rmse " + format("%.4f m", s.accuracy_rmse_m) +
-             ", coverage " + format("%.3f", s.coverage) + ", " + std::to_string(s.alc_detours) + " detours (" +
-             format("%.1f s", s.alc_time_s) + "), " + format("%.0f s wall", s.wall_s));
+      report(name + ": " + (s.finished ? "finished" : "time limit") + " after " +
+             format("%.1f s", s.exploration_time_s) + ", " + std::to_string(s.loop_closures) + " loop closures, rmse " +
+             format("%.4f m", s.accuracy_rmse_m) + ", coverage " + format("%.3f", s.coverage) + ", " +
+             std::to_string(s.alc_detours) + " detours (" + format("%.1f s", s.alc_time_s) + "), " +
+             format("%.0f s wall", s.wall_s));
       result.runs.push_back(run);
       result.wall_s = secondsSince(wall0);
       writeOutputs(result, config, out_dir);
@@ -130,8 +131,8 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
   std::ostringstream md;
   md << "# Exploration with and without active loop closure\n\n"
      << "World `" << config.world_mesh.string() << "`, drift " << config.drift_level << ", seeds 1.." << config.seeds
-     << ", voxel " << config.voxel_size_m << " m, loop closure `" << toString(config.loop_closure)
-     << "`, time limit " << config.max_time_s << " s. ALC: epsilon " << config.alc.epsilon << ", give-up timeout "
+     << ", voxel " << config.voxel_size_m << " m, loop closure `" << toString(config.loop_closure) << "`, time limit "
+     << config.max_time_s << " s. ALC: epsilon " << config.alc.epsilon << ", give-up timeout "
      << config.alc.give_up_timeout_s << " s, search radius " << config.alc.search_radius_m
      << " m. Both arms of a seed share the drift and planner seeds and the start. Values: mean ± sample standard "
         "deviation over the runs done.\n";
@@ -151,7 +152,8 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
       {"collisions", {"%.1f", [](const ExplorationSummary& s) { return double(s.collisions); }}},
   };
   md << "\n## Per arm\n\n| metric |";
-  for (const char* arm : kArms) md << " " << arm << " (n = " << values(result, arm, metrics[0].second.second).size() << ") |";
+  for (const char* arm : kArms)
+    md << " " << arm << " (n = " << values(result, arm, metrics[0].second.second).size() << ") |";
   md << "\n|---|---:|---:|\n";
   for (const auto& [title, m] : metrics) {
     md << "| " << title << " |";
@@ -181,8 +183,7 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
     const double overhead = spread(time_b).mean / spread(time_a).mean - 1.0;
     md << "- time overhead: " << format("%+.1f %%", 100.0 * overhead) << " (ratio of the mean times; per seed "
        << format("%+.1f", 100.0 * ratio.mean) << " ± " << format("%.1f %%", 100.0 * ratio.sd) << ")\n"
-       << "- loop-closure gain: " << format("%+.1f", gain.mean) << " ± " << format("%.1f", gain.sd)
-       << " per run\n"
+       << "- loop-closure gain: " << format("%+.1f", gain.mean) << " ± " << format("%.1f", gain.sd) << " per run\n"
        << "- accuracy RMSE change: " << format("%+.4f", rmse.mean) << " ± " << format("%.4f m", rmse.sd) << "\n"
        << "- paper (Zhang et al. 2022): +8 % time, +3 loop closures, a better map\n";
   }

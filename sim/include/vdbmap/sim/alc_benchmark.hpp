@@ -30,11 +30,11 @@
 namespace vdbmap::sim {
 
 struct AlcBenchmarkConfig {
-  std::filesystem::path world_mesh;  ///< PLY, OBJ or OFF
-  WorldConfig world;                 ///< e.g. the ceiling cap `vdbmap explore` uses
-  std::string drift_level = "s3";    ///< Table I level
-  std::size_t seeds = 5;             ///< seeds 1..seeds; [1, 1000]
-  double voxel_size_m = 0.1;         ///< (0, 10]
+  std::filesystem::path world_mesh;                          ///< PLY, OBJ or OFF
+  WorldConfig world;                                         ///< e.g. the ceiling cap `vdbmap explore` uses
+  std::string drift_level = "s3";                            ///< Table I level
+  std::size_t seeds = 5;                                     ///< seeds 1..seeds; [1, 1000]
+  double voxel_size_m = 0.1;                                 ///< (0, 10]
   double max_time_s = ExplorationConfig::kDefaultMaxTime_s;  ///< per run; (0, 1e5]
   /// The ALC arm's parameters (its tour seed follows the run's seed).
   planner::AlcParams alc;

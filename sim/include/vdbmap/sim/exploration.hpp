@@ -13,8 +13,8 @@
 // by the Mapper at its estimated pose; a correction event goes to Mapper::updatePoses, and the
 // manager is told that the estimate frame moved (ExplorationManager::shiftFrame, so the vehicle's
 // true path does not jump) and that a loop closed (notifyLoopClosure, with the corrected poses of
-// the frames, which move active loop closure's viewpoint history); one budgeted re-integration cycle runs; then the manager updates
-// frontiers from the map's dirty region and may replan.
+// the frames, which move active loop closure's viewpoint history); one budgeted re-integration
+// cycle runs; then the manager updates frontiers from the map's dirty region and may replan.
 //
 // Time: simulated time stands still while the planner computes (the vehicle neither waits nor
 // moves on during a replan). This keeps a run deterministic for a seed (as long as OMPL and ATSP
@@ -146,12 +146,12 @@ struct ExplorationSummary {
   std::size_t loop_closures = 0;
   std::size_t collisions = 0;
   bool alc_enabled = false;
-  double epsilon = 0.0;           ///< ALC's (when enabled)
-  std::size_t alc_detours = 0;    ///< loop-closure detours started
-  double alc_time_s = 0.0;        ///< time spent flying loop-closure detours
-  std::size_t alc_give_ups = 0;   ///< detours given up without a loop closure
-  std::size_t alc_detour_loops = 0;  ///< detours that ended with a loop closure
-  double estimate_error_rmse_m = 0.0;  ///< of the estimated sensor positions vs the true ones, per frame
+  double epsilon = 0.0;                ///< ALC's (when enabled)
+  std::size_t alc_detours = 0;         ///< loop-closure detours started
+  double alc_time_s = 0.0;             ///< time spent flying loop-closure detours
+  std::size_t alc_give_ups = 0;        ///< detours given up without a loop closure
+  std::size_t alc_detour_loops = 0;    ///< detours that ended with a loop closure
+  double estimate_error_rmse_m = 0.0;  ///< estimated vs true sensor positions over the frames
   double planner_ms_median = 0.0;
   double planner_ms_max = 0.0;
   std::size_t frames_total = 0;
@@ -178,8 +178,8 @@ struct ExplorationRunOptions {
 };
 
 /// Runs the exploration and writes the run folder: log/ (replayable), map.vdb, mesh.ply (unless
-/// turned off in the options), trajectory_true.txt and trajectory_odom.txt (TUM, sensor poses per frame, true and estimated),
-/// and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
+/// turned off in the options), trajectory_true.txt and trajectory_odom.txt (TUM, sensor poses per
+/// frame, true and estimated), and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
 ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
                                    const std::filesystem::path& run_dir, const ExplorationRunOptions& options = {});
 
