@@ -169,6 +169,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     mapper.addDepthFrame(FrameId(frame.index), frame.t_s, frame.depth, K, frame.T_W_S_estimate);
     if (frame.correction) {
       ++result.loop_closures;
+      result.events.push_back({frame.t_s, "loop_closure"});
       mapper.updatePoses(byFrameId(*frame.correction));
       // The estimate jumped: the pose believed at capture is now sim.bodyEstimate().
       const FlatPose shift = compose(sim.bodyEstimate(), inverse(frame.body_estimate));
@@ -178,8 +179,11 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     const FlatPose estimate = sim.bodyEstimate();
     mapper.reintegrate(estimate.p_W);
     const planner::TsdfMapQuery map(mapper.volume());  // re-created every cycle: the volume changed
+    const std::size_t detours_before = manager.alcStats().detours;
     const planner::ExplorationStep step =
         manager.update(map, mapper.takeDirtyRegion(), vehicleState(estimate, manager.command(frame.t_s)), frame.t_s);
+    if (manager.alcStats().detours > detours_before) result.events.push_back({frame.t_s, "alc_detour"});
+    if (step.alc_status == planner::AlcStatus::kGaveUp) result.events.push_back({frame.t_s, "alc_gave_up"});
     map_ms.push_back(step.map_update_ms);
     if (step.reason != planner::ReplanReason::None) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);
     if (step.status == planner::ExplorationStatus::Finished && mapper.queuedFrames() == 0) result.finished = true;
@@ -318,6 +322,9 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
                              {"observable_area_m2", s.observable.observable_area_m2},
                              {"reachable_cells", s.observable.reachable_cells}};
   j["wall_s"] = s.wall_s;
+  nlohmann::json events = nlohmann::json::array();
+  for (const ExplorationEvent& e : r.events) events.push_back({{"t_s", e.t_s}, {"what", e.what}});
+  j["events"] = events;
   return j;
 }
 }  // namespace

@@ -92,6 +92,13 @@ struct ExplorationOptions {
   std::function<void(const ExplorationProgress&)> progress;
 };
 
+/// Something that happened in the run, for diagnosis: "loop_closure", "alc_detour" (a detour
+/// started), "alc_gave_up" (a detour given up without a loop closure).
+struct ExplorationEvent {
+  double t_s = 0.0;
+  std::string what;
+};
+
 struct ExplorationResult {
   bool finished = false;            ///< the manager finished (false: the time limit ended the run)
   double exploration_time_s = 0.0;  ///< simulated time from take-off to the finish (or the limit)
@@ -110,6 +117,7 @@ struct ExplorationResult {
   /// spent on them (from the decision to the loop closure or the give-up), give-ups, and detours
   /// that ended with a loop closure.
   planner::AlcStats alc;
+  std::vector<ExplorationEvent> events;  ///< in time order
   std::size_t keyframes_kept = 0;
   std::size_t reintegrated_frames = 0;
   /// Sensor poses T_W_S at every frame: true, and estimated (what the Mapper integrated with).
