@@ -1,5 +1,6 @@
 // `vdbmap explore --world W.ply [--drift s1..s4] [--seed N] [--voxel-size M] [--max-time-s T]
-// [--mode keyframes|all|none|submap] [--start x,y,z] [--box ...] [--ceiling Z] -o RUNDIR`: explores
+// [--mode keyframes|all|none|submap] [--start x,y,z] [--box ...] [--ceiling Z] [--alc on|off]
+// [--epsilon E] -o RUNDIR`: explores
 // the world with the simulated vehicle, the mapper and the exploration planner in closed loop, and
 // writes the run folder (see sim/exploration.hpp).
 #include "cli_util.hpp"
@@ -27,6 +28,8 @@ struct ExploreOptions {
   double ceiling_m = 2.5;
   double start_yaw = 0.0;
   std::vector<double> start, box;
+  std::string alc = "off";
+  double epsilon = planner::AlcParams{}.epsilon;
   bool no_initial_turn = false;
   bool overwrite = false;
 };
@@ -60,25 +63,22 @@ void runExplore(const ExploreOptions& o) {
   }
   const sim::World world = sim::World::load(o.world, wc);
 
-  sim::ExplorationConfig config;
-  config.simulator.drift = sim::DriftConfig::preset(o.drift, o.seed);
+  sim::ExplorationConfig config = sim::explorationConfigFor(world, o.drift, o.seed, o.voxel_size_m);
   config.simulator.loop_closure = sim::parseLoopClosureMode(o.loop_closure);
   config.mapper.mode = parseConsistencyMode(o.mode);
-  config.mapper.tsdf.voxel_size_m = o.voxel_size_m;
   config.max_time_s = o.max_time_s;
   config.planner.initial_turn = !o.no_initial_turn;
-  config.planner.path.seed = o.seed;
-  config.planner.cost_path.seed = o.seed;
-  config.planner.tour.seed = o.seed;
-  config.planner.box_W = o.box.empty() ? sim::defaultExplorationBox(world)
-                                       : Eigen::AlignedBox3d(Vec3d(o.box[0], o.box[1], o.box[2]),
-                                                             Vec3d(o.box[3], o.box[4], o.box[5]));
+  config.planner.alc_enabled = o.alc == "on";
+  config.planner.alc.epsilon = o.epsilon;
+  if (!o.box.empty())
+    config.planner.box_W = Eigen::AlignedBox3d(Vec3d(o.box[0], o.box[1], o.box[2]), Vec3d(o.box[3], o.box[4], o.box[5]));
   config.start.p_W = o.start.empty() ? sim::defaultStartPosition(world, config.planner.box_W)
                                      : Vec3d(o.start[0], o.start[1], o.start[2]);
   config.start.yaw = o.start_yaw;
 
   std::string description = "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " +
-                            std::to_string(o.seed) + " --mode " + o.mode;
+                            std::to_string(o.seed) + " --mode " + o.mode + " --alc " + o.alc +
+                            (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
                o.world.c_str(), world.stats().triangles, b.min().x(), b.min().y(), b.min().z(), b.max().x(),
@@ -95,6 +95,9 @@ void runExplore(const ExploreOptions& o) {
   std::printf("%s: %s after %.1f s (%.1f m), coverage %.3f, %zu collisions, %zu loop closures\n", o.output.c_str(),
               s.finished ? "finished" : "time limit reached", s.exploration_time_s, s.path_length_m, s.coverage,
               s.collisions, s.loop_closures);
+  if (s.alc_enabled)
+    std::printf("active loop closure: %zu detours (%zu closed a loop, %zu given up), %.1f s on detours\n",
+                s.alc_detours, s.alc_detour_loops, s.alc_give_ups, s.alc_time_s);
   std::printf("planner %.1f ms median, %.1f ms max per replan; %zu frames, %zu keyframes kept; map RMSE %.4f m, "
               "completeness %.3f; %.0f s wall\n",
               s.planner_ms_median, s.planner_ms_max, s.frames_total, s.keyframes_kept, s.accuracy_rmse_m,
@@ -128,6 +131,12 @@ const Registration registration("explore", [](CLI::App& app) {
   sub->add_option("--box", o->box, "Exploration box xmin,ymin,zmin,xmax,ymax,zmax (default: the world's bounds)")
       ->delimiter(',')
       ->expected(6);
+  sub->add_option("--alc", o->alc,
+                  "Active loop closure: on, or off (the default: plain FUEL exploration, no detours to old places)")
+      ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--epsilon", o->epsilon,
+                  "ALC: take the loop-closure detour when it costs at most (1 + epsilon) times the frontier tour")
+      ->check(CLI::Range(0.0, 100.0));
   sub->add_flag("--no-initial-turn", o->no_initial_turn, "Skip the turn on the spot at take-off");
   sub->add_flag("--overwrite", o->overwrite, "Replace a run already in RUNDIR");
   sub->add_option("-o,--output", o->output, "Run folder to write")->required();

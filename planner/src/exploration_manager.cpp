@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace vdbmap::planner {
 
@@ -45,6 +46,7 @@ const char* toString(ReplanReason r) {
     case ReplanReason::CollisionRisk: return "collision_risk";
     case ReplanReason::FrameShift: return "frame_shift";
     case ReplanReason::Retry: return "retry";
+    case ReplanReason::LoopDetourTimeout: return "loop_detour_timeout";
   }
   return "?";
 }
@@ -87,6 +89,7 @@ void ExplorationParams::validate() const {
     fail("collision_radius_m", "[0, path.clearance_m]");
   if (max_failures < 1 || max_failures > 100) fail("max_failures", "[1, 100]");
   if (max_targets_per_replan < 1 || max_targets_per_replan > 100) fail("max_targets_per_replan", "[1, 100]");
+  if (alc_enabled) alc.validate();
 }
 
 ExplorationManager::ExplorationManager(const ExplorationParams& params, const VehicleState& start, double t_s)
@@ -111,6 +114,10 @@ ExplorationManager::ExplorationManager(const ExplorationParams& params, const Ve
   trajectory_ = Trajectory::hold(start.position_W, start.yaw_rad);
   trajectory_t0_ = t_s;
   last_t_ = t_s;
+  if (params_.alc_enabled) {
+    params_.alc.unreachable_cost_s = params_.cost.unreachable_cost_s;  // ALC's sums skip the legs M_frt marks so
+    alc_ = std::make_unique<ActiveLoopClosure>(params_.alc, t_s);
+  }
 }
 
 ExplorationManager::~ExplorationManager() = default;
@@ -129,6 +136,14 @@ TrajectoryState ExplorationManager::command(double t_s) const {
 void ExplorationManager::shiftFrame(const Eigen::Isometry3d& shift) {
   shift_ = shift * shift_;
   shift_requested_ = true;
+}
+
+void ExplorationManager::notifyLoopClosure(double t_s,
+                                           const std::function<PoseTarget(const FlownViewpoint&)>& corrected) {
+  if (!std::isfinite(t_s)) throw std::invalid_argument("ExplorationManager::notifyLoopClosure: t_s must be finite");
+  if (!alc_) return;
+  loop_closed_ = true;
+  if (corrected) alc_->correctHistory(corrected);
 }
 
 void ExplorationManager::startTrajectory(Trajectory trajectory, double t_s) {
@@ -238,10 +253,15 @@ ReplanReason ExplorationManager::replanReason(const MapQuery& map, double t_s) {
   if (shift_requested_) return ReplanReason::FrameShift;
   if (was_moving_ && !remainingTrajectoryClear(map, t_s)) return ReplanReason::CollisionRisk;
   if (failed_last_) return ReplanReason::Retry;
-  if (target_ == 0) return ReplanReason::Start;
+  if (alc_ && alc_->detourTimedOut(t_s)) return ReplanReason::LoopDetourTimeout;
+  if (target_ == 0 && !on_detour_) return ReplanReason::Start;
   const double elapsed = t_s - trajectory_t0_;
   const double left = trajectory_t0_ + trajectory_.duration() - t_s;
   if (left < params_.replan_time_left_s) return ReplanReason::TrajectoryEnd;
+  // A detour flies through known space to a pose flown before: new frontiers cannot change where
+  // it goes, so it is not replanned periodically (that would also switch viewpoints just before
+  // arriving, since refinement skips viewpoints near the vehicle).
+  if (on_detour_) return ReplanReason::None;
   if (elapsed > params_.replan_covered_after_s && targetCoveredFraction() > params_.covered_fraction)
     return ReplanReason::TargetCovered;
   if (elapsed > params_.replan_period_s) return ReplanReason::Periodic;
@@ -253,6 +273,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (t_s < last_t_) throw std::invalid_argument("ExplorationManager::update: time went backwards");
   last_t_ = t_s;
   ++counters_.updates;
+  if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap map(base_map, free_boxes_);
   ExplorationStep step;
   const auto t0 = Clock::now();
@@ -307,12 +328,26 @@ void ExplorationManager::checkVisit() {
   addFailure(visited);
 }
 
+std::optional<AlcDecision> ExplorationManager::decideLoopDetour(const MapQuery& map, const VehicleState& vehicle,
+                                                                double t_s, const std::vector<TourTarget>& tour_targets,
+                                                                const GlobalTour& global) {
+  if (!alc_) return std::nullopt;
+  const bool loop_closed = std::exchange(loop_closed_, false);
+  return alc_->decide(vehicle, t_s, loop_closed, tour_targets, global.costs, mapLegCosts(map, *table_), &global.tour);
+}
+
 ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleState& vehicle, double t_s,
                                              ExplorationStep& step) {
-  if (step.reason == ReplanReason::TrajectoryEnd) checkVisit();
+  if (step.reason == ReplanReason::TrajectoryEnd && !on_detour_) checkVisit();
   const std::vector<Target> targets = liveTargets(map);
   step.targets = targets.size();
+  on_detour_ = false;
   if (targets.empty()) {
+    if (alc_ && alc_->detour()) {  // nothing left to explore: the detour ends (decide's kNoFrontier)
+      GlobalTour nothing;
+      nothing.costs = RealCostMatrix(1);
+      step.alc_status = decideLoopDetour(map, vehicle, t_s, {}, nothing)->status;
+    }
     target_ = 0;
     target_voxels_.clear();
     if (!trajectoryDone(t_s) && step.reason != ReplanReason::CollisionRisk) return ExplorationStatus::NoFrontier;
@@ -320,21 +355,55 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     return ExplorationStatus::Finished;
   }
 
-  // The global tour over every target's best viewpoint, then local refinement of its start.
+  // The global tour over every target's best viewpoint; with ALC, the decision whether to visit a
+  // loop-closing cluster first; then local refinement of the tour's start.
   std::vector<TourTarget> tour_targets;
-  for (const Target& t : targets) tour_targets.push_back({t.cluster, {t.views->front().position_W, t.views->front().yaw_rad}});
+  std::vector<std::vector<Viewpoint>> target_views;
+  for (const Target& t : targets) {
+    tour_targets.push_back({t.cluster, {t.views->front().position_W, t.views->front().yaw_rad}});
+    target_views.push_back(*t.views);
+  }
   const GlobalTour global = planGlobalTour(map, vehicle, tour_targets, *table_, params_.tour);
-  std::vector<std::vector<Viewpoint>> in_order;
-  for (std::size_t i : global.tour.order) in_order.push_back(*targets[i].views);
-  const std::vector<std::vector<Viewpoint>> layers = refinementLayers(vehicle, in_order, params_.refinement);
+  const std::optional<AlcDecision> decision = decideLoopDetour(map, vehicle, t_s, tour_targets, global);
+  if (decision) step.alc_status = decision->status;
+  const bool detour = decision && decision->detour();
+  const std::vector<std::size_t>& order = decision ? decision->order() : global.tour.order;
+  std::vector<std::vector<Viewpoint>> layers;
+  if (decision) {
+    layers = alcRefinementLayers(vehicle, *decision, target_views, params_.refinement);
+  } else {
+    std::vector<std::vector<Viewpoint>> in_order;
+    for (std::size_t i : order) in_order.push_back(target_views[i]);
+    layers = refinementLayers(vehicle, in_order, params_.refinement);
+  }
   const RefinementResult refined = refineLocalTour(map, vehicle, layers, params_.cost, params_.cost_path);
 
+  if (detour) {
+    // Fly to the loop cluster's refined viewpoint. If that fails, explore on: the detour stays in
+    // progress (another viewpoint at the next replan) until ALC gives it up.
+    const Viewpoint& view = refined.choice.empty() ? layers[0].front() : layers[0][refined.choice[0]];
+    const PlanOutcome outcome = planTo(map, vehicle, view, t_s);
+    if (outcome == PlanOutcome::Ok) {
+      on_detour_ = true;
+      target_ = 0;
+      target_voxels_.clear();
+      step.loop_detour = true;
+      return ExplorationStatus::Planned;
+    }
+    if (outcome == PlanOutcome::StartBlocked) {
+      if (escape(map, vehicle, t_s)) return ExplorationStatus::Planned;  // the detour goes on from there
+      if (step.reason == ReplanReason::CollisionRisk) hold(vehicle, t_s);
+      return ExplorationStatus::Failed;
+    }
+  }
+
   // Fly to the refined viewpoint of the first cluster; if that fails, to the next clusters' best.
-  const std::size_t tries = std::min<std::size_t>(global.tour.order.size(), std::size_t(params_.max_targets_per_replan));
+  const std::size_t tries = std::min<std::size_t>(order.size(), std::size_t(params_.max_targets_per_replan));
   for (std::size_t k = 0; k < tries; ++k) {
-    const Target& t = targets[global.tour.order[k]];
+    const Target& t = targets[order[k]];
     const FrontierCluster* cluster = frontiers_.find(t.cluster);
-    const Viewpoint& view = (k == 0 && !refined.choice.empty()) ? layers[0][refined.choice[0]] : t.views->front();
+    const bool refined_here = k == 0 && !detour && !refined.choice.empty();
+    const Viewpoint& view = refined_here ? layers[0][refined.choice[0]] : t.views->front();
     const PlanOutcome outcome = planTo(map, vehicle, view, t_s);
     if (outcome == PlanOutcome::Ok) {
       target_ = t.cluster;
@@ -360,14 +429,14 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
   const std::uint64_t query_seed = counters_.replans;
   PathResult path = PathPlanner(map, params_.path).plan(vehicle.position_W, view.position_W, query_seed);
   const MapQuery* plan_map = &map;
-  std::unique_ptr<AssumeFreeMap> escape;
+  std::unique_ptr<AssumeFreeMap> start_free;
   if (path.status == PathStatus::StartInvalid) {
     // The vehicle stands where the map has unknown voxels within the clearance (e.g. where a
     // re-integrated frame moved the map): it is there, so space within its clearance reads free.
     const double r = params_.path.clearance_m + map.voxelSize();
-    escape = std::make_unique<AssumeFreeMap>(
+    start_free = std::make_unique<AssumeFreeMap>(
         map, std::vector<Eigen::AlignedBox3d>{boxAround(vehicle.position_W, Vec3d::Constant(r))});
-    plan_map = escape.get();
+    plan_map = start_free.get();
     path = PathPlanner(*plan_map, params_.path).plan(vehicle.position_W, view.position_W, query_seed);
     if (path.status == PathStatus::StartInvalid) return PlanOutcome::StartBlocked;
   }

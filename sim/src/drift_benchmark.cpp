@@ -1,5 +1,7 @@
 #include "vdbmap/sim/drift_benchmark.hpp"
 
+#include "text_format.hpp"
+
 #include "vdbmap/eval.hpp"
 #include "vdbmap/io/atomic_file.hpp"
 #include "vdbmap/io/frame_source.hpp"
@@ -96,12 +98,6 @@ nlohmann::json toJson(const DriftBenchmarkRow& r) {
           {"reintegrated_frames", r.reintegrated_frames},
           {"correction_events", r.correction_events},
           {"wall_s", r.wall_s}};
-}
-
-std::string format(const char* fmt, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), fmt, v);
-  return buf;
 }
 }  // namespace
 

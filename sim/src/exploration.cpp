@@ -114,6 +114,28 @@ std::map<FrameId, Pose3d> byFrameId(const CorrectionEvent& event) {
   for (const auto& [i, T] : event.T_W_S_by_frame) poses.emplace(FrameId(i), T);
   return poses;
 }
+
+/// The corrected body pose of a viewpoint the manager recorded: the manager is updated once per
+/// frame with the frame's time, so a viewpoint's stamp names its frame (the nearest frame time).
+/// Viewpoints of frames the event does not list keep their pose.
+std::function<planner::PoseTarget(const planner::FlownViewpoint&)> correctedViewpoints(
+    const CorrectionEvent& event, const std::vector<double>& frame_times, const Pose3d& T_B_S) {
+  return [&event, &frame_times, T_S_B = T_B_S.inverse()](const planner::FlownViewpoint& v) {
+    auto it = std::lower_bound(frame_times.begin(), frame_times.end(), v.stamp_s);
+    if (it == frame_times.end() || (it != frame_times.begin() && v.stamp_s - *(it - 1) < *it - v.stamp_s)) --it;
+    const auto pose = event.T_W_S_by_frame.find(std::size_t(it - frame_times.begin()));
+    if (it == frame_times.end() || pose == event.T_W_S_by_frame.end()) return planner::PoseTarget{v.position_W, v.yaw_rad};
+    const Pose3d T_W_B = pose->second * T_S_B;
+    return planner::PoseTarget{T_W_B.translation(), std::atan2(T_W_B.linear()(1, 0), T_W_B.linear()(0, 0))};
+  };
+}
+
+double estimateErrorRmse(const std::vector<io::StampedPose>& truth, const std::vector<io::StampedPose>& estimate) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    sum += (truth[i].T_W_S.translation() - estimate[i].T_W_S.translation()).squaredNorm();
+  return truth.empty() ? 0.0 : std::sqrt(sum / double(truth.size()));
+}
 }  // namespace
 
 ExplorationResult runExploration(const World& world, const ExplorationConfig& config, const ExplorationOptions& options) {
@@ -136,26 +158,32 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   std::unique_ptr<FlightRecorder> recorder;
   if (!options.log_dir.empty()) recorder = std::make_unique<FlightRecorder>(options.log_dir, sim, options.overwrite);
 
-  std::vector<double> map_ms, frame_ms;
+  std::vector<double> map_ms, frame_ms, frame_times;
   ExplorationProgress progress;
   auto frame_start = Clock::now();
   const auto onFrame = [&](SimFrame& frame) {
     if (recorder) recorder->record(frame);
     result.trajectory_true.push_back({frame.t_s, frame.T_W_S_true});
     result.trajectory_estimate.push_back({frame.t_s, frame.T_W_S_estimate});
+    frame_times.push_back(frame.t_s);
     mapper.addDepthFrame(FrameId(frame.index), frame.t_s, frame.depth, K, frame.T_W_S_estimate);
     if (frame.correction) {
       ++result.loop_closures;
+      result.events.push_back({frame.t_s, "loop_closure"});
       mapper.updatePoses(byFrameId(*frame.correction));
       // The estimate jumped: the pose believed at capture is now sim.bodyEstimate().
       const FlatPose shift = compose(sim.bodyEstimate(), inverse(frame.body_estimate));
       manager.shiftFrame(bodyPose(shift));
+      manager.notifyLoopClosure(frame.t_s, correctedViewpoints(*frame.correction, frame_times, sim.T_B_S()));
     }
     const FlatPose estimate = sim.bodyEstimate();
     mapper.reintegrate(estimate.p_W);
     const planner::TsdfMapQuery map(mapper.volume());  // re-created every cycle: the volume changed
+    const std::size_t detours_before = manager.alcStats().detours;
     const planner::ExplorationStep step =
         manager.update(map, mapper.takeDirtyRegion(), vehicleState(estimate, manager.command(frame.t_s)), frame.t_s);
+    if (manager.alcStats().detours > detours_before) result.events.push_back({frame.t_s, "alc_detour"});
+    if (step.alc_status == planner::AlcStatus::kGaveUp) result.events.push_back({frame.t_s, "alc_gave_up"});
     map_ms.push_back(step.map_update_ms);
     if (step.reason != planner::ReplanReason::None) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);
     if (step.status == planner::ExplorationStatus::Finished && mapper.queuedFrames() == 0) result.finished = true;
@@ -190,6 +218,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   result.map_update_ms_median = median(map_ms);
   result.frame_wall_ms_median = median(frame_ms);
   result.planner_counters = manager.counters();
+  result.alc = manager.alcStats();
   result.keyframes_kept = mapper.keyframesKept();
   result.reintegrated_frames = mapper.stats().reintegrated_frames;
   if (recorder) result.flight = recorder->finish(config.simulator, options.description, result.exploration_time_s, result.path_length_m);
@@ -226,6 +255,21 @@ Vec3d defaultStartPosition(const World& world, const Eigen::AlignedBox3d& box, d
   return best;
 }
 
+ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,
+                                       double voxel_size_m) {
+  ExplorationConfig config;
+  config.simulator.drift = DriftConfig::preset(drift_level, seed);
+  config.mapper.tsdf.voxel_size_m = voxel_size_m;
+  config.planner.path.seed = seed;
+  config.planner.cost_path.seed = seed;
+  config.planner.tour.seed = seed;
+  config.planner.alc.tour.seed = seed;
+  config.planner.box_W = defaultExplorationBox(world);
+  config.start.p_W = defaultStartPosition(world, config.planner.box_W);
+  config.start.yaw = 0.0;
+  return config;
+}
+
 // ---- the run folder ----------------------------------------------------------------------------
 
 namespace {
@@ -244,6 +288,12 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["accuracy_rmse_m"] = s.accuracy_rmse_m;
   j["completeness"] = s.completeness;
   j["finished"] = s.finished;
+  j["alc_enabled"] = s.alc_enabled;
+  j["epsilon"] = s.epsilon;
+  j["alc_detours"] = s.alc_detours;
+  j["alc_time_s"] = s.alc_time_s;
+  j["alc_give_ups"] = s.alc_give_ups;
+  j["alc_detour_loops"] = s.alc_detour_loops;
   j["description"] = description;
   j["mode"] = toString(c.mapper.mode);
   j["voxel_size_m"] = c.mapper.tsdf.voxel_size_m;
@@ -263,14 +313,19 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["map_update_ms_median"] = r.map_update_ms_median;
   j["frame_wall_ms_median"] = r.frame_wall_ms_median;
   j["reintegrated_frames"] = r.reintegrated_frames;
-  j["estimate_error_rmse_m"] = r.flight.estimate_error_rmse_m;
-  j["estimate_error_max_m"] = r.flight.estimate_error_max_m;
-  j["odometry_error_final_m"] = r.flight.odometry_error_final_m;
+  j["estimate_error_rmse_m"] = s.estimate_error_rmse_m;
+  if (r.flight.frames > 0) {  // the log's statistics (with a log only)
+    j["estimate_error_max_m"] = r.flight.estimate_error_max_m;
+    j["odometry_error_final_m"] = r.flight.odometry_error_final_m;
+  }
   j["observable_surface"] = {{"samples_in_box", s.observable.samples_in_box},
                              {"observable_samples", s.observable.observable},
                              {"observable_area_m2", s.observable.observable_area_m2},
                              {"reachable_cells", s.observable.reachable_cells}};
   j["wall_s"] = s.wall_s;
+  nlohmann::json events = nlohmann::json::array();
+  for (const ExplorationEvent& e : r.events) events.push_back({{"t_s", e.t_s}, {"what", e.what}});
+  j["events"] = events;
   return j;
 }
 }  // namespace
@@ -299,7 +354,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
          std::to_string(int(observable.stats().observable_area_m2)) + " m^2)");
 
   ExplorationOptions eo;
-  eo.log_dir = run_dir / "log";
+  if (options.write_log) eo.log_dir = run_dir / "log";
   eo.overwrite = options.overwrite;
   eo.description = options.description;
   eo.progress = options.progress;
@@ -317,11 +372,20 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   s.frames_total = r.frames_total;
   s.keyframes_kept = r.keyframes_kept;
   s.finished = r.finished;
+  s.alc_enabled = config.planner.alc_enabled;
+  s.epsilon = config.planner.alc_enabled ? config.planner.alc.epsilon : 0.0;
+  s.alc_detours = r.alc.detours;
+  s.alc_time_s = r.alc.detour_time_s;
+  s.alc_give_ups = r.alc.give_ups;
+  s.alc_detour_loops = r.alc.loops_on_detour;
+  s.estimate_error_rmse_m = estimateErrorRmse(r.trajectory_true, r.trajectory_estimate);
   s.observable = observable.stats();
 
-  volume.save(run_dir / "map.vdb");
   const TriangleMesh mesh = extractMesh(volume);
-  io::writePlyMesh(run_dir / "mesh.ply", mesh);
+  if (options.write_map) {
+    volume.save(run_dir / "map.vdb");
+    io::writePlyMesh(run_dir / "mesh.ply", mesh);
+  }
   if (!mesh.vertices.empty()) {
     EvalConfig eval;
     eval.completeness_threshold_m = options.completeness_threshold_vox * config.mapper.tsdf.voxel_size_m;

@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
+#include "tools/cli_test_worlds.hpp"
+
 #include "vdbmap/io/mesh_io.hpp"
 
 #include <cstdlib>
@@ -28,29 +30,13 @@ std::size_t lineCount(const fs::path& p) {
     if (!line.empty() && line[0] != '#') ++n;
   return n;
 }
-/// A closed 5 x 4 x 2.5 m room with a box standing in it (walls, floor and ceiling).
-vdbmap::TriangleMesh room() {
-  vdbmap::TriangleMesh m;
-  auto box = [&m](float x0, float y0, float z0, float x1, float y1, float z1) {
-    const int base = int(m.vertices.size());
-    for (int k = 0; k < 8; ++k) m.vertices.emplace_back(k & 1 ? x1 : x0, k & 2 ? y1 : y0, k & 4 ? z1 : z0);
-    const int quads[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
-    for (const auto& q : quads) {
-      m.triangles.emplace_back(base + q[0], base + q[1], base + q[2]);
-      m.triangles.emplace_back(base + q[0], base + q[2], base + q[3]);
-    }
-  };
-  box(-2.5f, -2.0f, 0.0f, 2.5f, 2.0f, 2.5f);
-  box(1.0f, -1.5f, 0.0f, 1.8f, -0.7f, 1.0f);
-  return m;
-}
 }  // namespace
 
 TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays", "[cli][explore]") {
   const fs::path dir = fs::temp_directory_path() / "vdbmap_cli_explore";
   fs::remove_all(dir);
   fs::create_directories(dir);
-  vdbmap::io::writePlyMesh(dir / "room.ply", room());
+  vdbmap::io::writePlyMesh(dir / "room.ply", vdbmap::test::roomWithBox());
   const fs::path runs = dir / "run", out = dir / "out.txt";
   REQUIRE(run("explore --world " + (dir / "room.ply").string() + " --ceiling 0 --drift s2 --seed 3 --max-time-s 90 -o " +
                   runs.string(),
@@ -63,8 +49,10 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   const auto s = nlohmann::json::parse(slurp(runs / "summary.json"));
   for (const char* key : {"exploration_time_s", "path_length_m", "coverage", "loop_closures", "collisions",
                           "planner_ms_median", "planner_ms_max", "frames_total", "keyframes_kept", "accuracy_rmse_m",
-                          "completeness", "finished"})
+                          "completeness", "finished", "alc_enabled", "epsilon", "alc_detours", "alc_time_s"})
     CHECK(s.contains(key));
+  CHECK(s.at("alc_enabled") == false);  // ALC is off unless asked for
+  CHECK(s.at("alc_detours") == 0);
   CHECK(s.at("finished") == true);
   CHECK(s.at("collisions") == 0);
   // The room is small and mostly floor and ceiling, which a level camera sees only at its frustum's
@@ -87,6 +75,8 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --max-time-s 5 -o " + runs.string(), out) != 0);
   CHECK(slurp(out).find("already holds") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --drift s7 -o " + (dir / "x").string(), out) != 0);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --alc maybe -o " + (dir / "x").string(), out) != 0);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --epsilon -1 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 2.0,1.0 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 9,9,1 -o " + (dir / "x").string(), out) != 0);
   fs::remove_all(dir);

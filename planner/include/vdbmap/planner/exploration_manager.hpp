@@ -24,7 +24,13 @@
 //     frontier voxels are still frontier (it cannot be observed from there). Failures are kept per
 //     frontier voxel, because a cluster changes its id whenever its voxels change: a cluster counts
 //     the median failure count of its voxels, and is blacklisted at max_failures;
-//  5. finishes when no target is left (no cluster with a viewpoint that is not blacklisted) and the
+//  5. with active loop closure on (alc_enabled; active_loop_closure.hpp), every global replan also
+//     asks ActiveLoopClosure::decide, with the frontier tour's matrix, whether to fly first to a
+//     nearby loop-closing cluster of old viewpoints; on such a detour, local refinement picks
+//     among the cluster's viewpoints (alcRefinementLayers) and the vehicle flies there. The caller
+//     reports detected loop closures (notifyLoopClosure); a detour ends with a loop closure, or
+//     is given up after its timeout (a replan is triggered then, LoopDetourTimeout);
+//  6. finishes when no target is left (no cluster with a viewpoint that is not blacklisted) and the
 //     vehicle has come to rest: no reachable frontier is left.
 // Before exploring, the vehicle turns once on the spot (initial_turn; FUEL's simulations start
 // by looking around too), so that its zero-pitch camera sees all round the start.
@@ -43,6 +49,7 @@
 // Planner times (planner_ms) are measured wall times.
 #pragma once
 
+#include "vdbmap/planner/active_loop_closure.hpp"
 #include "vdbmap/planner/cost.hpp"
 #include "vdbmap/planner/frontier.hpp"
 #include "vdbmap/planner/local_refinement.hpp"
@@ -55,8 +62,10 @@
 #include <Eigen/Geometry>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -107,6 +116,11 @@ struct ExplorationParams {
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
 
+  /// Active loop closure (active_loop_closure.hpp). Off by default, so that the manager is plain
+  /// FUEL; alc.unreachable_cost_s is set from cost.unreachable_cost_s by the manager.
+  bool alc_enabled = false;
+  AlcParams alc;
+
   /// The defaults of `path` and `cost_path` (0.1 s and 0.01 s OMPL budgets).
   static PathParams flightPathDefaults();
   static PathParams costPathDefaults();
@@ -133,6 +147,7 @@ enum class ReplanReason {
   CollisionRisk,
   FrameShift,     ///< shiftFrame() was called
   Retry,          ///< the previous replan failed
+  LoopDetourTimeout,  ///< the loop-closure detour in progress ran out of time without a loop
 };
 const char* toString(ReplanReason r);
 
@@ -140,7 +155,9 @@ const char* toString(ReplanReason r);
 struct ExplorationStep {
   ExplorationStatus status = ExplorationStatus::Continue;
   ReplanReason reason = ReplanReason::None;  ///< why a replan was attempted (None: not attempted)
-  ClusterId target = 0;                      ///< cluster the new trajectory flies to (0: none)
+  ClusterId target = 0;                      ///< cluster the new trajectory flies to (0: none, or a loop detour)
+  bool loop_detour = false;                  ///< the new trajectory flies to a loop-closing cluster (ALC)
+  std::optional<AlcStatus> alc_status;       ///< ALC's decision at this replan (when ALC is on and it was asked)
   std::size_t clusters = 0;                  ///< live clusters
   std::size_t targets = 0;                   ///< clusters with a viewpoint, not blacklisted
   std::size_t frontier_voxels = 0;
@@ -188,6 +205,19 @@ class ExplorationManager {
   /// requested for the next update (the map is being corrected too).
   void shiftFrame(const Eigen::Isometry3d& shift);
 
+  /// A loop closure was detected at t_s (for ALC: it ends a detour and starts the quiet period at
+  /// the next replan). `corrected`, when given, maps a recorded viewpoint (stamped with the t_s of
+  /// the update() that fed it) to its corrected pose in the estimate frame after the correction;
+  /// the viewpoint history moves with it. Without ALC, nothing happens.
+  void notifyLoopClosure(double t_s, const std::function<PoseTarget(const FlownViewpoint&)>& corrected = {});
+
+  /// Active loop closure (null when alc_enabled is false).
+  const ActiveLoopClosure* alc() const { return alc_.get(); }
+  /// ALC's counters up to the last update (zero without ALC).
+  AlcStats alcStats() const { return alc_ ? alc_->stats(last_t_) : AlcStats{}; }
+  /// True while the current trajectory flies a loop-closure detour.
+  bool onLoopDetour() const { return on_detour_; }
+
   const FrontierMap& frontiers() const { return frontiers_; }
   /// The viewpoints of every live cluster (best first), by cluster id.
   const std::map<ClusterId, std::vector<Viewpoint>>& viewpoints() const { return views_; }
@@ -223,6 +253,8 @@ class ExplorationManager {
   /// drift brought the vehicle close to a wall): moves straight away from them to the nearest clear
   /// point within kEscapeReach_m, so that the next replan starts from there. False: none found.
   bool escape(const MapQuery& map, const VehicleState& vehicle, double t_s);
+  std::optional<AlcDecision> decideLoopDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
+                                              const std::vector<TourTarget>& tour_targets, const GlobalTour& global);
   void startTrajectory(Trajectory trajectory, double t_s);
   void hold(const VehicleState& vehicle, double t_s);
   void addFailure(const FrontierCluster& cluster);
@@ -245,6 +277,9 @@ class ExplorationManager {
   bool shift_requested_ = false;
   bool failed_last_ = false;
   bool was_moving_ = false;  ///< the current trajectory moves (not a hold or a turn on the spot)
+  std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
+  bool loop_closed_ = false;                ///< a loop closure was notified since the last ALC decision
+  bool on_detour_ = false;                  ///< the current trajectory flies to a loop-closing cluster
   double last_t_ = 0.0;
   ExplorationCounters counters_;
 };

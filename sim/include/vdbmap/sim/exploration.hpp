@@ -12,8 +12,9 @@
 // Per camera frame (15 Hz), in this order: the frame is recorded in the log (if any) and integrated
 // by the Mapper at its estimated pose; a correction event goes to Mapper::updatePoses, and the
 // manager is told that the estimate frame moved (ExplorationManager::shiftFrame, so the vehicle's
-// true path does not jump); one budgeted re-integration cycle runs; then the manager updates
-// frontiers from the map's dirty region and may replan.
+// true path does not jump) and that a loop closed (notifyLoopClosure, with the corrected poses of
+// the frames, which move active loop closure's viewpoint history); one budgeted re-integration
+// cycle runs; then the manager updates frontiers from the map's dirty region and may replan.
 //
 // Time: simulated time stands still while the planner computes (the vehicle neither waits nor
 // moves on during a replan). This keeps a run deterministic for a seed (as long as OMPL and ATSP
@@ -37,6 +38,7 @@
 
 #include <Eigen/Geometry>
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -90,6 +92,13 @@ struct ExplorationOptions {
   std::function<void(const ExplorationProgress&)> progress;
 };
 
+/// Something that happened in the run, for diagnosis: "loop_closure", "alc_detour" (a detour
+/// started), "alc_gave_up" (a detour given up without a loop closure).
+struct ExplorationEvent {
+  double t_s = 0.0;
+  std::string what;
+};
+
 struct ExplorationResult {
   bool finished = false;            ///< the manager finished (false: the time limit ended the run)
   double exploration_time_s = 0.0;  ///< simulated time from take-off to the finish (or the limit)
@@ -104,6 +113,11 @@ struct ExplorationResult {
   double map_update_ms_median = 0.0;  ///< frontier and viewpoint refresh per frame
   double frame_wall_ms_median = 0.0;  ///< everything per frame (render, map, planner, log)
   planner::ExplorationCounters planner_counters;
+  /// Active loop closure (zeros when config.planner.alc_enabled is false): detours started, time
+  /// spent on them (from the decision to the loop closure or the give-up), give-ups, and detours
+  /// that ended with a loop closure.
+  planner::AlcStats alc;
+  std::vector<ExplorationEvent> events;  ///< in time order
   std::size_t keyframes_kept = 0;
   std::size_t reintegrated_frames = 0;
   /// Sensor poses T_W_S at every frame: true, and estimated (what the Mapper integrated with).
@@ -126,6 +140,12 @@ Eigen::AlignedBox3d defaultExplorationBox(const World& world);
 Vec3d defaultStartPosition(const World& world, const Eigen::AlignedBox3d& box, double start_height_m = 1.0,
                            double start_clearance_m = 0.6);
 
+/// `vdbmap explore`'s set-up of a world: drift `drift_level` (Table I) seeded with `seed`, which
+/// also seeds the planner's path sampling and tours; voxel size; the default box and start (yaw
+/// 0). Throws std::invalid_argument for an unknown level or no clear start.
+ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,
+                                       double voxel_size_m);
+
 /// A run folder's summary (summary.json holds these and more).
 struct ExplorationSummary {
   double exploration_time_s = 0.0;
@@ -133,6 +153,13 @@ struct ExplorationSummary {
   double coverage = 0.0;  ///< surface_coverage.hpp
   std::size_t loop_closures = 0;
   std::size_t collisions = 0;
+  bool alc_enabled = false;
+  double epsilon = 0.0;                ///< ALC's (when enabled)
+  std::size_t alc_detours = 0;         ///< loop-closure detours started
+  double alc_time_s = 0.0;             ///< time spent flying loop-closure detours
+  std::size_t alc_give_ups = 0;        ///< detours given up without a loop closure
+  std::size_t alc_detour_loops = 0;    ///< detours that ended with a loop closure
+  double estimate_error_rmse_m = 0.0;  ///< estimated vs true sensor positions over the frames
   double planner_ms_median = 0.0;
   double planner_ms_max = 0.0;
   std::size_t frames_total = 0;
@@ -150,13 +177,17 @@ struct ExplorationRunOptions {
   bool overwrite = false;                   ///< replace a run already in the folder
   std::string description;                  ///< e.g. the command line
   std::function<void(const ExplorationProgress&)> progress;
+  /// Write the flight's log (log/, replayable) and the map (map.vdb, mesh.ply). summary.json and
+  /// the trajectories are always written. Benchmarks that only need the numbers turn these off.
+  bool write_log = true;
+  bool write_map = true;
   /// Called with a line of text at each stage after the flight (coverage, evaluation, files).
   std::function<void(const std::string&)> report;
 };
 
-/// Runs the exploration and writes the run folder: log/ (replayable), map.vdb, mesh.ply,
-/// trajectory_true.txt and trajectory_odom.txt (TUM, sensor poses per frame, true and estimated),
-/// and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
+/// Runs the exploration and writes the run folder: log/ (replayable), map.vdb, mesh.ply (unless
+/// turned off in the options), trajectory_true.txt and trajectory_odom.txt (TUM, sensor poses per
+/// frame, true and estimated), and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
 ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
                                    const std::filesystem::path& run_dir, const ExplorationRunOptions& options = {});
 

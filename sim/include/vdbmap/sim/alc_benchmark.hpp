@@ -1,0 +1,68 @@
+// The paper's active-loop-closure experiment (Zhang et al. 2022, Sect. V-C) in one call: the same
+// world explored with and without ALC over several seeds, at one drift level.
+//
+// For each seed k (1..seeds) both arms run with the same set-up (explorationConfigFor: drift seeded
+// with k, planner seeded with k, same start), one after the other: "no_alc" (plain FUEL) and "alc"
+// (ExplorationParams::alc_enabled, epsilon from the config). Each run is evaluated like `vdbmap
+// explore` (coverage of the observable surface, map RMSE and completeness against the world mesh)
+// and its folder OUTDIR/runs/<arm>_seed<k>/ gets summary.json and the trajectories (the log and
+// the map too with keep_runs).
+//
+// Output: OUTDIR/alc.json (one object per run: arm, seed, exploration_time_s, loop_closures,
+// accuracy_rmse_m, completeness, finished, coverage, alc_detours, alc_time_s, ...) and
+// OUTDIR/alc.md (mean and standard deviation per arm, the relative time overhead and the
+// loop-closure gain of ALC, and the runs side by side per seed). Both files are rewritten after
+// every run, so an interrupted benchmark leaves the runs done so far.
+#pragma once
+
+#include "vdbmap/planner/active_loop_closure.hpp"
+#include "vdbmap/sim/exploration.hpp"
+#include "vdbmap/sim/simulator.hpp"
+#include "vdbmap/sim/world.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace vdbmap::sim {
+
+struct AlcBenchmarkConfig {
+  std::filesystem::path world_mesh;                          ///< PLY, OBJ or OFF
+  WorldConfig world;                                         ///< e.g. the ceiling cap `vdbmap explore` uses
+  std::string drift_level = "s3";                            ///< Table I level
+  std::size_t seeds = 5;                                     ///< seeds 1..seeds; [1, 1000]
+  double voxel_size_m = 0.1;                                 ///< (0, 10]
+  double max_time_s = ExplorationConfig::kDefaultMaxTime_s;  ///< per run; (0, 1e5]
+  /// The ALC arm's parameters (its tour seed follows the run's seed).
+  planner::AlcParams alc;
+  LoopClosureMode loop_closure = SimulatorConfig{}.loop_closure;
+  /// Also keep each run's log and map (large); summary.json and trajectories are always written.
+  bool keep_runs = false;
+  /// Called with a line of progress text.
+  std::function<void(const std::string&)> report;
+
+  void validate() const;
+};
+
+struct AlcBenchmarkRun {
+  std::string arm;  ///< "alc" or "no_alc"
+  std::uint64_t seed = 1;
+  ExplorationSummary summary;
+};
+
+struct AlcBenchmarkResult {
+  std::vector<AlcBenchmarkRun> runs;  ///< per seed: no_alc, then alc
+  double wall_s = 0.0;
+};
+
+/// Runs the benchmark into `out_dir` (created; runs already there are overwritten). Throws
+/// std::invalid_argument for an invalid config, std::runtime_error on I/O errors.
+AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::filesystem::path& out_dir);
+
+/// alc.md's text.
+std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenchmarkConfig& config);
+
+}  // namespace vdbmap::sim

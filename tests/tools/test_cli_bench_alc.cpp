@@ -1,0 +1,71 @@
+// `vdbmap bench alc` runs both arms per seed and writes alc.json (one object per run, the keys the
+// issue lists), alc.md and each run's summary.json; bad arguments fail.
+#include "tools/cli_test_worlds.hpp"
+
+#include "vdbmap/io/mesh_io.hpp"
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+int run(const std::string& args, const fs::path& out_file) {
+  const std::string cmd = std::string(VDBMAP_CLI_PATH) + " " + args + " > " + out_file.string() + " 2>&1";
+  return std::system(cmd.c_str());
+}
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+}  // namespace
+
+TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed", "[cli][bench][alc]") {
+  const fs::path dir = fs::temp_directory_path() / "vdbmap_cli_bench_alc";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  vdbmap::io::writePlyMesh(dir / "room.ply", vdbmap::test::roomWithBox());
+  const fs::path bench = dir / "bench", out = dir / "out.txt";
+  const std::string world = " --world " + (dir / "room.ply").string();
+  REQUIRE(run("bench alc" + world + " --drift s3 --seeds 1 --max-time-s 30 --epsilon 0.3 -o " + bench.string(), out) ==
+          0);
+  INFO(slurp(out));
+  const auto runs = nlohmann::json::parse(slurp(bench / "alc.json"));
+  REQUIRE(runs.is_array());
+  REQUIRE(runs.size() == 2);
+  std::set<std::string> arms;
+  for (const auto& r : runs) {
+    for (const char* key : {"arm", "seed", "exploration_time_s", "loop_closures", "accuracy_rmse_m", "completeness",
+                            "finished", "coverage", "alc_detours", "alc_time_s", "collisions"})
+      CHECK(r.contains(key));
+    CHECK(r.at("seed") == 1);
+    CHECK(r.at("exploration_time_s").get<double>() > 0.0);
+    CHECK(r.at("exploration_time_s").get<double>() <= 30.0 + 1e-6);
+    CHECK(r.at("accuracy_rmse_m").get<double>() > 0.0);
+    arms.insert(r.at("arm").get<std::string>());
+    // The run's own summary says which arm it was.
+    const fs::path run_dir = bench / "runs" / (r.at("arm").get<std::string>() + "_seed1");
+    const auto s = nlohmann::json::parse(slurp(run_dir / "summary.json"));
+    CHECK(s.at("alc_enabled") == (r.at("arm") == "alc"));
+    if (r.at("arm") == "alc") CHECK(s.at("epsilon").get<double>() == Approx(0.3));
+    if (r.at("arm") == "no_alc") CHECK(r.at("alc_detours") == 0);
+    CHECK_FALSE(fs::exists(run_dir / "log"));  // logs and maps only with --keep-runs
+    CHECK_FALSE(fs::exists(run_dir / "map.vdb"));
+  }
+  CHECK(arms == std::set<std::string>{"alc", "no_alc"});
+  const std::string md = slurp(bench / "alc.md");
+  for (const char* text : {"no_alc", "| alc |", "time overhead", "loop-closure gain", "exploration time (s)"})
+    CHECK(md.find(text) != std::string::npos);
+  CHECK(slurp(out).find("time overhead") != std::string::npos);  // the table is printed too
+
+  CHECK(run("bench alc" + world + " --seeds 0 -o " + (dir / "x").string(), out) != 0);
+  CHECK(run("bench alc" + world + " --drift s9 -o " + (dir / "x").string(), out) != 0);
+  CHECK(run("bench alc --world " + (dir / "missing.ply").string() + " -o " + (dir / "x").string(), out) != 0);
+  fs::remove_all(dir);
+}

@@ -1,0 +1,78 @@
+// `vdbmap bench alc --world W.ply [--drift s3] [--seeds N] -o OUTDIR`: exploration with and without
+// active loop closure over several seeds (the paper's ALC experiment); the work is in
+// sim/alc_benchmark.hpp.
+#include "command.hpp"
+
+#include "vdbmap/sim/alc_benchmark.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+
+namespace vdbmap::cli {
+namespace {
+
+struct BenchAlcOptions {
+  std::filesystem::path world, output;
+  std::string drift = "s3";
+  std::size_t seeds = 5;
+  double voxel_size_m = 0.1;
+  double max_time_s = sim::ExplorationConfig::kDefaultMaxTime_s;
+  double epsilon = planner::AlcParams{}.epsilon;
+  double ceiling_m = 2.5;
+  std::string loop_closure = sim::toString(sim::SimulatorConfig{}.loop_closure);
+  bool keep_runs = false;
+};
+
+void runBenchAlc(const BenchAlcOptions& o) {
+  sim::AlcBenchmarkConfig c;
+  c.world_mesh = o.world;
+  if (o.ceiling_m > 0.0) {  // as `vdbmap explore`
+    c.world.ceiling_clip_z_m = o.ceiling_m;
+    c.world.cap_ceiling = true;
+  }
+  c.drift_level = o.drift;
+  c.seeds = o.seeds;
+  c.voxel_size_m = o.voxel_size_m;
+  c.max_time_s = o.max_time_s;
+  c.alc.epsilon = o.epsilon;
+  c.loop_closure = sim::parseLoopClosureMode(o.loop_closure);
+  c.keep_runs = o.keep_runs;
+  c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  sim::runAlcBenchmark(c, o.output);
+  std::ifstream md(o.output / "alc.md");
+  std::cout << md.rdbuf();
+}
+
+const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
+  auto o = std::make_shared<BenchAlcOptions>();
+  CLI::App* sub = bench.add_subcommand(
+      "alc",
+      "Active loop closure: explore the world with and without ALC for seeds 1..N (same drift and start per seed), "
+      "evaluate each run; writes OUTDIR/alc.json, OUTDIR/alc.md and OUTDIR/runs/<arm>_seed<k>/summary.json");
+  sub->option_defaults()->always_capture_default();
+  sub->add_option("--world", o->world, "World mesh (PLY, OBJ, OFF), metres, z up")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--drift", o->drift, "Odometry drift level of the paper's Table I")
+      ->check(CLI::IsMember({"s1", "s2", "s3", "s4"}));
+  sub->add_option("--seeds", o->seeds, "Runs per arm, with seeds 1..N")->check(CLI::Range(1, 1000));
+  sub->add_option("--voxel-size", o->voxel_size_m, "Voxel edge in metres")->check(CLI::Range(0.02, 1.0));
+  sub->add_option("--max-time-s", o->max_time_s, "Simulated time limit per run in seconds")
+      ->check(CLI::Range(1.0, 1e5));
+  sub->add_option("--epsilon", o->epsilon,
+                  "ALC arm: take the loop-closure detour when it costs at most (1 + epsilon) times the frontier tour")
+      ->check(CLI::Range(0.0, 100.0));
+  sub->add_option("--loop-closure", o->loop_closure, "Correction on loop closure: pgo, perfect or off")
+      ->check(CLI::IsMember({"pgo", "perfect", "off"}));
+  sub->add_option(
+         "--ceiling", o->ceiling_m,
+         "Cut the world at this height and close it with a flat ceiling there (metres; 0 keeps the mesh as is)")
+      ->check(CLI::Range(0.0, 1e3));
+  sub->add_flag("--keep-runs", o->keep_runs, "Also keep each run's log and map in OUTDIR/runs/ (large)");
+  sub->add_option("-o,--output", o->output, "Output folder")->required();
+  sub->callback([o] { runBenchAlc(*o); });
+});
+
+}  // namespace
+}  // namespace vdbmap::cli
