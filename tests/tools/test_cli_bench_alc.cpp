@@ -4,6 +4,8 @@
 
 #include "vdbmap/io/mesh_io.hpp"
 
+#include "tools/cli_test_util.hpp"
+
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
@@ -16,14 +18,8 @@
 namespace fs = std::filesystem;
 
 namespace {
-int run(const std::string& args, const fs::path& out_file) {
-  const std::string cmd = std::string(VDBMAP_CLI_PATH) + " " + args + " > " + out_file.string() + " 2>&1";
-  return std::system(cmd.c_str());
-}
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+int run(const std::string& args, const fs::path& out_file) { return vdbmap::test::runCli(args, out_file); }
+using vdbmap::test::slurp;
 }  // namespace
 
 TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed", "[cli][bench][alc]") {

@@ -1,5 +1,7 @@
 // `vdbmap explore` writes a complete run folder whose log `vdbmap integrate` replays; bad
 // arguments fail loudly.
+#include "tools/cli_test_util.hpp"
+
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
@@ -15,14 +17,8 @@
 namespace fs = std::filesystem;
 
 namespace {
-int run(const std::string& args, const fs::path& out_file) {
-  const std::string cmd = std::string(VDBMAP_CLI_PATH) + " " + args + " > " + out_file.string() + " 2>&1";
-  return std::system(cmd.c_str());
-}
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+int run(const std::string& args, const fs::path& out_file) { return vdbmap::test::runCli(args, out_file); }
+using vdbmap::test::slurp;
 std::size_t lineCount(const fs::path& p) {
   std::ifstream in(p);
   std::size_t n = 0;

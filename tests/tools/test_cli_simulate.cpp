@@ -1,4 +1,6 @@
 // `vdbmap simulate` writes a log that `vdbmap integrate` replays; bad arguments fail loudly.
+#include "tools/cli_test_util.hpp"
+
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
@@ -12,20 +14,9 @@
 namespace fs = std::filesystem;
 
 namespace {
-int run(const std::string& args, const fs::path& out_file) {
-  const std::string cmd = std::string(VDBMAP_CLI_PATH) + " " + args + " > " + out_file.string() + " 2>&1";
-  return std::system(cmd.c_str());
-}
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+int run(const std::string& args, const fs::path& out_file) { return vdbmap::test::runCli(args, out_file); }
+using vdbmap::test::slurp;
+using vdbmap::test::freshDir;
 /// A closed 6 x 4 x 2.5 m room (inward or outward facing does not matter to the simulator).
 vdbmap::TriangleMesh room() {
   vdbmap::TriangleMesh m;
