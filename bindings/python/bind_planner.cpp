@@ -100,6 +100,24 @@ void bindCostsAndPaths(py::module_& m) {
       .def("validate", &TrajectoryParams::validate, "Raises ValueError naming the field and its allowed range.");
 }
 
+void bindAlcParams(py::module_& m) {
+  py::class_<AlcParams> a(m, "AlcParams",
+                          "Active loop closure (docs/planner.md); the history and cluster parameters stay at their C++ "
+                          "defaults.");
+  addStructProtocol(a);
+  a.def_readwrite("epsilon", &AlcParams::epsilon, "detour iff C_loop <= (1 + epsilon) C_frt; [0, 100]")
+      .def_readwrite("search_radius_m", &AlcParams::search_radius_m, "candidate clusters have a viewpoint this close")
+      .def_readwrite("initial_period_s", &AlcParams::initial_period_s, "no ALC in the first seconds of a flight")
+      .def_readwrite("give_up_timeout_s", &AlcParams::give_up_timeout_s, "a detour without a loop closure ends then")
+      .def_readwrite("suspension_s", &AlcParams::suspension_s, "ALC is off this long after giving up")
+      .def_readwrite("loop_quiet_s", &AlcParams::loop_quiet_s, "ALC is off this long after any loop closure")
+      .def_readwrite("max_failures_per_cluster", &AlcParams::max_failures_per_cluster,
+                     "given up this often, a cluster is never chosen again")
+      .def_readwrite("unreachable_cost_s", &AlcParams::unreachable_cost_s, "legs at or above this are left out of both sums")
+      .def_readwrite("tour", &AlcParams::tour, "TourParams of both tours")
+      .def("validate", &AlcParams::validate, "Raises ValueError naming the field and its allowed range.");
+}
+
 void bindExplorationParams(py::module_& m) {
   py::class_<ExplorationParams> e(m, "ExplorationParams",
                                   "The exploration manager (FUEL-style). box_W is required; the pieces' bounds are "
@@ -124,6 +142,10 @@ void bindExplorationParams(py::module_& m) {
           },
           "(3,) half-sizes of the box around the start where unknown reads free; each [0, 10]")
       .def_readwrite("initial_turn", &ExplorationParams::initial_turn, "turn once on the spot before exploring")
+      .def_readwrite("viewpoint_margin_z_m", &ExplorationParams::viewpoint_margin_z_m,
+                     "viewpoints keep this far from the box's bottom and top; [0, 10]")
+      .def_readwrite("alc_enabled", &ExplorationParams::alc_enabled, "active loop closure (off: plain FUEL)")
+      .def_readwrite("alc", &ExplorationParams::alc, "AlcParams")
       .def_readwrite("replan_time_left_s", &ExplorationParams::replan_time_left_s,
                      "replan when less trajectory is left (FUEL thresh_replan1); [0, 100]")
       .def_readwrite("replan_covered_after_s", &ExplorationParams::replan_covered_after_s,
@@ -163,6 +185,7 @@ void bindPlanner(py::module_& parent) {
                             "counters and statuses.");
   bindFrontierAndViewpoints(m);
   bindCostsAndPaths(m);
+  bindAlcParams(m);
   bindExplorationParams(m);
 }
 

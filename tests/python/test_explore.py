@@ -180,6 +180,13 @@ def test_exploration_config_defaults_and_shortcuts(room):
     # The exploration's camera reports far surfaces (30 m) so rays carve free space up to the range.
     assert config.simulator.camera.far_clip_m == 30.0 and sim.SimulatorConfig().camera.far_clip_m == 5.0
     assert config.planner.path.time_limit_s == 0.1 and config.planner.cost_path.time_limit_s == 0.01
+    # Active loop closure is off unless asked for (`vdbmap explore --alc off`), epsilon as the CLI's.
+    assert config.planner.alc_enabled is False and cli_default("explore", "--alc") == "off"
+    assert config.planner.alc.epsilon == float(cli_default("explore", "--epsilon")) == 0.2
+    config.planner.alc.epsilon = 0.5
+    assert config.planner.alc.epsilon == 0.5
+    with pytest.raises(ValueError, match="epsilon"):
+        vdbmap.planner.AlcParams(epsilon=-1.0).validate()
 
     config.seed = 11
     assert (config.simulator.drift.seed, config.planner.path.seed, config.planner.cost_path.seed,

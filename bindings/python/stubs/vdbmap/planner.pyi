@@ -121,6 +121,22 @@ class TrajectoryParams:
     def __copy__(self) -> TrajectoryParams: ...
     def __deepcopy__(self, memo: dict[Any, Any]) -> TrajectoryParams: ...
 
+class AlcParams:
+    """Active loop closure (docs/planner.md); the history and cluster parameters stay at their C++ defaults."""
+    epsilon: float
+    search_radius_m: float
+    initial_period_s: float
+    give_up_timeout_s: float
+    suspension_s: float
+    loop_quiet_s: float
+    max_failures_per_cluster: int
+    unreachable_cost_s: float
+    tour: TourParams
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> AlcParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> AlcParams: ...
+
 class ExplorationParams:
     """The exploration manager (FUEL-style); box_W is required."""
     box_W: _BoxF
@@ -134,6 +150,9 @@ class ExplorationParams:
     trajectory: TrajectoryParams
     start_free_half_size_m: _F64
     initial_turn: bool
+    viewpoint_margin_z_m: float
+    alc_enabled: bool
+    alc: AlcParams
     replan_time_left_s: float
     replan_covered_after_s: float
     replan_period_s: float
