@@ -1,5 +1,7 @@
 // Set-cover pruning: compact cell sets, visible cells against the integrator's voxels, the greedy
 // against a plain greedy and brute force, its coverage guarantees, and the incremental pruner.
+#include "tsdf_test_helpers.hpp"
+
 #include "vdbmap/camera.hpp"
 #include "vdbmap/set_cover.hpp"
 #include "vdbmap/sim/analytic_scene.hpp"
@@ -225,12 +227,7 @@ TEST_CASE("visibleCells holds the cells of every voxel the integrator touches", 
   IntegratorConfig integrator;
   integrator.max_range_m = 3.0;
   const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
-  CameraIntrinsics K;
-  K.width = 160;
-  K.height = 120;
-  K.fx = K.fy = 96.8;
-  K.cx = 79.5;
-  K.cy = 59.5;
+  const CameraIntrinsics K = test::smallCamera();
   // Point clouds have no image: under Projective they are integrated (and walked) as Merged rays.
   for (const RayMode mode : {RayMode::Merged, RayMode::PerRay, RayMode::Projective}) {
     integrator.ray_mode = mode;
@@ -271,12 +268,7 @@ TEST_CASE("visibleCells of a depth image under Projective are the cells of the v
   integrator.max_range_m = 3.0;
   REQUIRE(integrator.ray_mode == RayMode::Projective);
   const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
-  CameraIntrinsics K;
-  K.width = 160;
-  K.height = 120;
-  K.fx = K.fy = 96.8;
-  K.cx = 79.5;
-  K.cy = 59.5;
+  const CameraIntrinsics K = test::smallCamera();
   // Level and pitched views: the floor and ceiling are seen only near the frustum's edges, which
   // is where sampled rays would miss cells the integration writes.
   for (const Pose3d& T : {sim::lookingPose({0.5, 0.3, 1.2}, 0.4, 0.0), sim::lookingPose({-1.5, 0.8, 1.5}, 2.5, -0.2)}) {
@@ -573,12 +565,7 @@ TEST_CASE("FramePruner drops repeated views of real frames", "[set_cover][pruner
   const TsdfConfig tsdf = tsdfConfig(vs);
   const IntegratorConfig integrator;
   const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
-  CameraIntrinsics K;
-  K.width = 160;
-  K.height = 120;
-  K.fx = K.fy = 96.8;
-  K.cx = 79.5;
-  K.cy = 59.5;
+  const CameraIntrinsics K = test::smallCamera();
   SetCoverConfig config;
   config.n_ob = 1;
   FramePruner pruner(config, vs);
