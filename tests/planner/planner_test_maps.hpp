@@ -2,11 +2,20 @@
 #pragma once
 
 #include "vdbmap/planner/dense_map.hpp"
+#include "vdbmap/planner/vehicle_state.hpp"
 
 #include <cmath>
 #include <vector>
 
 namespace vdbmap::planner::test {
+
+/// The vehicle at rest at p with this yaw.
+inline VehicleState at(const Vec3d& p, double yaw = 0.0) {
+  VehicleState s;
+  s.position_W = p;
+  s.yaw_rad = yaw;
+  return s;
+}
 
 /// A room of `size_m` (x, y, z) at 0.1 m voxels: occupied walls, floor and ceiling one voxel
 /// thick, free inside, unknown outside. Voxel coordinates of the inside: [1, n-2] per axis.

@@ -14,6 +14,7 @@ using namespace vdbmap;
 using namespace vdbmap::planner;
 using openvdb::Coord;
 using openvdb::CoordBBox;
+using test::at;
 
 namespace {
 constexpr double kVoxel = 0.1;
@@ -45,12 +46,6 @@ ExplorationParams alcParams() {
   return p;
 }
 
-VehicleState at(const Vec3d& p, double yaw = 0.0) {
-  VehicleState s;
-  s.position_W = p;
-  s.yaw_rad = yaw;
-  return s;
-}
 
 /// Flies (as far as the manager can tell: the states it is given) through a place, 0.75 m along
 /// +x from (place_x, 3, 1.5), then elsewhere (more than search_radius_m from `vehicle`, which ends

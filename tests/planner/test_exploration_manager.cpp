@@ -11,6 +11,7 @@ using namespace vdbmap;
 using namespace vdbmap::planner;
 using openvdb::Coord;
 using openvdb::CoordBBox;
+using test::at;
 
 namespace {
 constexpr double kVoxel = 0.1;
@@ -36,12 +37,6 @@ ExplorationParams roomParams(double length_m = 8.0) {
   return p;
 }
 
-VehicleState at(const Vec3d& p, double yaw = 0.0) {
-  VehicleState s;
-  s.position_W = p;
-  s.yaw_rad = yaw;
-  return s;
-}
 
 /// The vehicle as the manager commands it at t (exactly on its trajectory).
 VehicleState onTrajectory(const ExplorationManager& m, double t) {
