@@ -466,16 +466,14 @@ bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle
         away += d.norm() > 1e-9 ? Vec3d(d.normalized()) : Vec3d::Zero();
       }
   // Candidate directions: away first, then the 26 grid directions most aligned with it.
+  const Vec3d a = away.norm() > 1e-9 ? Vec3d(away.normalized()) : Vec3d::Zero();
   std::vector<Vec3d> dirs;
-  if (away.norm() > 1e-9) dirs.push_back(away.normalized());
-  std::vector<Vec3d> grid;
   for (int x = -1; x <= 1; ++x)
     for (int y = -1; y <= 1; ++y)
       for (int z = -1; z <= 1; ++z)
-        if (x || y || z) grid.push_back(Vec3d(x, y, z).normalized());
-  const Vec3d a = away.norm() > 1e-9 ? Vec3d(away.normalized()) : Vec3d::Zero();
-  std::stable_sort(grid.begin(), grid.end(), [&a](const Vec3d& u, const Vec3d& w) { return u.dot(a) > w.dot(a); });
-  dirs.insert(dirs.end(), grid.begin(), grid.end());
+        if (x || y || z) dirs.push_back(Vec3d(x, y, z).normalized());
+  std::stable_sort(dirs.begin(), dirs.end(), [&a](const Vec3d& u, const Vec3d& w) { return u.dot(a) > w.dot(a); });
+  if (!a.isZero()) dirs.insert(dirs.begin(), a);
 
   // The nearest clear point (preferring the away direction) whose straight way crosses no
   // occupied voxel beyond the vehicle's own.
