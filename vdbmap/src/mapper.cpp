@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -99,25 +101,42 @@ IntegrationStats Mapper::addPointFrame(FrameId id, double timestamp, const Point
 }
 
 namespace {
-/// Integrates (add) or de-integrates a stored frame as the volume's integrator takes it best:
+/// A stored frame decoded once: a depth image with its intrinsics, or points.
+struct DecodedFrame {
+  std::optional<DepthImage> depth;
+  std::shared_ptr<const CameraIntrinsics> K;
+  PointCloud points_S;
+};
+
+DecodedFrame decodeFrame(const EncodedFrame& frame) {
+  DecodedFrame d;
+  if (frame.isDepth()) {
+    d.depth = frame.decodeDepth();
+    d.K = frame.intrinsics();
+  } else {
+    d.points_S = frame.decode();
+  }
+  return d;
+}
+
+/// Integrates (add) or de-integrates a decoded frame as the volume's integrator takes it best:
 /// depth frames as images (projective), point frames as points. Always the decoded frame, so that
 /// a later de-integration removes exactly what went in.
+IntegrationStats applyDecoded(TsdfVolume& volume, FrameId id, const DecodedFrame& frame, const Pose3d& T_W_S, bool add) {
+  if (frame.depth)
+    return add ? volume.integrate(id, *frame.depth, *frame.K, T_W_S) : volume.deintegrate(id, *frame.depth, *frame.K, T_W_S);
+  return add ? volume.integrate(id, frame.points_S, T_W_S) : volume.deintegrate(id, frame.points_S, T_W_S);
+}
+
 IntegrationStats applyFrame(TsdfVolume& volume, FrameId id, const EncodedFrame& frame, const Pose3d& T_W_S, bool add) {
-  if (frame.isDepth()) {
-    const DepthImage depth = frame.decodeDepth();
-    return add ? volume.integrate(id, depth, *frame.intrinsics(), T_W_S)
-               : volume.deintegrate(id, depth, *frame.intrinsics(), T_W_S);
-  }
-  const PointCloud points_S = frame.decode();
-  return add ? volume.integrate(id, points_S, T_W_S) : volume.deintegrate(id, points_S, T_W_S);
+  return applyDecoded(volume, id, decodeFrame(frame), T_W_S, add);
 }
 
 /// The frame's set for the pruner: the coarse cells its integration touches.
-CellSet frameCells(const EncodedFrame& frame, const Pose3d& T_W_S, const MapperConfig& config) {
-  if (frame.isDepth())
-    return visibleCells(frame.decodeDepth(), *frame.intrinsics(), T_W_S, config.tsdf, config.integrator,
-                        config.set_cover.cell_size_vox);
-  return visibleCells(frame.decode(), T_W_S, config.tsdf, config.integrator, config.set_cover.cell_size_vox);
+CellSet frameCells(const DecodedFrame& frame, const Pose3d& T_W_S, const MapperConfig& config) {
+  if (frame.depth)
+    return visibleCells(*frame.depth, *frame.K, T_W_S, config.tsdf, config.integrator, config.set_cover.cell_size_vox);
+  return visibleCells(frame.points_S, T_W_S, config.tsdf, config.integrator, config.set_cover.cell_size_vox);
 }
 }  // namespace
 
@@ -147,7 +166,8 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
     return stats;
   }
 
-  stats = applyFrame(volume_, id, data, T_W_S, true);
+  const DecodedFrame decoded = decodeFrame(data);  // once, for integration and the pruner's set
+  stats = applyDecoded(volume_, id, decoded, T_W_S, true);
   markDirty(stats.touched_voxels);
   if (config_.mode == ConsistencyMode::None) return stats;
 
@@ -160,8 +180,7 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
   store_.add(std::move(kf));
 
   if (config_.mode == ConsistencyMode::Keyframes) {
-    const Keyframe& stored = store_.at(id);
-    pruner_->addFrame(id, T_W_S.translation(), frameCells(stored.data, T_W_S, config_));
+    pruner_->addFrame(id, T_W_S.translation(), frameCells(decoded, T_W_S, config_));
     if (++frames_since_solve_ >= std::size_t(config_.set_cover.solve_period_frames)) prune();
   }
   return stats;
