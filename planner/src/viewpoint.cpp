@@ -34,8 +34,22 @@ bool CameraFrustum::contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_
   return std::abs(left) <= tan_half_fov_x * forward && std::abs(d.z()) <= tan_half_fov_y * forward;
 }
 
+void ViewpointFallback::validate() const {
+  if (!(ring_radius_min_m > 0.0)) fail("ViewpointFallback", "ring_radius_min_m", "(0, ring_radius_max_m]");
+  if (!(ring_radius_max_m >= ring_radius_min_m && ring_radius_max_m <= 100.0))
+    fail("ViewpointFallback", "ring_radius_max_m", "[ring_radius_min_m, 100]");
+  if (ring_count < 1 || ring_count > 100) fail("ViewpointFallback", "ring_count", "[1, 100]");
+  if (height_offsets_m.empty()) fail("ViewpointFallback", "height_offsets_m", "non-empty lists");
+  for (const double h : height_offsets_m)
+    if (!(h >= -100.0 && h <= 100.0)) fail("ViewpointFallback", "height_offsets_m[]", "[-100, 100]");
+  if (!(min_clearance_m >= 0.0 && min_clearance_m <= 10.0)) fail("ViewpointFallback", "min_clearance_m", "[0, 10]");
+  if (!(min_visible_fraction > 0.0 && min_visible_fraction <= 1.0))
+    fail("ViewpointFallback", "min_visible_fraction", "(0, 1]");
+}
+
 void ViewpointParams::validate() const {
   camera.validate();
+  fallback.validate();
   if (!(ring_radius_min_m > 0.0)) fail("ViewpointParams", "ring_radius_min_m", "(0, ring_radius_max_m]");
   if (!(ring_radius_max_m >= ring_radius_min_m && ring_radius_max_m <= 100.0))
     fail("ViewpointParams", "ring_radius_max_m", "[ring_radius_min_m, 100]");
@@ -70,31 +84,42 @@ int countVisible(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std:
   return seen;
 }
 
-std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const MapQuery& map,
-                                         const ViewpointParams& params) {
-  params.validate();
-  std::vector<Viewpoint> viewpoints;
-  if (cluster.samples.empty()) return viewpoints;
-  MapProbe probe(map);
+namespace {
+
+/// One set of rings around a cluster's centroid.
+struct Rings {
+  double radius_min_m, radius_max_m;
+  int count;
+  const std::vector<double>& height_offsets_m;
+  double min_clearance_m;
+  int min_visible_samples;  ///< a candidate must see more than this
+
+  double radius(int ring) const {
+    return count == 1 ? radius_min_m : radius_min_m + (radius_max_m - radius_min_m) * ring / (count - 1);
+  }
+};
+
+/// The candidates on `rings` that pass, in ring order.
+void searchRings(const FrontierCluster& cluster, MapProbe& probe, const ViewpointParams& params, const Rings& rings,
+                 std::vector<Viewpoint>& out) {
+  const MapQuery& map = probe.map();
   // Every check below stays within the outer ring, the samples, and the clearance around them:
   // read that region once.
   {
-    const double reach = params.ring_radius_max_m + params.min_clearance_m + map.voxelSize();
+    const double reach = rings.radius_max_m + rings.min_clearance_m + map.voxelSize();
     double dz_lo = 0.0, dz_hi = 0.0;
-    for (const double h : params.height_offsets_m) dz_lo = std::min(dz_lo, h), dz_hi = std::max(dz_hi, h);
-    Eigen::AlignedBox3d region(cluster.centroid_W - Vec3d(reach, reach, params.min_clearance_m + map.voxelSize() - dz_lo),
-                               cluster.centroid_W + Vec3d(reach, reach, params.min_clearance_m + map.voxelSize() + dz_hi));
+    for (const double h : rings.height_offsets_m) dz_lo = std::min(dz_lo, h), dz_hi = std::max(dz_hi, h);
+    const double margin_z = rings.min_clearance_m + map.voxelSize();
+    Eigen::AlignedBox3d region(cluster.centroid_W - Vec3d(reach, reach, margin_z - dz_lo),
+                               cluster.centroid_W + Vec3d(reach, reach, margin_z + dz_hi));
     for (const openvdb::Coord& c : cluster.samples) region.extend(map.voxelCenter(c));
     probe.cacheBox(map.voxelsIn(region).expandBy(1));
   }
   const double step = params.angle_step_deg * M_PI / 180.0;
   const int angles = std::max(1, int(std::ceil(2.0 * M_PI / step - 1e-9)));
-  for (const double dz : params.height_offsets_m) {
-    for (int ring = 0; ring < params.ring_count; ++ring) {
-      const double radius = params.ring_count == 1
-                                ? params.ring_radius_min_m
-                                : params.ring_radius_min_m + (params.ring_radius_max_m - params.ring_radius_min_m) *
-                                                                 ring / (params.ring_count - 1);
+  for (const double dz : rings.height_offsets_m) {
+    for (int ring = 0; ring < rings.count; ++ring) {
+      const double radius = rings.radius(ring);
       for (int k = 0; k < angles; ++k) {
         const double phi = -M_PI + k * step;
         Vec3d p = cluster.centroid_W + Vec3d(radius * std::cos(phi), radius * std::sin(phi), dz);
@@ -102,12 +127,35 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
         // the nearest allowed height, slightly below or above: they stay in the vertical field of view.
         if (params.bounds_W) p.z() = std::clamp(p.z(), params.bounds_W->min().z(), params.bounds_W->max().z());
         if (params.bounds_W && !params.bounds_W->contains(p)) continue;
-        if (!probe.isClear(p, params.min_clearance_m)) continue;
+        if (!probe.isClear(p, rings.min_clearance_m)) continue;
         const double yaw = yawToward(p, cluster.samples, map);
         const int seen = countVisible(probe, p, yaw, cluster.samples, params.camera);
-        if (seen > params.min_visible_samples) viewpoints.push_back({p, yaw, seen});
+        if (seen > rings.min_visible_samples) out.push_back({p, yaw, seen});
       }
     }
+  }
+}
+
+}  // namespace
+
+std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const MapQuery& map,
+                                         const ViewpointParams& params) {
+  params.validate();
+  std::vector<Viewpoint> viewpoints;
+  if (cluster.samples.empty()) return viewpoints;
+  MapProbe probe(map);
+  searchRings(cluster, probe,  params,
+              {params.ring_radius_min_m, params.ring_radius_max_m, params.ring_count, params.height_offsets_m,
+               params.min_clearance_m, params.min_visible_samples},
+              viewpoints);
+  const ViewpointFallback& fb = params.fallback;
+  if (viewpoints.empty() && fb.enabled) {
+    // Seeing more than `fraction` of the samples, rounded up, minus one: at least one sample.
+    const int fraction_of_samples = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size()))) - 1;
+    const int threshold = std::max(0, std::min(params.min_visible_samples, fraction_of_samples));
+    searchRings(cluster, probe, params,
+                {fb.ring_radius_min_m, fb.ring_radius_max_m, fb.ring_count, fb.height_offsets_m, fb.min_clearance_m,
+                 threshold}, viewpoints);
   }
   std::stable_sort(viewpoints.begin(), viewpoints.end(),
                    [](const Viewpoint& a, const Viewpoint& b) { return a.visible_samples > b.visible_samples; });

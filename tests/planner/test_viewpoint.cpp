@@ -8,6 +8,9 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
+
 using namespace vdbmap;
 using namespace vdbmap::planner;
 using openvdb::Coord;
@@ -133,6 +136,79 @@ TEST_CASE("A cluster seen only through unknown space gets no viewpoint", "[plann
   CHECK(computeViewpoints(frontiers.clusters()[0], map).empty());
 }
 
+TEST_CASE("A cluster the rings cannot see from gets the fallback's closer viewpoints", "[planner][viewpoint]") {
+  // A 1.5 m cubic alcove (voxels 0..14) walled by occupied voxels, open at x = 1.5 m to unknown
+  // space: its frontier is the 15 x 15 voxel plane x = 1.4 m. Every ring candidate 1.5-2.5 m
+  // from the plane's centre lies in the walls or the unknown; the fallback rings start at 0.5 m.
+  DenseMap map(0.1, CoordBBox(Coord(-30), Coord(45)));
+  map.fill(CoordBBox(Coord(-1), Coord(15)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(0), Coord(14)), Occupancy::Free);
+  map.fill(CoordBBox(Coord(15, 0, 0), Coord(15, 14, 14)), Occupancy::Unknown);
+  FrontierMap frontiers;
+  frontiers.rebuild(map);
+  REQUIRE(frontiers.clusters().size() == 1);
+  const FrontierCluster& cluster = frontiers.clusters()[0];
+  REQUIRE(cluster.voxels.size() == 15u * 15u);
+
+  ViewpointParams rings_only;
+  rings_only.fallback.enabled = false;
+  CHECK(computeViewpoints(cluster, map, rings_only).empty());
+
+  const ViewpointParams params;
+  const ViewpointFallback& fb = params.fallback;
+  const std::vector<Viewpoint> views = computeViewpoints(cluster, map, params);
+  REQUIRE_FALSE(views.empty());
+  const int fraction_needed = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size())));
+  for (const Viewpoint& v : views) {
+    REQUIRE(test::bruteClear(map, v.position_W, fb.min_clearance_m));
+    int seen = 0;
+    for (const Coord& s : cluster.samples) {
+      const Vec3d p = map.voxelCenter(s);
+      seen += params.camera.contains(v.position_W, v.yaw_rad, p) && test::bruteVisible(map, p, v.position_W);
+    }
+    REQUIRE(seen == v.visible_samples);
+    REQUIRE((seen > params.min_visible_samples || seen >= fraction_needed));
+    // On one of the fallback's rings, at one of its heights.
+    const double r = (v.position_W - cluster.centroid_W).head<2>().norm();
+    bool on_ring = false;
+    for (int k = 0; k < fb.ring_count; ++k)
+      on_ring |= std::abs(r - (fb.ring_radius_min_m + (fb.ring_radius_max_m - fb.ring_radius_min_m) * k /
+                                                          (fb.ring_count - 1))) < 1e-9;
+    REQUIRE(on_ring);
+    const double dz = v.position_W.z() - cluster.centroid_W.z();
+    REQUIRE(std::any_of(fb.height_offsets_m.begin(), fb.height_offsets_m.end(),
+                        [&](double h) { return std::abs(h - dz) < 1e-9; }));
+  }
+}
+
+TEST_CASE("The fallback's threshold lets a small cluster pass by the fraction it sees", "[planner][viewpoint]") {
+  // The frontier of the halfKnownRoom, cut down to a 4 x 4 voxel patch: 4 samples, far fewer than
+  // min_visible_samples. Standing in the known half, a camera sees all of them.
+  DenseMap map = halfKnownRoom();
+  map.fill(CoordBBox(Coord(40, 0, 0), Coord(82, 62, 32)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(40, 28, 12), Coord(40, 31, 15)), Occupancy::Unknown);
+  FrontierParams fp;
+  fp.min_cluster_size = 1;
+  FrontierMap frontiers(fp);
+  frontiers.rebuild(map);
+  REQUIRE(frontiers.clusters().size() == 1);
+  const FrontierCluster& cluster = frontiers.clusters()[0];
+  REQUIRE(cluster.samples.size() < std::size_t(ViewpointParams{}.min_visible_samples));
+
+  ViewpointParams rings_only;
+  rings_only.fallback.enabled = false;
+  CHECK(computeViewpoints(cluster, map, rings_only).empty());  // 4 samples never exceed 15
+  ViewpointParams params;
+  const std::vector<Viewpoint> views = computeViewpoints(cluster, map, params);
+  REQUIRE_FALSE(views.empty());
+  CHECK(views.front().visible_samples == int(cluster.samples.size()));
+  for (const Viewpoint& v : views)
+    CHECK(v.visible_samples >= int(std::ceil(params.fallback.min_visible_fraction * double(cluster.samples.size()))));
+  params.fallback.min_visible_fraction = 1.0;
+  for (const Viewpoint& v : computeViewpoints(cluster, map, params))
+    CHECK(v.visible_samples == int(cluster.samples.size()));
+}
+
 TEST_CASE("ViewpointParams::validate names the field", "[planner][viewpoint]") {
   ViewpointParams p;
   p.ring_radius_max_m = 1.0;
@@ -143,4 +219,10 @@ TEST_CASE("ViewpointParams::validate names the field", "[planner][viewpoint]") {
   p = ViewpointParams{};
   p.height_offsets_m.clear();
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("height_offsets_m"));
+  p = ViewpointParams{};
+  p.fallback.min_visible_fraction = 0.0;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.min_visible_fraction"));
+  p = ViewpointParams{};
+  p.fallback.ring_radius_min_m = 3.0;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.ring_radius_max_m"));
 }

@@ -8,6 +8,11 @@
 // circular mean of the horizontal directions to its samples. A sample is seen when it lies in
 // the camera's frustum at that yaw (zero pitch) within range, and the ray from it to the
 // viewpoint crosses only known-free voxels (occupied and unknown space both occlude).
+//
+// Beyond FUEL: a cluster that no ring candidate observes (a pocket between shelf boards, under a
+// table, behind a post: the 1.5-2.5 m rings are blocked or see too little of it) gets a second,
+// closer and taller search (ViewpointFallback). Without it such clusters have no viewpoint, are
+// never targeted, and exploration finishes with their surfaces unknown.
 #pragma once
 
 #include "vdbmap/planner/frontier.hpp"
@@ -34,6 +39,26 @@ struct CameraFrustum {
   void validate() const;
 };
 
+/// The second search for clusters with no ring viewpoint: more rings, from closer in, at several
+/// heights, and a threshold that a small cluster can meet.
+struct ViewpointFallback {
+  bool enabled = true;
+  double ring_radius_min_m = 0.5;  ///< (0, ring_radius_max_m]; keep above the camera's near limit
+  double ring_radius_max_m = 2.5;  ///< [ring_radius_min_m, 100]
+  int ring_count = 5;              ///< radii evenly spaced from min to max; [1, 100]
+  /// Heights of the rings relative to the cluster's centroid; each in [-100, 100], non-empty.
+  std::vector<double> height_offsets_m = {0.0, -0.5, 0.5, -1.0, 1.0};
+  /// Every voxel within this distance of a fallback viewpoint is known-free; [0, 10]. Above
+  /// ViewpointParams::min_clearance_m: fallback viewpoints face shelving and clutter from close
+  /// in, where thin posts (narrower than a voxel) can be missing from the map.
+  double min_clearance_m = 0.5;
+  /// A fallback viewpoint passes when it sees more than min_visible_samples of the cluster's
+  /// samples or at least this fraction of them (a cluster of 12 samples passes with 6); (0, 1]
+  double min_visible_fraction = 0.5;
+
+  void validate() const;
+};
+
 struct ViewpointParams {
   double ring_radius_min_m = 1.5;  ///< FUEL candidate_rmin; (0, ring_radius_max_m]
   double ring_radius_max_m = 2.5;  ///< FUEL candidate_rmax; [ring_radius_min_m, 100]
@@ -48,6 +73,7 @@ struct ViewpointParams {
   /// FUEL min_visib_num: a viewpoint must see more than this many cluster samples; [0, 1e6]
   int min_visible_samples = 15;
   CameraFrustum camera;
+  ViewpointFallback fallback;
   /// The exploration box: candidates are moved to its height range (so clusters at the floor or
   /// the ceiling get viewpoints just inside it) and rejected outside it in x-y. Unset: no limit.
   std::optional<Eigen::AlignedBox3d> bounds_W;
@@ -62,7 +88,8 @@ struct Viewpoint {
 };
 
 /// The viewpoints of one cluster, best first (most samples seen; ties by ring order, which is
-/// deterministic). Empty when no candidate passes: the cluster cannot be observed for now.
+/// deterministic): the ring candidates, or when none passes (and params.fallback.enabled) the
+/// fallback's. Empty when neither search finds one: the cluster cannot be observed for now.
 std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const MapQuery& map,
                                          const ViewpointParams& params = {});
 
