@@ -30,6 +30,22 @@ void bindFrontierAndViewpoints(py::module_& m) {
       .def_readwrite("max_range_m", &CameraFrustum::max_range_m, "(min_range_m, 1e3]")
       .def("validate", &CameraFrustum::validate, "Raises ValueError naming the field and its allowed range.");
 
+  py::class_<ViewpointFallback> fb(m, "ViewpointFallback",
+                                   "The second, closer and taller ring search for clusters with no ring viewpoint.");
+  addStructProtocol(fb);
+  fb.def_readwrite("enabled", &ViewpointFallback::enabled, "search again when the rings find no viewpoint")
+      .def_readwrite("ring_radius_min_m", &ViewpointFallback::ring_radius_min_m, "(0, ring_radius_max_m]")
+      .def_readwrite("ring_radius_max_m", &ViewpointFallback::ring_radius_max_m, "[ring_radius_min_m, 100]")
+      .def_readwrite("ring_count", &ViewpointFallback::ring_count, "radii evenly spaced from min to max; [1, 100]")
+      .def_readwrite("height_offsets_m", &ViewpointFallback::height_offsets_m,
+                     "list of ring heights relative to the centroid (assign a new list to change it)")
+      .def_readwrite("min_clearance_m", &ViewpointFallback::min_clearance_m,
+                     "every voxel within this distance of a fallback viewpoint is known-free; [0, 10]")
+      .def_readwrite("min_visible_fraction", &ViewpointFallback::min_visible_fraction,
+                     "a viewpoint passes seeing more than min_visible_samples or at least this fraction of the "
+                     "cluster's samples; (0, 1]")
+      .def("validate", &ViewpointFallback::validate, "Raises ValueError naming the field and its allowed range.");
+
   py::class_<ViewpointParams> v(m, "ViewpointParams", "Viewpoints sampled on rings around each cluster.");
   addStructProtocol(v);
   v.def_readwrite("ring_radius_min_m", &ViewpointParams::ring_radius_min_m,
@@ -45,6 +61,7 @@ void bindFrontierAndViewpoints(py::module_& m) {
       .def_readwrite("min_visible_samples", &ViewpointParams::min_visible_samples,
                      "FUEL min_visib_num: a viewpoint must see more cluster samples than this; [0, 1e6]")
       .def_readwrite("camera", &ViewpointParams::camera, "CameraFrustum")
+      .def_readwrite("fallback", &ViewpointParams::fallback, "ViewpointFallback")
       .def("validate", &ViewpointParams::validate, "Raises ValueError naming the field and its allowed range.");
 }
 
@@ -156,6 +173,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("collision_radius_m", &ExplorationParams::collision_radius_m,
                      "known-free space kept around the rest of the trajectory; [0, path.clearance_m]")
       .def_readwrite("max_failures", &ExplorationParams::max_failures, "failures before a target is blacklisted")
+      .def_readwrite("revisit_rounds", &ExplorationParams::revisit_rounds,
+                     "times per run that blacklisted clusters get one more try and viewpoints are recomputed when "
+                     "only blacklisted clusters or clusters without a viewpoint are left; [0, 100]")
       .def_readwrite("max_targets_per_replan", &ExplorationParams::max_targets_per_replan, "targets tried per replan")
       .def("validate", &ExplorationParams::validate, "Raises ValueError naming the field and its allowed range.");
 
@@ -176,6 +196,8 @@ void bindExplorationParams(py::module_& m) {
       .def_readonly("target_failures", &ExplorationCounters::target_failures, "failures counted against targets")
       .def_readonly("blacklisted", &ExplorationCounters::blacklisted, "clusters blacklisted at the last replan")
       .def_readonly("holds", &ExplorationCounters::holds, "times the vehicle was stopped by a hold")
+      .def_readonly("escapes", &ExplorationCounters::escapes, "straight moves out of a start blocked by occupied voxels")
+      .def_readonly("revisit_rounds", &ExplorationCounters::revisit_rounds, "ExplorationParams.revisit_rounds done")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 }
 

@@ -88,6 +88,7 @@ void ExplorationParams::validate() const {
   if (!(collision_radius_m >= 0.0 && collision_radius_m <= path.clearance_m))
     fail("collision_radius_m", "[0, path.clearance_m]");
   if (max_failures < 1 || max_failures > 100) fail("max_failures", "[1, 100]");
+  if (revisit_rounds < 0 || revisit_rounds > 100) fail("revisit_rounds", "[0, 100]");
   if (max_targets_per_replan < 1 || max_targets_per_replan > 100) fail("max_targets_per_replan", "[1, 100]");
   if (alc_enabled) alc.validate();
 }
@@ -339,7 +340,19 @@ std::optional<AlcDecision> ExplorationManager::decideLoopDetour(const MapQuery& 
 ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleState& vehicle, double t_s,
                                              ExplorationStep& step) {
   if (step.reason == ReplanReason::TrajectoryEnd && !on_detour_) checkVisit();
-  const std::vector<Target> targets = liveTargets(map);
+  std::vector<Target> targets = liveTargets(map);
+  if (targets.empty() && !frontiers_.clusters().empty() &&
+      counters_.revisit_rounds < std::size_t(params_.revisit_rounds)) {
+    // Only blacklisted clusters, or clusters without a viewpoint, are left: give each one more
+    // try, with every cluster's viewpoints computed in the map as it is now.
+    ++counters_.revisit_rounds;
+    for (auto& [voxel, count] : voxel_failures_) count = std::min(count, params_.max_failures - 1);
+    std::vector<const FrontierCluster*> all;
+    for (const FrontierCluster& c : frontiers_.clusters()) all.push_back(&c);
+    std::vector<std::vector<Viewpoint>> fresh = computeViewpoints(all, map, params_.viewpoint);
+    for (std::size_t i = 0; i < all.size(); ++i) views_[all[i]->id] = std::move(fresh[i]);
+    targets = liveTargets(map);
+  }
   step.targets = targets.size();
   on_detour_ = false;
   if (targets.empty()) {

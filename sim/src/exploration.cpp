@@ -310,6 +310,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["blacklisted_clusters"] = r.planner_counters.blacklisted;
   j["holds"] = r.planner_counters.holds;
   j["escapes"] = r.planner_counters.escapes;
+  j["revisit_rounds"] = r.planner_counters.revisit_rounds;
   j["map_update_ms_median"] = r.map_update_ms_median;
   j["frame_wall_ms_median"] = r.frame_wall_ms_median;
   j["reintegrated_frames"] = r.reintegrated_frames;

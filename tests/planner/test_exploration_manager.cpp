@@ -68,6 +68,9 @@ TEST_CASE("ExplorationParams::validate names the field", "[planner][exploration]
   p = roomParams();
   p.box_W = Eigen::AlignedBox3d();
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("box_W"));
+  p = roomParams();
+  p.revisit_rounds = -1;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("revisit_rounds"));
   CHECK_THROWS_AS(ExplorationManager(roomParams(), at(Vec3d(9, 3, 1.5)), 0.0), std::invalid_argument);
 }
 
@@ -196,6 +199,7 @@ TEST_CASE("A frontier that cannot be reached is retried, blacklisted, and explor
   map.fill(CoordBBox(Coord(79, 20, 8), Coord(79, 40, 22)), Occupancy::Unknown);
   ExplorationParams p = roomParams();
   p.path.time_limit_s = 0.02;
+  p.revisit_rounds = GENERATE(0, 1, 2);
   const Vec3d start(1.5, 3, 1.5);
   ExplorationManager m(p, at(start), 0.0);
   double t = 0.0;
@@ -209,7 +213,9 @@ TEST_CASE("A frontier that cannot be reached is retried, blacklisted, and explor
     step = m.update(map, CoordBBox(), at(start), t);
     if (step.status == ExplorationStatus::Failed) CHECK(step.reason == ReplanReason::Retry);
   }
-  CHECK(failed == p.max_failures);  // one failure per target per replan, the last one blacklists
+  // One failure per target per replan, the last one blacklists; each revisit round gives one more try.
+  CHECK(failed == p.max_failures + p.revisit_rounds);
+  CHECK(m.counters().revisit_rounds == std::size_t(p.revisit_rounds));
   CHECK(step.status == ExplorationStatus::Finished);
   CHECK(m.counters().blacklisted == step.clusters);
   for (const FrontierCluster& c : m.frontiers().clusters()) CHECK(m.isBlacklisted(c));
@@ -236,9 +242,50 @@ TEST_CASE("A frontier that stays unobserved after visits is blacklisted, then ex
     ++visits;
   }
   CHECK(step.status == ExplorationStatus::Finished);
-  CHECK(visits >= int(clusters) * m.params().max_failures);
-  CHECK(m.counters().target_failures >= clusters * std::size_t(m.params().max_failures));
+  const int tries = m.params().max_failures + m.params().revisit_rounds;  // a revisit round: one more try
+  CHECK(m.counters().revisit_rounds == std::size_t(m.params().revisit_rounds));
+  CHECK(visits >= int(clusters) * tries);
+  CHECK(m.counters().target_failures >= clusters * std::size_t(tries));
   CHECK(m.counters().blacklisted == clusters);
+}
+
+TEST_CASE("A revisit round computes viewpoints again for clusters that had none", "[planner][exploration]") {
+  // The vehicle's room (x < 1 m) and a 0.2 m free slab at x = 3.8-3.9 m in front of unknown space,
+  // with an occupied block between them: the slab's frontier has no viewpoint (every candidate lies
+  // in the block or the unknown). Then the block turns free, reported dirty only where it stood:
+  // the frontier cluster is unchanged, and only a revisit round gives it viewpoints.
+  DenseMap map = halfKnownRoom();
+  map.fill(CoordBBox(Coord(10, 1, 1), Coord(37, 58, 28)), Occupancy::Occupied);
+  ExplorationParams p = roomParams();
+  p.revisit_rounds = GENERATE(1, 2);
+  const Vec3d start(0.5, 3, 1.5);
+  ExplorationManager m(p, at(start), 0.0);
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.clusters >= 1);
+  CHECK(step.targets == 0);
+  CHECK(step.status == ExplorationStatus::Finished);
+  CHECK(m.counters().revisit_rounds == 1);  // tried once, in vain: the block is still there
+  const std::vector<ClusterId> before = [&] {
+    std::vector<ClusterId> ids;
+    for (const FrontierCluster& c : m.frontiers().clusters()) ids.push_back(c.id);
+    return ids;
+  }();
+
+  const CoordBBox block(Coord(10, 1, 1), Coord(37, 58, 28));
+  map.fill(block, Occupancy::Free);
+  step = m.update(map, block, at(start), 0.1);
+  std::vector<ClusterId> after;
+  for (const FrontierCluster& c : m.frontiers().clusters()) after.push_back(c.id);
+  REQUIRE(after == before);  // the clusters themselves did not change
+  if (p.revisit_rounds == 1) {
+    CHECK(step.status == ExplorationStatus::Finished);  // their viewpoints are from before
+    CHECK(m.target() == 0);
+  } else {
+    CHECK(step.status == ExplorationStatus::Planned);
+    CHECK(m.target() != 0);
+    CHECK(m.counters().revisit_rounds == 2);
+    CHECK(trajectoryClear(m, map, p.path.clearance_m - 1e-9));
+  }
 }
 
 TEST_CASE("A start blocked by a wall within the clearance escapes straight away from it, then explores",

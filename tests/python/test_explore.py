@@ -202,6 +202,13 @@ def test_exploration_config_defaults_and_shortcuts(room):
     assert config.mapper.mode == vdbmap.ConsistencyMode.All and config.mapper.tsdf.voxel_size_m == 0.15
     config.planner.viewpoint.camera.max_range_m = 3.0
     assert config.planner.viewpoint.camera.max_range_m == 3.0
+    # The fallback viewpoint search is on by default and reachable as a nested struct.
+    fallback = config.planner.viewpoint.fallback
+    assert fallback.enabled is True and fallback.min_visible_fraction == 0.5
+    config.planner.viewpoint.fallback.enabled = False
+    assert config.planner.viewpoint.fallback.enabled is False
+    with pytest.raises(ValueError, match="ViewpointFallback.min_visible_fraction"):
+        vdbmap.planner.ViewpointFallback(min_visible_fraction=0.0).validate()
 
     for_world = sim.ExplorationConfig.for_world(room)
     lo, hi = for_world.box

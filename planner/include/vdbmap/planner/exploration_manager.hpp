@@ -23,7 +23,10 @@
 //     path or trajectory to it, or a visit (the trajectory to it ended) after which most of its
 //     frontier voxels are still frontier (it cannot be observed from there). Failures are kept per
 //     frontier voxel, because a cluster changes its id whenever its voxels change: a cluster counts
-//     the median failure count of its voxels, and is blacklisted at max_failures;
+//     the median failure count of its voxels, and is blacklisted at max_failures. When no target
+//     is left but clusters are (blacklisted, or without a viewpoint), every blacklisted cluster
+//     gets one more try and every cluster's viewpoints are computed again in the map as it is now
+//     (revisit_rounds);
 //  5. with active loop closure on (alc_enabled; active_loop_closure.hpp), every global replan also
 //     asks ActiveLoopClosure::decide, with the frontier tour's matrix, whether to fly first to a
 //     nearby loop-closing cluster of old viewpoints; on such a detour, local refinement picks
@@ -113,6 +116,13 @@ struct ExplorationParams {
   /// Failures of a target (failed path or trajectory, or a visit that did not observe it) before
   /// it is blacklisted; [1, 100]
   int max_failures = 3;
+  /// Times per run that, when no target is left but frontier clusters are (blacklisted, or with
+  /// no viewpoint when they were last computed), every blacklisted cluster gets one more try
+  /// (its failures drop to max_failures - 1) and every cluster's viewpoints are computed again
+  /// in the current map: a cluster that failed or had no viewpoint
+  /// early, in a half-known map, is often observable from the viewpoints the finished map
+  /// allows. 0: exploration finishes at the first time no target is left; [0, 100]
+  int revisit_rounds = 1;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
 
@@ -175,6 +185,7 @@ struct ExplorationCounters {
   std::size_t blacklisted = 0;      ///< clusters skipped as blacklisted at the last replan
   std::size_t holds = 0;            ///< times the vehicle was stopped by a hold
   std::size_t escapes = 0;          ///< straight moves out of a start blocked by occupied voxels
+  std::size_t revisit_rounds = 0;   ///< ExplorationParams::revisit_rounds done
 };
 
 class ExplorationManager {
