@@ -31,6 +31,7 @@ struct ExploreOptions {
   std::string alc = "off";
   double epsilon = planner::AlcParams{}.epsilon;
   int min_cluster_size = planner::FrontierParams{}.min_cluster_size;
+  int revisit_rounds = planner::ExplorationParams{}.revisit_rounds;
   bool no_initial_turn = false;
   bool overwrite = false;
 };
@@ -72,6 +73,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.alc_enabled = o.alc == "on";
   config.planner.alc.epsilon = o.epsilon;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
+  config.planner.revisit_rounds = o.revisit_rounds;
   if (!o.box.empty())
     config.planner.box_W = Eigen::AlignedBox3d(Vec3d(o.box[0], o.box[1], o.box[2]), Vec3d(o.box[3], o.box[4], o.box[5]));
   config.start.p_W = o.start.empty() ? sim::defaultStartPosition(world, config.planner.box_W)
@@ -80,7 +82,8 @@ void runExplore(const ExploreOptions& o) {
 
   std::string description = "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " +
                             std::to_string(o.seed) + " --mode " + o.mode + " --min-cluster-size " +
-                            std::to_string(o.min_cluster_size) + " --alc " + o.alc +
+                            std::to_string(o.min_cluster_size) + " --revisit-rounds " +
+                            std::to_string(o.revisit_rounds) + " --alc " + o.alc +
                             (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -144,6 +147,10 @@ const Registration registration("explore", [](CLI::App& app) {
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
                   "small unknown pockets of cluttered places (e.g. 30 for shelving)")
       ->check(CLI::Range(1, 100000000));
+  sub->add_option("--revisit-rounds", o->revisit_rounds,
+                  "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
+                  "more try each, with viewpoints computed in the map as it is then")
+      ->check(CLI::Range(0, 100));
   sub->add_flag("--no-initial-turn", o->no_initial_turn, "Skip the turn on the spot at take-off");
   sub->add_flag("--overwrite", o->overwrite, "Replace a run already in RUNDIR");
   sub->add_option("-o,--output", o->output, "Run folder to write")->required();

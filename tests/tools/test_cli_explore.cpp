@@ -72,6 +72,8 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(slurp(out).find("already holds") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --drift s7 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --min-cluster-size 0 -o " + (dir / "x").string(), out) != 0);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --revisit-rounds -1 -o " + (dir / "x").string(), out) != 0);
+  CHECK(slurp(out).find("--revisit-rounds") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --alc maybe -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --epsilon -1 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 2.0,1.0 -o " + (dir / "x").string(), out) != 0);

@@ -121,8 +121,9 @@ struct ExplorationParams {
   /// (its failures drop to max_failures - 1) and every cluster's viewpoints are computed again
   /// in the current map: a cluster that failed or had no viewpoint
   /// early, in a half-known map, is often observable from the viewpoints the finished map
-  /// allows. 0: exploration finishes at the first time no target is left; [0, 100]
-  int revisit_rounds = 1;
+  /// allows. Off by default: in the warehouse one round added 30 % flight time for 0.2 % of
+  /// coverage. 0: exploration finishes the first time no target is left; [0, 100]
+  int revisit_rounds = 0;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
 
