@@ -2,30 +2,94 @@
 
 #include "vdbmap/tsdf_volume.hpp"
 
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
 namespace vdbmap::planner {
 
 namespace {
-/// Decodes W and WD exactly as TsdfVolume::sample() does (same float rounding of the tsdf), so the
-/// planner and the map never disagree on a voxel.
+/// Decodes W and WD exactly as TsdfVolume::sample() does (same float rounding of the tsdf), so
+/// that, without thin obstacles, the planner and the map never disagree on a voxel.
 class TsdfReader : public MapReader {
  public:
-  TsdfReader(openvdb::Int64Grid::ConstPtr w, openvdb::Int64Grid::ConstPtr wd, const TsdfConfig& c)
+  TsdfReader(openvdb::Int64Grid::ConstPtr w, openvdb::Int64Grid::ConstPtr wd, const TsdfConfig& c,
+             const TsdfMapQueryParams& p)
       : w_grid_(std::move(w)),
         wd_grid_(std::move(wd)),
         w_acc_(w_grid_->getConstAccessor()),
         wd_acc_(wd_grid_->getConstAccessor()),
         min_w_(c.min_weight * double(kWeightScale)),
         truncation_m_(c.truncation_m()),
-        occupied_below_m_(c.occupancy_threshold_vox * c.voxel_size_m) {}
+        occupied_below_m_(c.occupancy_threshold_vox * c.voxel_size_m),
+        thin_(p.thin_obstacles),
+        thin_below_m_(float(p.thin_below_vox * c.voxel_size_m)),
+        thin_margin_m_(float(p.thin_margin_vox * c.voxel_size_m)) {}
 
   Occupancy at(const openvdb::Coord& ijk) override {
-    const std::int64_t w = w_acc_.getValue(ijk);
-    if (!known(w)) return Occupancy::Unknown;
-    return decode(w, wd_acc_.getValue(ijk));
+    const float t = tsdfAt(ijk);
+    if (std::isnan(t)) return Occupancy::Unknown;
+    if (t < occupied_below_m_) return Occupancy::Occupied;
+    if (mayBeThin(t) && isValley(t, [&](const openvdb::Coord& d) { return tsdfAt(ijk + d); }))
+      return Occupancy::Occupied;
+    return Occupancy::Free;
   }
 
-  /// Leaf by leaf: one tree descent per 8^3 block instead of one per voxel.
+  /// Leaf by leaf: one tree descent per 8^3 block instead of one per voxel. With thin obstacles the
+  /// block is read one voxel wider, for the valley test's neighbours.
   void readBox(const openvdb::CoordBBox& box, Occupancy* out) override {
+    const openvdb::CoordBBox wide = thin_ ? box.expandBy(1) : box;
+    tsdf_.resize(std::size_t(wide.volume()));
+    readTsdf(wide, tsdf_.data());
+    const openvdb::Coord dim = wide.dim();
+    const std::ptrdiff_t sx = std::ptrdiff_t(dim.y()) * dim.z(), sy = dim.z();
+    std::size_t i = 0;
+    for (int x = box.min().x(); x <= box.max().x(); ++x)
+      for (int y = box.min().y(); y <= box.max().y(); ++y)
+        for (int z = box.min().z(); z <= box.max().z(); ++z, ++i) {
+          const std::ptrdiff_t k =
+              std::ptrdiff_t(x - wide.min().x()) * sx + std::ptrdiff_t(y - wide.min().y()) * sy + (z - wide.min().z());
+          const float t = tsdf_[std::size_t(k)];
+          if (std::isnan(t)) {
+            out[i] = Occupancy::Unknown;
+          } else if (t < occupied_below_m_) {
+            out[i] = Occupancy::Occupied;
+          } else if (mayBeThin(t) && isValley(t, [&](const openvdb::Coord& d) {
+                       return tsdf_[std::size_t(k + d.x() * sx + d.y() * sy + d.z())];
+                     })) {
+            out[i] = Occupancy::Occupied;
+          } else {
+            out[i] = Occupancy::Free;
+          }
+        }
+  }
+
+ private:
+  bool known(std::int64_t w) const { return w > 0 && double(w) > min_w_; }
+  /// The voxel's tsdf in metres, NaN when unknown.
+  float tsdfOf(std::int64_t w, std::int64_t wd) const {
+    if (!known(w)) return std::numeric_limits<float>::quiet_NaN();
+    return float(double(wd) / double(w) / double(kSdfScale) * truncation_m_);
+  }
+  float tsdfAt(const openvdb::Coord& ijk) { return tsdfOf(w_acc_.getValue(ijk), wd_acc_.getValue(ijk)); }
+
+  bool mayBeThin(float t) const { return thin_ && t < thin_below_m_; }
+  /// Lower by the margin than both neighbours along x, y or z (unknown neighbours are not higher).
+  template <typename Neighbour>
+  bool isValley(float t, Neighbour&& tsdf_at) const {
+    const float need = t + thin_margin_m_;
+    for (int axis = 0; axis < 3; ++axis) {
+      openvdb::Coord d(0, 0, 0);
+      d[axis] = 1;
+      const float lo = tsdf_at(-d), hi = tsdf_at(d);
+      if (lo >= need && hi >= need) return true;  // false for NaN
+    }
+    return false;
+  }
+
+  /// The tsdf of every voxel of `box` (NaN when unknown), x-major as readBox's output.
+  void readTsdf(const openvdb::CoordBBox& box, float* out) {
     using LeafT = openvdb::Int64Tree::LeafNodeType;
     const openvdb::Coord dim = box.dim();
     auto index = [&](int x, int y, int z) {
@@ -49,18 +113,9 @@ class TsdfReader : public MapReader {
             for (int y = part.min().y(); y <= part.max().y(); ++y)
               for (int z = part.min().z(); z <= part.max().z(); ++z) {
                 const openvdb::Coord c(x, y, z);
-                const std::int64_t w = w_leaf ? w_leaf->getValue(c) : w_tile;
-                out[index(x, y, z)] =
-                    known(w) ? decode(w, wd_leaf ? wd_leaf->getValue(c) : wd_tile) : Occupancy::Unknown;
+                out[index(x, y, z)] = tsdfOf(w_leaf ? w_leaf->getValue(c) : w_tile, wd_leaf ? wd_leaf->getValue(c) : wd_tile);
               }
         }
-  }
-
- private:
-  bool known(std::int64_t w) const { return w > 0 && double(w) > min_w_; }
-  Occupancy decode(std::int64_t w, std::int64_t wd) const {
-    const float tsdf_m = float(double(wd) / double(w) / double(kSdfScale) * truncation_m_);
-    return tsdf_m < occupied_below_m_ ? Occupancy::Occupied : Occupancy::Free;
   }
 
   openvdb::Int64Grid::ConstPtr w_grid_;
@@ -70,17 +125,32 @@ class TsdfReader : public MapReader {
   double min_w_;
   double truncation_m_;
   double occupied_below_m_;
+  bool thin_;
+  float thin_below_m_;
+  float thin_margin_m_;
+  std::vector<float> tsdf_;  ///< readBox's scratch
 };
 }  // namespace
 
-TsdfMapQuery::TsdfMapQuery(const TsdfVolume& volume) : volume_(&volume) {}
+void TsdfMapQueryParams::validate() const {
+  if (!(thin_below_vox > 0.0 && thin_below_vox <= 100.0))
+    throw std::invalid_argument("TsdfMapQueryParams.thin_below_vox must be in (0, 100]");
+  if (!(thin_margin_vox > 0.0 && thin_margin_vox <= 100.0))
+    throw std::invalid_argument("TsdfMapQueryParams.thin_margin_vox must be in (0, 100]");
+}
+
+TsdfMapQuery::TsdfMapQuery(const TsdfVolume& volume, const TsdfMapQueryParams& params)
+    : volume_(&volume), params_(params) {
+  params_.validate();
+}
 
 double TsdfMapQuery::voxelSize() const { return volume_->config().voxel_size_m; }
 
 openvdb::CoordBBox TsdfMapQuery::knownBounds() const { return volume_->activeBoundingBox(); }
 
 std::unique_ptr<MapReader> TsdfMapQuery::reader() const {
-  return std::make_unique<TsdfReader>(volume_->weightSumGrid(), volume_->weightedSdfSumGrid(), volume_->config());
+  return std::make_unique<TsdfReader>(volume_->weightSumGrid(), volume_->weightedSdfSumGrid(), volume_->config(),
+                                      params_);
 }
 
 }  // namespace vdbmap::planner

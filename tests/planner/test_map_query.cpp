@@ -6,10 +6,14 @@
 #include "vdbmap/planner/dense_map.hpp"
 #include "vdbmap/planner/map_query.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
+#include "vdbmap/camera.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 
 using namespace vdbmap;
@@ -153,7 +157,7 @@ TEST_CASE("AssumeFreeMap reads unknown voxels in its boxes as free and keeps occ
   CHECK(assumed.isClear(Vec3d(0.0, 0.0, 0.15), 0.05));
 }
 
-TEST_CASE("TsdfMapQuery agrees with TsdfVolume::state on every voxel of an integrated map", "[planner][map]") {
+TEST_CASE("TsdfMapQuery without thin obstacles agrees with TsdfVolume::state on every voxel", "[planner][map]") {
   TsdfConfig config;
   config.voxel_size_m = 0.1;
   TsdfVolume volume(config);
@@ -166,7 +170,9 @@ TEST_CASE("TsdfMapQuery agrees with TsdfVolume::state on every voxel of an integ
   T.translation() = Vec3d(0.3, 0.1, -0.2);
   volume.integrate(2, wall_S, T);
 
-  const TsdfMapQuery query(volume);
+  TsdfMapQueryParams exact;
+  exact.thin_obstacles = false;
+  const TsdfMapQuery query(volume, exact);
   CHECK(query.voxelSize() == 0.1);
   CHECK(query.knownBounds() == volume.activeBoundingBox());
   auto reader = query.reader();
@@ -198,4 +204,110 @@ TEST_CASE("TsdfMapQuery agrees with TsdfVolume::state on every voxel of an integ
   CHECK(counts[int(Occupancy::Free)] > 1000);
   CHECK(counts[int(Occupancy::Occupied)] > 100);
   CHECK(counts[int(Occupancy::Unknown)] > 100);
+}
+
+namespace {
+/// Depth images of a 4 cm square post (axis at post_xy, z in [-1.5, 1.5] m) inside a 6 x 6 x 3 m
+/// room centred on the origin, from 12 cameras on a 2 m circle around it looking at its axis,
+/// integrated at 0.1 m: every voxel around the post is also crossed by rays that pass beside it.
+/// Without the post (post = false) only the room is seen.
+TsdfVolume postScene(bool post, const Eigen::Vector2d& post_xy) {
+  TsdfConfig config;
+  config.voxel_size_m = 0.1;
+  TsdfVolume volume(config);
+  CameraIntrinsics K;
+  K.width = 320, K.height = 240, K.fx = K.fy = 193.6, K.cx = 160.0, K.cy = 120.0;
+  const Vec3d lo(post_xy.x() - 0.02, post_xy.y() - 0.02, -1.5), hi(post_xy.x() + 0.02, post_xy.y() + 0.02, 1.5);
+  const Vec3d room(3.0, 3.0, 1.5);  // half sizes
+  for (int k = 0; k < 12; ++k) {
+    const double th = 2.0 * M_PI * k / 12.0;
+    const Vec3d o(post_xy.x() + 2.0 * std::cos(th), post_xy.y() + 2.0 * std::sin(th), 0.0);
+    const Vec3d forward(-std::cos(th), -std::sin(th), 0.0), down(0, 0, -1);
+    Pose3d T = Pose3d::Identity();
+    T.linear().col(0) = down.cross(forward);  // camera x: right
+    T.linear().col(1) = down;
+    T.linear().col(2) = forward;
+    T.translation() = o;
+    DepthImage depth(K.width, K.height);
+    for (int v = 0; v < K.height; ++v)
+      for (int u = 0; u < K.width; ++u) {
+        const Vec3d d = T.linear() * Vec3d((u + 0.5 - K.cx) / K.fx, (v + 0.5 - K.cy) / K.fy, 1.0);  // depth 1 per unit
+        double t = std::numeric_limits<double>::infinity();  // the room's walls, floor and ceiling
+        for (int a = 0; a < 3; ++a)
+          if (std::abs(d[a]) > 1e-12) t = std::min(t, ((d[a] > 0 ? room[a] : -room[a]) - o[a]) / d[a]);
+        if (post) {  // slab test against the post's box
+          double t0 = 0.0, t1 = t;
+          for (int a = 0; a < 3; ++a) {
+            if (std::abs(d[a]) < 1e-12) {
+              if (o[a] < lo[a] || o[a] > hi[a]) t0 = t1 + 1.0;
+              continue;
+            }
+            double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+          }
+          if (t0 <= t1) t = t0;
+        }
+        depth.at(u, v) = float(t);
+      }
+    volume.integrate(FrameId(k + 1), depth, K, T);
+  }
+  return volume;
+}
+
+/// Whether a reader sees an occupied voxel among the 3 x 3 voxels around (x, y) at height z.
+bool occupiedNear(MapReader& reader, const MapQuery& map, const Vec3d& p) {
+  const Coord c = map.worldToVoxel(p);
+  for (int dx = -1; dx <= 1; ++dx)
+    for (int dy = -1; dy <= 1; ++dy)
+      if (reader.at(c.offsetBy(dx, dy, 0)) == Occupancy::Occupied) return true;
+  return false;
+}
+}  // namespace
+
+TEST_CASE("TsdfMapQuery reads a post thinner than a voxel as an obstacle; walls stay as the map has them",
+          "[planner][map]") {
+  const Eigen::Vector2d post_xy(0.03, 0.03);  // off the voxel centres
+  TsdfMapQueryParams exact_params;
+  exact_params.thin_obstacles = false;
+  {
+    const TsdfVolume volume = postScene(true, post_xy);
+    const TsdfMapQuery thin(volume), exact(volume, exact_params);
+    auto thin_reader = thin.reader();
+    auto exact_reader = exact.reader();
+    int exact_misses = 0;
+    for (double z = -0.4; z <= 0.4 + 1e-9; z += 0.1) {
+      const Vec3d p(post_xy.x(), post_xy.y(), z);
+      CHECK(occupiedNear(*thin_reader, thin, p));
+      exact_misses += occupiedNear(*exact_reader, exact, p) ? 0 : 1;
+    }
+    // The reason for the rule: the map's own states lose the post at most heights.
+    CHECK(exact_misses >= 5);
+    // readBox reads what at() reads, valleys included.
+    const CoordBBox box(Coord(-8, -8, -5), Coord(8, 8, 5));
+    std::vector<Occupancy> block(box.volume());
+    thin_reader->readBox(box, block.data());
+    std::size_t i = 0, valleys = 0;
+    for (auto it = box.begin(); it; ++it, ++i) {
+      REQUIRE(block[i] == thin_reader->at(*it));
+      valleys += block[i] != exact_reader->at(*it);
+    }
+    CHECK(valleys > 0);
+  }
+  {
+    // Only the wall: no voxel reads differently.
+    const TsdfVolume volume = postScene(false, post_xy);
+    const TsdfMapQuery thin(volume), exact(volume, exact_params);
+    auto thin_reader = thin.reader();
+    auto exact_reader = exact.reader();
+    std::size_t occupied = 0;
+    for (auto it = volume.activeBoundingBox().begin(); it; ++it) {
+      REQUIRE(thin_reader->at(*it) == exact_reader->at(*it));
+      occupied += exact_reader->at(*it) == Occupancy::Occupied;
+    }
+    CHECK(occupied > 100);
+  }
+  TsdfMapQueryParams bad;
+  bad.thin_margin_vox = 0.0;
+  CHECK_THROWS_WITH(bad.validate(), Catch::Contains("thin_margin_vox"));
 }

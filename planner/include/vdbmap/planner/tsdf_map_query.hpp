@@ -3,6 +3,15 @@
 // (docs/conventions.md): known when W > tau_w, occupied when known and tsdf below the occupancy
 // threshold, else free.
 //
+// Thin structure (TsdfMapQueryParams::thin_obstacles, on by default): a post or a board edge
+// narrower than a voxel is often missing from those states. Rays passing beside it carve its
+// voxel, whose mean tsdf stays positive (a 4 cm shelf post in 0.1 m voxels reads 0.09-0.17 m,
+// free), and the vehicle flies into it. What is left of it is a valley of the tsdf: a known voxel
+// whose tsdf is small and lower, by a margin, than both of its neighbours along some axis. Near a
+// wall the tsdf falls toward the wall and is flat along it, so walls make no valleys. With the
+// option on, such voxels read occupied: the planner keeps its clearance from them. The map's own
+// states (TsdfVolume::sample) are unchanged.
+//
 // Lifetime and threads: the adapter refers to the volume; it must not outlive it, and the volume
 // must not change while planner threads read it (run the planner between integration cycles).
 // Readers hold the grids they were created on, so a reader outlives a map that is replaced.
@@ -16,9 +25,21 @@ class TsdfVolume;
 
 namespace vdbmap::planner {
 
+struct TsdfMapQueryParams {
+  /// Read tsdf valleys (thin structure) as occupied.
+  bool thin_obstacles = true;
+  /// A valley's tsdf is below this many voxels; (0, 100]
+  double thin_below_vox = 1.5;
+  /// Both neighbours along the valley's axis are known and at least this many voxels higher; (0, 100]
+  double thin_margin_vox = 0.5;
+
+  /// Throws std::invalid_argument naming the field and its allowed range.
+  void validate() const;
+};
+
 class TsdfMapQuery : public MapQuery {
  public:
-  explicit TsdfMapQuery(const TsdfVolume& volume);
+  explicit TsdfMapQuery(const TsdfVolume& volume, const TsdfMapQueryParams& params = {});
 
   double voxelSize() const override;
   /// The box around every voxel with any weight (a superset of the known voxels).
@@ -27,6 +48,7 @@ class TsdfMapQuery : public MapQuery {
 
  private:
   const TsdfVolume* volume_;
+  TsdfMapQueryParams params_;
 };
 
 }  // namespace vdbmap::planner
