@@ -145,7 +145,7 @@ const Registration registration("explore", [](CLI::App& app) {
       ->check(CLI::Range(0.0, 100.0));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
-                  "small unknown pockets of cluttered places (e.g. 30 for shelving)")
+                  "small unknown pockets of cluttered places (e.g. 50 for shelving)")
       ->check(CLI::Range(1, 100000000));
   sub->add_option("--revisit-rounds", o->revisit_rounds,
                   "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
