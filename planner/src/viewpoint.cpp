@@ -144,13 +144,14 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
   std::vector<Viewpoint> viewpoints;
   if (cluster.samples.empty()) return viewpoints;
   MapProbe probe(map);
-  searchRings(cluster, probe,  params,
+  searchRings(cluster, probe, params,
               {params.ring_radius_min_m, params.ring_radius_max_m, params.ring_count, params.height_offsets_m,
                params.min_clearance_m, params.min_visible_samples},
               viewpoints);
   const ViewpointFallback& fb = params.fallback;
   if (viewpoints.empty() && fb.enabled) {
-    // Seeing more than `fraction` of the samples, rounded up, minus one: at least one sample.
+    // A candidate passes (seen > threshold) with ceil(fraction x samples) samples, or with more
+    // than min_visible_samples, and never with none.
     const int fraction_of_samples = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size()))) - 1;
     const int threshold = std::max(0, std::min(params.min_visible_samples, fraction_of_samples));
     searchRings(cluster, probe, params,
