@@ -1,5 +1,7 @@
 #include "vdbmap/sim/exploration.hpp"
 
+#include "vdbmap/sim/collision_events.hpp"
+
 #include "vdbmap/eval.hpp"
 #include "vdbmap/io/atomic_file.hpp"
 #include "vdbmap/io/mesh_io.hpp"
@@ -63,7 +65,7 @@ namespace {
 class Vehicle {
  public:
   Vehicle(const World& world, const Simulator& sim, const planner::ExplorationManager& manager, double radius_m)
-      : world_(world), sim_(sim), manager_(manager), radius_(radius_m), last_(sim.bodyTrue()) {}
+      : world_(world), sim_(sim), manager_(manager), radius_(radius_m), last_(sim.bodyTrue()), events_(radius_m) {}
 
   /// The true pose at t: the commanded pose (estimate frame) through the offset of the last step.
   FlatPose truthAt(double t) {
@@ -77,27 +79,19 @@ class Vehicle {
     return truth;
   }
 
-  std::size_t collisions() const { return collisions_; }
-  double minClearance() const { return min_clearance_; }
+  std::size_t collisions() const { return events_.count(); }
+  double minClearance() const { return events_.minClearance(); }
   double pathLength() const { return path_length_m_; }
 
  private:
-  void checkCollision(const Vec3d& p_W) {
-    const double d = world_.distance(p_W, 2.0 * radius_);
-    min_clearance_ = std::min(min_clearance_, d);
-    const bool colliding = d < radius_;
-    if (colliding && !colliding_) ++collisions_;
-    colliding_ = colliding;
-  }
+  void checkCollision(const Vec3d& p_W) { events_.add(world_.distance(p_W, 2.0 * radius_)); }
 
   const World& world_;
   const Simulator& sim_;
   const planner::ExplorationManager& manager_;
   double radius_;
   FlatPose last_;
-  bool colliding_ = false;
-  std::size_t collisions_ = 0;
-  double min_clearance_ = std::numeric_limits<double>::infinity();
+  CollisionEvents events_;
   double path_length_m_ = 0.0;
 };
 
