@@ -51,11 +51,8 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
       "Active loop closure: explore the world with and without ALC for seeds 1..N (same drift and start per seed), "
       "evaluate each run; writes OUTDIR/alc.json, OUTDIR/alc.md and OUTDIR/runs/<arm>_seed<k>/summary.json");
   sub->option_defaults()->always_capture_default();
-  sub->add_option("--world", o->world, "World mesh (PLY, OBJ, OFF), metres, z up")
-      ->required()
-      ->check(CLI::ExistingFile);
-  sub->add_option("--drift", o->drift, "Odometry drift level of the paper's Table I")
-      ->check(CLI::IsMember({"s1", "s2", "s3", "s4"}));
+  addWorldOption(*sub, o->world);
+  addDriftOption(*sub, o->drift);
   sub->add_option("--seeds", o->seeds, "Runs per arm, with seeds 1..N")->check(CLI::Range(1, 1000));
   sub->add_option("--voxel-size", o->voxel_size_m, "Voxel edge in metres")->check(CLI::Range(0.02, 1.0));
   sub->add_option("--max-time-s", o->max_time_s, "Simulated time limit per run in seconds")

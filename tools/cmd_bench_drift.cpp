@@ -15,7 +15,7 @@ namespace {
 
 struct BenchDriftOptions {
   std::filesystem::path world, trajectory, output;
-  std::vector<std::string> levels = {"s1", "s2", "s3", "s4"};
+  std::vector<std::string> levels = driftLevels();
   std::vector<std::string> modes = {"none", "submap", "all", "keyframes"};
   std::uint64_t seed = 1;
   double voxel_size_m = 0.1;
@@ -49,12 +49,10 @@ const GroupRegistration registration("bench", "drift", [](CLI::App& bench) {
       "Table II: simulate each drift level once, replay it in every consistency mode, evaluate each map "
       "against the world mesh; writes OUTDIR/table.json and OUTDIR/table.md");
   sub->option_defaults()->always_capture_default();
-  sub->add_option("--world", o->world, "World mesh (PLY, OBJ, OFF), metres, z up")
-      ->required()
-      ->check(CLI::ExistingFile);
+  addWorldOption(*sub, o->world);
   sub->add_option("--levels", o->levels, "Drift levels (comma-separated)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"s1", "s2", "s3", "s4"}));
+      ->check(CLI::IsMember(driftLevels()));
   sub->add_option("--modes", o->modes, "Consistency modes (comma-separated)")
       ->delimiter(',')
       ->check(CLI::IsMember({"none", "submap", "all", "keyframes"}));

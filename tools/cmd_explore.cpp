@@ -115,11 +115,8 @@ const Registration registration("explore", [](CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "explore", "Explore a world with the simulated vehicle, the mapper and the exploration planner in closed loop");
   sub->option_defaults()->always_capture_default();
-  sub->add_option("--world", o->world, "World mesh (PLY, OBJ, OFF), metres, z up")
-      ->required()
-      ->check(CLI::ExistingFile);
-  sub->add_option("--drift", o->drift, "Odometry drift level of the paper's Table I")
-      ->check(CLI::IsMember({"s1", "s2", "s3", "s4"}));
+  addWorldOption(*sub, o->world);
+  addDriftOption(*sub, o->drift);
   sub->add_option("--seed", o->seed, "Seed of the drift, the loop-edge noise and the planner's sampling");
   sub->add_option("--voxel-size", o->voxel_size_m, "Voxel edge in metres")->check(CLI::Range(0.02, 1.0));
   sub->add_option("--max-time-s", o->max_time_s, "Simulated time limit in seconds")->check(CLI::Range(1.0, 1e5));

@@ -70,11 +70,8 @@ const Registration registration("simulate", [](CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "simulate", "Fly the simulated vehicle through a world with odometry drift and loop closure, and record a log");
   sub->option_defaults()->always_capture_default();
-  sub->add_option("--world", o->world, "World mesh (PLY, OBJ, OFF), metres, z up")
-      ->required()
-      ->check(CLI::ExistingFile);
-  sub->add_option("--drift", o->drift, "Odometry drift level of the paper's Table I")
-      ->check(CLI::IsMember({"s1", "s2", "s3", "s4"}));
+  addWorldOption(*sub, o->world);
+  addDriftOption(*sub, o->drift);
   sub->add_option("--seed", o->seed, "Seed of the drift, the loop-edge noise and the depth noise");
   sub->add_option("--trajectory", o->trajectory,
                   "Waypoint file ('x y z [yaw]' per line); default: the world's coverage pattern")

@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
@@ -29,5 +30,24 @@ struct GroupRegistration {
 
 /// The members of a group, sorted by name; the group's setup adds them.
 std::vector<std::pair<std::string, CommandSetup>> registeredCommands(const std::string& group);
+
+/// The paper's odometry drift levels (Table I), as the simulator's commands spell them.
+inline const std::vector<std::string>& driftLevels() {
+  static const std::vector<std::string> levels{"s1", "s2", "s3", "s4"};
+  return levels;
+}
+
+/// `--world`, the world mesh the simulator's commands fly through (required, an existing file).
+inline CLI::Option* addWorldOption(CLI::App& sub, std::filesystem::path& world) {
+  return sub.add_option("--world", world, "World mesh (PLY, OBJ, OFF), metres, z up")
+      ->required()
+      ->check(CLI::ExistingFile);
+}
+
+/// `--drift`, one of driftLevels().
+inline CLI::Option* addDriftOption(CLI::App& sub, std::string& drift) {
+  return sub.add_option("--drift", drift, "Odometry drift level of the paper's Table I")
+      ->check(CLI::IsMember(driftLevels()));
+}
 
 }  // namespace vdbmap::cli
