@@ -169,9 +169,13 @@ void ExplorationManager::refreshFrontiers(const MapQuery& map, const openvdb::Co
   std::vector<const FrontierCluster*> fresh;
   for (ClusterId id : u.added)
     if (const FrontierCluster* c = frontiers_.find(id)) fresh.push_back(c);
-  if (fresh.empty()) return;
-  std::vector<std::vector<Viewpoint>> fresh_views = computeViewpoints(fresh, map, params_.viewpoint);
-  for (std::size_t i = 0; i < fresh.size(); ++i) views_[fresh[i]->id] = std::move(fresh_views[i]);
+  computeViews(fresh, map);
+}
+
+void ExplorationManager::computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map) {
+  if (clusters.empty()) return;
+  std::vector<std::vector<Viewpoint>> views = computeViewpoints(clusters, map, params_.viewpoint);
+  for (std::size_t i = 0; i < clusters.size(); ++i) views_[clusters[i]->id] = std::move(views[i]);
 }
 
 int ExplorationManager::failures(const FrontierCluster& cluster) const {
@@ -214,8 +218,7 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
     targets.push_back({c.id, &it->second});
   }
   if (stale.empty()) return targets;
-  std::vector<std::vector<Viewpoint>> fresh = computeViewpoints(stale, map, params_.viewpoint);
-  for (std::size_t i = 0; i < stale.size(); ++i) views_[stale[i]->id] = std::move(fresh[i]);
+  computeViews(stale, map);
   targets.erase(std::remove_if(targets.begin(), targets.end(), [](const Target& t) { return t.views->empty(); }),
                 targets.end());
   return targets;
@@ -349,8 +352,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     for (auto& [voxel, count] : voxel_failures_) count = std::min(count, params_.max_failures - 1);
     std::vector<const FrontierCluster*> all;
     for (const FrontierCluster& c : frontiers_.clusters()) all.push_back(&c);
-    std::vector<std::vector<Viewpoint>> fresh = computeViewpoints(all, map, params_.viewpoint);
-    for (std::size_t i = 0; i < all.size(); ++i) views_[all[i]->id] = std::move(fresh[i]);
+    computeViews(all, map);
     targets = liveTargets(map);
   }
   step.targets = targets.size();

@@ -28,12 +28,7 @@ class TsdfReader : public MapReader {
         thin_margin_m_(float(p.thin_margin_vox * c.voxel_size_m)) {}
 
   Occupancy at(const openvdb::Coord& ijk) override {
-    const float t = tsdfAt(ijk);
-    if (std::isnan(t)) return Occupancy::Unknown;
-    if (t < occupied_below_m_) return Occupancy::Occupied;
-    if (mayBeThin(t) && isValley(t, [&](const openvdb::Coord& d) { return tsdfAt(ijk + d); }))
-      return Occupancy::Occupied;
-    return Occupancy::Free;
+    return classify(tsdfAt(ijk), [&](const openvdb::Coord& d) { return tsdfAt(ijk + d); });
   }
 
   /// Leaf by leaf: one tree descent per 8^3 block instead of one per voxel. With thin obstacles the
@@ -50,18 +45,9 @@ class TsdfReader : public MapReader {
         for (int z = box.min().z(); z <= box.max().z(); ++z, ++i) {
           const std::ptrdiff_t k =
               std::ptrdiff_t(x - wide.min().x()) * sx + std::ptrdiff_t(y - wide.min().y()) * sy + (z - wide.min().z());
-          const float t = tsdf_[std::size_t(k)];
-          if (std::isnan(t)) {
-            out[i] = Occupancy::Unknown;
-          } else if (t < occupied_below_m_) {
-            out[i] = Occupancy::Occupied;
-          } else if (mayBeThin(t) && isValley(t, [&](const openvdb::Coord& d) {
-                       return tsdf_[std::size_t(k + d.x() * sx + d.y() * sy + d.z())];
-                     })) {
-            out[i] = Occupancy::Occupied;
-          } else {
-            out[i] = Occupancy::Free;
-          }
+          out[i] = classify(tsdf_[std::size_t(k)], [&](const openvdb::Coord& d) {
+            return tsdf_[std::size_t(k + d.x() * sx + d.y() * sy + d.z())];
+          });
         }
   }
 
@@ -74,7 +60,16 @@ class TsdfReader : public MapReader {
   }
   float tsdfAt(const openvdb::Coord& ijk) { return tsdfOf(w_acc_.getValue(ijk), wd_acc_.getValue(ijk)); }
 
-  bool mayBeThin(float t) const { return thin_ && t < thin_below_m_; }
+  /// The map's rule (unknown, occupied below the threshold, free), plus tsdf valleys as occupied.
+  /// `tsdf_at(d)` gives the tsdf of the neighbour at offset d (NaN when unknown).
+  template <typename Neighbour>
+  Occupancy classify(float t, Neighbour&& tsdf_at) const {
+    if (std::isnan(t)) return Occupancy::Unknown;
+    if (t < occupied_below_m_) return Occupancy::Occupied;
+    if (thin_ && t < thin_below_m_ && isValley(t, tsdf_at)) return Occupancy::Occupied;
+    return Occupancy::Free;
+  }
+
   /// Lower by the margin than both neighbours along x, y or z (unknown neighbours are not higher).
   template <typename Neighbour>
   bool isValley(float t, Neighbour&& tsdf_at) const {

@@ -26,6 +26,16 @@ DenseMap halfKnownRoom() {
   map.fill(CoordBBox(Coord(20, 25, 1), Coord(23, 28, 28)), Occupancy::Occupied);  // pillar
   return map;
 }
+
+/// The cluster samples a camera at the viewpoint sees, recounted with the brute-force ray test.
+int bruteSeen(const DenseMap& map, const FrontierCluster& cluster, const CameraFrustum& camera, const Viewpoint& v) {
+  int seen = 0;
+  for (const Coord& s : cluster.samples) {
+    const Vec3d p = map.voxelCenter(s);
+    seen += camera.contains(v.position_W, v.yaw_rad, p) && test::bruteVisible(map, p, v.position_W);
+  }
+  return seen;
+}
 }  // namespace
 
 TEST_CASE("CameraFrustum::contains follows the pinhole frustum, range and yaw", "[planner][viewpoint]") {
@@ -75,11 +85,7 @@ TEST_CASE("Every viewpoint is clear, sees its cluster, and looks at it", "[plann
       // Clear: every voxel centre within the clearance is free (brute force).
       REQUIRE(test::bruteClear(map, v.position_W, params.min_clearance_m));
       // Sees its cluster: recount with the brute-force ray test.
-      int seen = 0;
-      for (const Coord& s : cluster.samples) {
-        const Vec3d p = map.voxelCenter(s);
-        seen += params.camera.contains(v.position_W, v.yaw_rad, p) && test::bruteVisible(map, p, v.position_W);
-      }
+      const int seen = bruteSeen(map, cluster, params.camera, v);
       REQUIRE(seen == v.visible_samples);
       REQUIRE(seen > params.min_visible_samples);
       // On a ring around the centroid, at its height.
@@ -161,11 +167,7 @@ TEST_CASE("A cluster the rings cannot see from gets the fallback's closer viewpo
   const int fraction_needed = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size())));
   for (const Viewpoint& v : views) {
     REQUIRE(test::bruteClear(map, v.position_W, fb.min_clearance_m));
-    int seen = 0;
-    for (const Coord& s : cluster.samples) {
-      const Vec3d p = map.voxelCenter(s);
-      seen += params.camera.contains(v.position_W, v.yaw_rad, p) && test::bruteVisible(map, p, v.position_W);
-    }
+    const int seen = bruteSeen(map, cluster, params.camera, v);
     REQUIRE(seen == v.visible_samples);
     REQUIRE((seen > params.min_visible_samples || seen >= fraction_needed));
     // On one of the fallback's rings, at one of its heights.

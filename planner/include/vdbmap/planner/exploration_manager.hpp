@@ -254,6 +254,8 @@ class ExplorationManager {
     }
   };
   void refreshFrontiers(const MapQuery& map, const openvdb::CoordBBox& dirty);
+  /// Computes the viewpoints of `clusters` in `map` (in parallel) and stores them in views_.
+  void computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map);
   ReplanReason replanReason(const MapQuery& map, double t_s);
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
   double targetCoveredFraction() const;
