@@ -32,6 +32,7 @@ struct ExploreOptions {
   double epsilon = planner::AlcParams{}.epsilon;
   int min_cluster_size = planner::FrontierParams{}.min_cluster_size;
   int revisit_rounds = planner::ExplorationParams{}.revisit_rounds;
+  int final_min_cluster_size = planner::ExplorationParams{}.final_min_cluster_size;
   bool no_initial_turn = false;
   bool overwrite = false;
 };
@@ -74,6 +75,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.alc.epsilon = o.epsilon;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
+  config.planner.final_min_cluster_size = o.final_min_cluster_size;
   if (!o.box.empty())
     config.planner.box_W = Eigen::AlignedBox3d(Vec3d(o.box[0], o.box[1], o.box[2]), Vec3d(o.box[3], o.box[4], o.box[5]));
   config.start.p_W = o.start.empty() ? sim::defaultStartPosition(world, config.planner.box_W)
@@ -82,7 +84,8 @@ void runExplore(const ExploreOptions& o) {
 
   std::string description = "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " +
                             std::to_string(o.seed) + " --mode " + o.mode + " --min-cluster-size " +
-                            std::to_string(o.min_cluster_size) + " --revisit-rounds " +
+                            std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
+                            std::to_string(o.final_min_cluster_size) + " --revisit-rounds " +
                             std::to_string(o.revisit_rounds) + " --alc " + o.alc +
                             (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
@@ -144,6 +147,10 @@ const Registration registration("explore", [](CLI::App& app) {
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
                   "small unknown pockets of cluttered places (e.g. 50 for shelving)")
       ->check(CLI::Range(1, 100000000));
+  sub->add_option("--final-min-cluster-size", o->final_min_cluster_size,
+                  "When no cluster is left to visit, lower the min cluster size to this once and visit the small "
+                  "clusters in a final sweep (0: off; only values below --min-cluster-size act)")
+      ->check(CLI::Range(0, 100000000));
   sub->add_option("--revisit-rounds", o->revisit_rounds,
                   "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
                   "more try each, with viewpoints computed in the map as it is then")

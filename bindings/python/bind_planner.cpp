@@ -176,6 +176,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("revisit_rounds", &ExplorationParams::revisit_rounds,
                      "times per run that blacklisted clusters get one more try and viewpoints are recomputed when "
                      "only blacklisted clusters or clusters without a viewpoint are left; [0, 100]")
+      .def_readwrite("final_min_cluster_size", &ExplorationParams::final_min_cluster_size,
+                     "when no target is left, the frontier's min cluster size drops to this once, for a final "
+                     "sweep of the small clusters (0: off); [0, 1e8]")
       .def_readwrite("max_targets_per_replan", &ExplorationParams::max_targets_per_replan, "targets tried per replan")
       .def("validate", &ExplorationParams::validate, "Raises ValueError naming the field and its allowed range.");
 
@@ -198,6 +201,8 @@ void bindExplorationParams(py::module_& m) {
       .def_readonly("holds", &ExplorationCounters::holds, "times the vehicle was stopped by a hold")
       .def_readonly("escapes", &ExplorationCounters::escapes, "straight moves out of a start blocked by occupied voxels")
       .def_readonly("revisit_rounds", &ExplorationCounters::revisit_rounds, "ExplorationParams.revisit_rounds done")
+      .def_readonly("final_sweep_clusters", &ExplorationCounters::final_sweep_clusters,
+                    "clusters the final sweep (ExplorationParams.final_min_cluster_size) added")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 }
 

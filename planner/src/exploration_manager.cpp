@@ -89,6 +89,7 @@ void ExplorationParams::validate() const {
     fail("collision_radius_m", "[0, path.clearance_m]");
   if (max_failures < 1 || max_failures > 100) fail("max_failures", "[1, 100]");
   if (revisit_rounds < 0 || revisit_rounds > 100) fail("revisit_rounds", "[0, 100]");
+  if (final_min_cluster_size < 0 || final_min_cluster_size > 100000000) fail("final_min_cluster_size", "[0, 1e8]");
   if (max_targets_per_replan < 1 || max_targets_per_replan > 100) fail("max_targets_per_replan", "[1, 100]");
   if (alc_enabled) alc.validate();
 }
@@ -165,6 +166,10 @@ void ExplorationManager::hold(const VehicleState& vehicle, double t_s) {
 void ExplorationManager::refreshFrontiers(const MapQuery& map, const openvdb::CoordBBox& dirty) {
   const FrontierUpdate u = first_update_ ? frontiers_.rebuild(map) : frontiers_.update(map, dirty);
   first_update_ = false;
+  applyFrontierUpdate(u, map);
+}
+
+void ExplorationManager::applyFrontierUpdate(const FrontierUpdate& u, const MapQuery& map) {
   for (ClusterId id : u.removed) views_.erase(id);
   std::vector<const FrontierCluster*> fresh;
   for (ClusterId id : u.added)
@@ -344,6 +349,15 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
                                              ExplorationStep& step) {
   if (step.reason == ReplanReason::TrajectoryEnd && !on_detour_) checkVisit();
   std::vector<Target> targets = liveTargets(map);
+  if (targets.empty() && params_.final_min_cluster_size > 0 &&
+      params_.final_min_cluster_size < frontiers_.params().min_cluster_size) {
+    // The final sweep: the small clusters, ignored so far, become targets (once: the frontier
+    // keeps the smaller size from now on).
+    const FrontierUpdate u = frontiers_.setMinClusterSize(map, params_.final_min_cluster_size);
+    counters_.final_sweep_clusters += u.added.size();
+    applyFrontierUpdate(u, map);
+    targets = liveTargets(map);
+  }
   if (targets.empty() && !frontiers_.clusters().empty() &&
       counters_.revisit_rounds < std::size_t(params_.revisit_rounds)) {
     // Only blacklisted clusters, or clusters without a viewpoint, are left: give each one more

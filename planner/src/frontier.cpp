@@ -295,6 +295,37 @@ FrontierUpdate FrontierMap::rebuild(const MapQuery& map) {
   return update;
 }
 
+void FrontierMap::dropClusters(const std::vector<ClusterId>& sorted_ids) {
+  clusters_.erase(std::remove_if(clusters_.begin(), clusters_.end(),
+                                 [&](const FrontierCluster& c) {
+                                   return std::binary_search(sorted_ids.begin(), sorted_ids.end(), c.id);
+                                 }),
+                  clusters_.end());
+}
+
+FrontierUpdate FrontierMap::setMinClusterSize(const MapQuery& map, int min_cluster_size) {
+  FrontierParams changed = params_;
+  changed.min_cluster_size = min_cluster_size;
+  changed.validate();
+  checkVoxelSize(map);
+  params_ = changed;
+  FrontierUpdate update;
+  for (auto& [id, comp] : components_) {
+    const bool big_enough = int(comp.voxels.size()) >= params_.min_cluster_size;
+    if (big_enough && comp.clusters.empty()) {
+      comp.clusters = makeClusters(map, comp.voxels, nullptr, &update.added);
+    } else if (!big_enough && !comp.clusters.empty()) {
+      update.removed.insert(update.removed.end(), comp.clusters.begin(), comp.clusters.end());
+      comp.clusters.clear();
+    }
+  }
+  std::sort(update.added.begin(), update.added.end());
+  std::sort(update.removed.begin(), update.removed.end());
+  dropClusters(update.removed);
+  update.frontier_voxels = owner_.size();
+  return update;
+}
+
 FrontierUpdate FrontierMap::update(const MapQuery& map, const openvdb::CoordBBox& dirty) {
   FrontierUpdate update;
   checkVoxelSize(map);
@@ -341,11 +372,7 @@ FrontierUpdate FrontierMap::update(const MapQuery& map, const openvdb::CoordBBox
     for (const ClusterId cid : ids)
       if (cid != 0) update.removed.push_back(cid);
   std::sort(update.removed.begin(), update.removed.end());
-  clusters_.erase(std::remove_if(clusters_.begin(), clusters_.end(),
-                                 [&](const FrontierCluster& c) {
-                                   return std::binary_search(update.removed.begin(), update.removed.end(), c.id);
-                                 }),
-                  clusters_.end());
+  dropClusters(update.removed);
   update.frontier_voxels = owner_.size();
   return update;
 }

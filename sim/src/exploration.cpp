@@ -305,6 +305,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["holds"] = r.planner_counters.holds;
   j["escapes"] = r.planner_counters.escapes;
   j["revisit_rounds"] = r.planner_counters.revisit_rounds;
+  j["final_sweep_clusters"] = r.planner_counters.final_sweep_clusters;
   j["map_update_ms_median"] = r.map_update_ms_median;
   j["frame_wall_ms_median"] = r.frame_wall_ms_median;
   j["reintegrated_frames"] = r.reintegrated_frames;

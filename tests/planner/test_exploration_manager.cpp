@@ -71,6 +71,9 @@ TEST_CASE("ExplorationParams::validate names the field", "[planner][exploration]
   p = roomParams();
   p.revisit_rounds = -1;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("revisit_rounds"));
+  p = roomParams();
+  p.final_min_cluster_size = -1;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("final_min_cluster_size"));
   CHECK_THROWS_AS(ExplorationManager(roomParams(), at(Vec3d(9, 3, 1.5)), 0.0), std::invalid_argument);
 }
 
@@ -286,6 +289,41 @@ TEST_CASE("A revisit round computes viewpoints again for clusters that had none"
     CHECK(m.counters().revisit_rounds == 2);
     CHECK(trajectoryClear(m, map, p.path.clearance_m - 1e-9));
   }
+}
+
+TEST_CASE("The final sweep visits a pocket smaller than min_cluster_size once nothing else is left",
+          "[planner][exploration]") {
+  // A known room with a 3 x 3 x 3 voxel unknown pocket in mid-air: its frontier is the 54 free
+  // voxels on its faces, a component below FUEL's min cluster size of 100.
+  DenseMap map = test::makeRoom(Eigen::Vector3i(80, 60, 30));
+  const CoordBBox pocket(Coord(50, 30, 14), Coord(52, 32, 16));
+  map.fill(pocket, Occupancy::Unknown);
+  ExplorationParams p = roomParams();
+  p.final_min_cluster_size = GENERATE(0, 30, 100);
+  const Vec3d start(2, 3, 1.5);
+  ExplorationManager m(p, at(start), 0.0);
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  CHECK(m.frontiers().frontierVoxelCount() == 54);
+  if (p.final_min_cluster_size != 30) {  // off, or not below min_cluster_size: nothing to visit
+    CHECK(step.status == ExplorationStatus::Finished);
+    CHECK(m.counters().final_sweep_clusters == 0);
+    CHECK(m.frontiers().params().min_cluster_size == 100);
+    return;
+  }
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  CHECK(m.counters().final_sweep_clusters == 1);
+  CHECK(m.frontiers().params().min_cluster_size == 30);
+  REQUIRE(m.frontiers().clusters().size() == 1);
+  CHECK(m.target() == m.frontiers().clusters().front().id);
+  CHECK(m.frontiers().clusters().front().voxels.size() == 54);
+  CHECK(trajectoryClear(m, map, p.path.clearance_m - 1e-9));
+  // The vehicle arrives and sees the pocket (free after all): exploration finishes.
+  const double t = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
+  map.fill(pocket, Occupancy::Free);
+  step = m.update(map, pocket, onTrajectory(m, t), t);
+  CHECK(step.status == ExplorationStatus::Finished);
+  CHECK(step.clusters == 0);
+  CHECK(m.counters().final_sweep_clusters == 1);  // once per run
 }
 
 TEST_CASE("A start blocked by a wall within the clearance escapes straight away from it, then explores",

@@ -177,6 +177,66 @@ TEST_CASE("The exploration box limits frontier voxels and the unknown that makes
     for (const Coord& v : c.voxels) CHECK((v.x() >= 0 && v.x() <= 5));
 }
 
+TEST_CASE("setMinClusterSize gives the clusters a rebuild with that size gives, keeping untouched ids",
+          "[planner][frontier]") {
+  DenseMap map = unknownMap();
+  map.fill(CoordBBox(Coord(0), Coord(4, 3, 2)), Occupancy::Free);  // 54 frontier voxels
+  map.fill(CoordBBox(Coord(20), Coord(22)), Occupancy::Free);      // 26
+  map.fill(CoordBBox(Coord(40, 40, 20), Coord(41, 41, 21)), Occupancy::Free);  // 8
+  FrontierParams p;
+  p.min_cluster_size = 30;
+  FrontierMap f(p);
+  f.rebuild(map);
+  REQUIRE(clusterSizes(f) == std::vector<std::size_t>{54});
+  const ClusterId big = f.clusters().front().id;
+
+  const auto sameAsRebuild = [&](int size) {
+    FrontierParams q = p;
+    q.min_cluster_size = size;
+    FrontierMap scratch(q);
+    scratch.rebuild(map);
+    return clusterSets(f) == clusterSets(scratch);
+  };
+  // Lowering to 10 adds the 26-voxel component only; the 54-voxel cluster keeps its id.
+  FrontierUpdate u = f.setMinClusterSize(map, 10);
+  CHECK(f.params().min_cluster_size == 10);
+  CHECK(clusterSizes(f) == (std::vector<std::size_t>{26, 54}));
+  CHECK(sameAsRebuild(10));
+  CHECK(u.added.size() == 1);
+  CHECK(u.removed.empty());
+  CHECK(f.find(big) != nullptr);
+  const ClusterId mid = u.added.front();
+  CHECK(f.find(mid)->voxels.size() == 26);
+
+  // Lowering again adds the 8-voxel one.
+  u = f.setMinClusterSize(map, 1);
+  CHECK(clusterSizes(f) == (std::vector<std::size_t>{8, 26, 54}));
+  CHECK(sameAsRebuild(1));
+  CHECK(u.added.size() == 1);
+
+  // Raising drops the clusters of components now too small, and reports them.
+  u = f.setMinClusterSize(map, 27);
+  CHECK(clusterSizes(f) == std::vector<std::size_t>{54});
+  CHECK(sameAsRebuild(27));
+  CHECK(u.added.empty());
+  CHECK(u.removed.size() == 2);
+  CHECK(std::find(u.removed.begin(), u.removed.end(), mid) != u.removed.end());
+  CHECK(f.find(big) != nullptr);
+
+  // Updates afterwards use the new size: growing the 8-voxel box to 3 x 3 x 3 (26 surface voxels)
+  // keeps it out, growing it to 4 x 4 x 4 (56) brings it in.
+  map.fill(CoordBBox(Coord(40, 40, 20), Coord(42, 42, 22)), Occupancy::Free);
+  f.update(map, CoordBBox(Coord(40, 40, 20), Coord(42, 42, 22)));
+  CHECK(clusterSizes(f) == std::vector<std::size_t>{54});
+  map.fill(CoordBBox(Coord(40, 40, 20), Coord(43, 43, 23)), Occupancy::Free);
+  f.update(map, CoordBBox(Coord(40, 40, 20), Coord(43, 43, 23)));
+  CHECK(clusterSizes(f) == (std::vector<std::size_t>{54, 56}));
+  CHECK(sameAsRebuild(27));
+
+  CHECK_THROWS_WITH(f.setMinClusterSize(map, 0), Catch::Contains("min_cluster_size"));
+  CHECK(f.params().min_cluster_size == 27);  // a refused size changes nothing
+}
+
 TEST_CASE("Detection from scratch equals brute force on a cluttered map", "[planner][frontier]") {
   DenseMap map(0.1, CoordBBox(Coord(0), Coord(39, 39, 14)));
   std::mt19937 rng(2);

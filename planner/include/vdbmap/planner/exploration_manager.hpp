@@ -26,7 +26,8 @@
 //     the median failure count of its voxels, and is blacklisted at max_failures. When no target
 //     is left but clusters are (blacklisted, or without a viewpoint), every blacklisted cluster
 //     gets one more try and every cluster's viewpoints are computed again in the map as it is now
-//     (revisit_rounds);
+//     (revisit_rounds). Before that, with final_min_cluster_size set, the frontier's min cluster
+//     size drops once, so that the small clusters are visited in a final sweep;
 //  5. with active loop closure on (alc_enabled; active_loop_closure.hpp), every global replan also
 //     asks ActiveLoopClosure::decide, with the frontier tour's matrix, whether to fly first to a
 //     nearby loop-closing cluster of old viewpoints; on such a detour, local refinement picks
@@ -124,6 +125,12 @@ struct ExplorationParams {
   /// allows. Off by default: in the warehouse one round added 30 % flight time for 0.2 % of
   /// coverage. 0: exploration finishes the first time no target is left; [0, 100]
   int revisit_rounds = 0;
+  /// The final sweep: the first time no target is left, the frontier's min cluster size drops
+  /// to this (when smaller than frontier.min_cluster_size), so that the small unknown pockets
+  /// FUEL's cluster_min ignores (between shelves, behind posts) are visited once, in one tour,
+  /// at the end. Cheaper than a smaller min cluster size throughout, whose small clusters come
+  /// and go while the map grows. 0: off; [0, 1e8]
+  int final_min_cluster_size = 0;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
 
@@ -187,6 +194,7 @@ struct ExplorationCounters {
   std::size_t holds = 0;            ///< times the vehicle was stopped by a hold
   std::size_t escapes = 0;          ///< straight moves out of a start blocked by occupied voxels
   std::size_t revisit_rounds = 0;   ///< ExplorationParams::revisit_rounds done
+  std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
 };
 
 class ExplorationManager {
@@ -254,6 +262,8 @@ class ExplorationManager {
     }
   };
   void refreshFrontiers(const MapQuery& map, const openvdb::CoordBBox& dirty);
+  /// Forgets the viewpoints of the removed clusters and computes those of the added ones.
+  void applyFrontierUpdate(const FrontierUpdate& u, const MapQuery& map);
   /// Computes the viewpoints of `clusters` in `map` (in parallel) and stores them in views_.
   void computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map);
   ReplanReason replanReason(const MapQuery& map, double t_s);

@@ -85,6 +85,11 @@ class FrontierMap {
   FrontierUpdate update(const MapQuery& map, const openvdb::CoordBBox& dirty);
   /// Forgets everything and detects from scratch over the map's known bounds.
   FrontierUpdate rebuild(const MapQuery& map);
+  /// Changes params().min_cluster_size without rescanning the map: components that reach the new
+  /// size become clusters (added), clusters of components below it are dropped (removed); every
+  /// other cluster keeps its id. The clusters are then those a rebuild with the new size would
+  /// give. Throws std::invalid_argument when the size is outside [1, 1e8].
+  FrontierUpdate setMinClusterSize(const MapQuery& map, int min_cluster_size);
 
   /// The current clusters, ascending by id.
   const std::vector<FrontierCluster>& clusters() const { return clusters_; }
@@ -118,6 +123,8 @@ class FrontierMap {
   std::vector<ClusterId> makeClusters(const MapQuery& map, const std::vector<openvdb::Coord>& voxels,
                                       ReusableClusters* reusable, std::vector<ClusterId>* added);
   void checkVoxelSize(const MapQuery& map);
+  /// Removes these clusters (ids ascending) from clusters_.
+  void dropClusters(const std::vector<ClusterId>& sorted_ids);
 
   FrontierParams params_;
   double voxel_size_m_ = 0.0;  ///< of the map seen first (0 before)
