@@ -129,8 +129,9 @@ struct ExplorationParams {
   /// to this (when smaller than frontier.min_cluster_size), so that the small unknown pockets
   /// FUEL's cluster_min ignores (between shelves, behind posts) are visited once, in one tour,
   /// at the end. Cheaper than a smaller min cluster size throughout, whose small clusters come
-  /// and go while the map grows. 0: off; [0, 1e8]
-  int final_min_cluster_size = 0;
+  /// and go while the map grows. In the warehouse it raised coverage from 0.94 to 0.96 for about
+  /// 200 s of flight; in the house it adds 5 s. 0: off; [0, 1e8]
+  int final_min_cluster_size = 30;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
 
