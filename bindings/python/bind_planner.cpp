@@ -199,7 +199,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readonly("target_failures", &ExplorationCounters::target_failures, "failures counted against targets")
       .def_readonly("blacklisted", &ExplorationCounters::blacklisted, "clusters blacklisted at the last replan")
       .def_readonly("holds", &ExplorationCounters::holds, "times the vehicle was stopped by a hold")
-      .def_readonly("escapes", &ExplorationCounters::escapes, "straight moves out of a start blocked by occupied voxels")
+      .def_readonly("escapes", &ExplorationCounters::escapes,
+                    "moves out of a start blocked by occupied voxels (retreats included)")
+      .def_readonly("retreats", &ExplorationCounters::retreats, "escapes back along the way flown")
       .def_readonly("revisit_rounds", &ExplorationCounters::revisit_rounds, "ExplorationParams.revisit_rounds done")
       .def_readonly("final_sweep_clusters", &ExplorationCounters::final_sweep_clusters,
                     "clusters the final sweep (ExplorationParams.final_min_cluster_size) added")

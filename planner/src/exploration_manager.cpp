@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -20,6 +21,14 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 constexpr int kInitialTurnParts = 3;
 /// Spacing of the collision-risk check along the trajectory, in voxels.
 constexpr double kRiskCheckSpacingVox = 0.5;
+/// Flown positions kept for retreats (one voxel apart), and how far back along them a retreat goes.
+constexpr std::size_t kFlownKept = 100;
+constexpr double kRetreatReach_m = 3.0;
+/// Straight escapes in a row (without a plan from a clear start in between) before giving up: a
+/// chain of them creeps wherever the map's errors push it (once, into shelving through a board).
+constexpr int kMaxChainedEscapes = 3;
+/// How far a straight escape looks for a clear point.
+constexpr double kEscapeReach_m = 1.0;
 
 double yawOf(const Eigen::Isometry3d& T) { return std::atan2(T.linear()(1, 0), T.linear()(0, 0)); }
 }  // namespace
@@ -137,6 +146,7 @@ TrajectoryState ExplorationManager::command(double t_s) const {
 
 void ExplorationManager::shiftFrame(const Eigen::Isometry3d& shift) {
   shift_ = shift * shift_;
+  for (Vec3d& p : flown_W_) p = shift * p;
   shift_requested_ = true;
 }
 
@@ -153,6 +163,7 @@ void ExplorationManager::startTrajectory(Trajectory trajectory, double t_s) {
   trajectory_t0_ = t_s;
   shift_ = Eigen::Isometry3d::Identity();
   was_moving_ = trajectory_.motionDuration() > 0.0;
+  retreat_end_t_ = -std::numeric_limits<double>::infinity();
 }
 
 void ExplorationManager::hold(const VehicleState& vehicle, double t_s) {
@@ -282,6 +293,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (t_s < last_t_) throw std::invalid_argument("ExplorationManager::update: time went backwards");
   last_t_ = t_s;
   ++counters_.updates;
+  if (t_s > retreat_end_t_) recordFlown(vehicle.position_W, base_map.voxelSize());  // not the way back again
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap map(base_map, free_boxes_);
   ExplorationStep step;
@@ -332,9 +344,14 @@ void ExplorationManager::checkVisit() {
   // there, it cannot be observed from that viewpoint.
   if (target_ == 0 || target_voxels_.empty()) return;
   if (targetCoveredFraction() > params_.covered_fraction) return;
-  FrontierCluster visited;
-  visited.voxels = target_voxels_;
-  addFailure(visited);
+  addTargetFailure();
+}
+
+void ExplorationManager::addTargetFailure() {
+  if (target_ == 0 || target_voxels_.empty()) return;
+  FrontierCluster target;
+  target.voxels = target_voxels_;
+  addFailure(target);
 }
 
 std::optional<AlcDecision> ExplorationManager::decideLoopDetour(const MapQuery& map, const VehicleState& vehicle,
@@ -440,7 +457,10 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
       step.target = t.cluster;
       return ExplorationStatus::Planned;
     }
-    if (outcome == PlanOutcome::StartBlocked) {  // not the target's fault
+    if (outcome == PlanOutcome::StartBlocked) {
+      // Not this target's fault, but the way to the one flown to so far ended blocked: one failure
+      // for that, so that a target whose approach keeps getting blocked is given up.
+      addTargetFailure();
       if (!escape(map, vehicle, t_s)) break;
       target_ = 0;
       target_voxels_.clear();
@@ -473,11 +493,60 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
   TrajectoryResult traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, params_.trajectory);
   if (!traj.ok()) return PlanOutcome::Failed;
   startTrajectory(std::move(traj.trajectory), t_s);
+  if (!start_free) chained_escapes_ = 0;
   return PlanOutcome::Ok;
 }
 
+void ExplorationManager::recordFlown(const Vec3d& p_W, double voxel_m) {
+  if (!flown_W_.empty() && (p_W - flown_W_.back()).norm() < voxel_m) return;
+  flown_W_.push_back(p_W);
+  if (flown_W_.size() > kFlownKept) flown_W_.pop_front();
+}
+
+bool ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicle, double t_s) {
+  const double vs = map.voxelSize(), r = params_.path.clearance_m;
+  MapProbe probe(map);
+  std::vector<Vec3d> way{vehicle.position_W};
+  double length = 0.0;
+  std::size_t keep = 0;  // flown positions left once back at the end: those flown before it
+  for (std::size_t i = flown_W_.size(); i-- > 0;) {
+    const Vec3d& q = flown_W_[i];
+    const double step = (q - way.back()).norm();
+    if (length + step > kRetreatReach_m) break;
+    if (step < 1e-3) continue;
+    length += step;
+    way.push_back(q);
+    if (length >= vs && params_.box_W.contains(q) && probe.isClear(q, r)) {
+      keep = i + 1;
+      break;
+    }
+  }
+  if (keep == 0) return false;
+  std::vector<Eigen::AlignedBox3d> corridor;
+  const Vec3d grow = Vec3d::Constant(r + vs);
+  for (std::size_t k = 1; k < way.size(); ++k)
+    corridor.emplace_back(way[k - 1].cwiseMin(way[k]) - grow, way[k - 1].cwiseMax(way[k]) + grow);
+  const AssumeFreeMap corridor_map(map, corridor, /*occupied_too=*/true);
+  // From rest: a lead-in along the current velocity would first fly on toward what blocked it.
+  VehicleState at_rest = vehicle;
+  at_rest.velocity_W.setZero();
+  TrajectoryResult traj = planTrajectory(way, at_rest, vehicle.yaw_rad, corridor_map, params_.trajectory);
+  if (!traj.ok()) return false;
+  // The positions between here and the end are forgotten, so that a retreat from the end goes on
+  // backwards instead of returning here.
+  flown_W_.resize(keep);
+  startTrajectory(std::move(traj.trajectory), t_s);
+  retreat_end_t_ = t_s + trajectory_.duration();
+  return true;
+}
+
 bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle, double t_s) {
-  constexpr double kEscapeReach_m = 1.0;
+  if (retreat(map, vehicle, t_s)) {
+    ++counters_.escapes;
+    ++counters_.retreats;
+    return true;
+  }
+  if (chained_escapes_ >= kMaxChainedEscapes) return false;
   const double vs = map.voxelSize(), r = params_.path.clearance_m;
   const Vec3d& p = vehicle.position_W;
   MapProbe probe(map);
@@ -524,6 +593,7 @@ bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle
       if (!traj.ok()) continue;
       startTrajectory(std::move(traj.trajectory), t_s);
       ++counters_.escapes;
+      ++chained_escapes_;
       return true;
     }
   }

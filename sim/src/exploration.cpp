@@ -304,6 +304,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["blacklisted_clusters"] = r.planner_counters.blacklisted;
   j["holds"] = r.planner_counters.holds;
   j["escapes"] = r.planner_counters.escapes;
+  j["retreats"] = r.planner_counters.retreats;
   j["revisit_rounds"] = r.planner_counters.revisit_rounds;
   j["final_sweep_clusters"] = r.planner_counters.final_sweep_clusters;
   j["map_update_ms_median"] = r.map_update_ms_median;

@@ -354,3 +354,82 @@ TEST_CASE("A start blocked by a wall within the clearance escapes straight away 
   CHECK(next.target != 0);
   CHECK(m.counters().escapes == 1);
 }
+
+TEST_CASE("A start blocked mid-flight retreats along the way flown, and the target gets a failure",
+          "[planner][exploration]") {
+  // The vehicle flies toward the frontier; then an obstacle shows up beside it (as thin structure
+  // does when it comes near), closer than the path clearance: it goes back the way it came.
+  DenseMap map = halfKnownRoom();
+  const Vec3d start(1.0, 3.0, 1.5);
+  ExplorationManager m(roomParams(), at(start), 0.0);
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  REQUIRE(m.target() != 0);
+  // Follow the trajectory until 0.8 m from the start, recording where the vehicle was.
+  std::vector<Vec3d> flown{start};
+  double t = 0.0;
+  VehicleState s = at(start);
+  while ((s.position_W - start).norm() < 0.8) {
+    t += 1.0 / 15.0;
+    REQUIRE(t < m.trajectoryStartTime() + m.trajectory().duration());
+    s = onTrajectory(m, t);
+    step = m.update(map, CoordBBox(), s, t);
+    REQUIRE(step.reason != ReplanReason::CollisionRisk);
+    flown.push_back(s.position_W);
+  }
+  // A block 0.2 m ahead along the velocity.
+  const Vec3d ahead = s.position_W + 0.2 * s.velocity_W.normalized();
+  const CoordBBox block(map.worldToVoxel(ahead - Vec3d::Constant(0.1)), map.worldToVoxel(ahead + Vec3d::Constant(0.1)));
+  map.fill(block, Occupancy::Occupied);
+  REQUIRE_FALSE(test::bruteClear(map, s.position_W, m.params().path.clearance_m));
+  const Vec3d blocked = s.position_W;
+  const ClusterId target = m.target();  // flown to when blocked
+  REQUIRE(m.frontiers().find(target) != nullptr);
+  const int failures_before = m.failures(*m.frontiers().find(target));
+  t += 1.0 / 15.0;
+  step = m.update(map, block, s, t);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  CHECK(m.counters().retreats == 1);
+  CHECK(m.counters().escapes == 1);
+  CHECK(m.target() == 0);
+  const FrontierCluster* c = m.frontiers().find(target);
+  REQUIRE(c != nullptr);
+  CHECK(m.failures(*c) == failures_before + 1);
+  // It ends at a position flown before, clear in the map, farther from the block than it was, and
+  // every sample on the way stays within a voxel of the way flown.
+  const double T = m.trajectory().duration();
+  const Vec3d end = m.command(m.trajectoryStartTime() + T).position_W;
+  const auto nearestFlown = [&](const Vec3d& p) {
+    double best = 1e9;
+    for (std::size_t i = 1; i < flown.size(); ++i)
+      best = std::min(best, test::pointSegmentDistance(p, flown[i - 1], flown[i]));
+    return best;
+  };
+  CHECK(nearestFlown(end) < kTolM);
+  CHECK((end - blocked).norm() >= kVoxel - kTolM);
+  CHECK(test::bruteClear(map, end, m.params().path.clearance_m - 1e-9));
+  CHECK((end - ahead).norm() > (blocked - ahead).norm());
+  for (double u = 0.0; u <= T; u += 0.02) CHECK(nearestFlown(m.command(m.trajectoryStartTime() + u).position_W) < kVoxel);
+}
+
+TEST_CASE("Straight escapes are bounded: a start that stays blocked fails after three in a row",
+          "[planner][exploration]") {
+  // The vehicle reports the same blocked start every time (it never gets out): with no way flown
+  // to go back along, each replan escapes straight, three times, then the replan fails.
+  const DenseMap map = halfKnownRoom();
+  const Vec3d start(0.2, 3.0, 1.5);
+  ExplorationManager m(roomParams(), at(start), 0.0);
+  double t = 0.0;
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), t);
+  int escapes = 0;
+  while (step.status == ExplorationStatus::Planned && escapes < 10) {
+    ++escapes;
+    CHECK(m.target() == 0);
+    t = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
+    step = m.update(map, CoordBBox(), at(start), t);
+  }
+  CHECK(escapes == 3);
+  CHECK(m.counters().escapes == 3);
+  CHECK(m.counters().retreats == 0);
+  CHECK(step.status == ExplorationStatus::Failed);
+}

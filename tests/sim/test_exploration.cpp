@@ -85,7 +85,9 @@ TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", 
   const World world(twoRooms());
   const ExplorationConfig config = twoRoomConfig("s3");
   const ExplorationResult r = runExploration(world, config);
-  INFO("time " << r.exploration_time_s << " s, loops " << r.loop_closures);
+  INFO("time " << r.exploration_time_s << " s, loops " << r.loop_closures << ", escapes "
+                 << r.planner_counters.escapes << " (retreats " << r.planner_counters.retreats << "), closest "
+                 << r.min_clearance_m << " m");
   CHECK(r.finished);
   CHECK(r.collisions == 0);
   // The vehicle's true path drifts from the estimate it tracks.

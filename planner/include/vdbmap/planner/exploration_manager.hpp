@@ -34,6 +34,10 @@
 //     among the cluster's viewpoints (alcRefinementLayers) and the vehicle flies there. The caller
 //     reports detected loop closures (notifyLoopClosure); a detour ends with a loop closure, or
 //     is given up after its timeout (a replan is triggered then, LoopDetourTimeout);
+//  5b. a start blocked by occupied voxels within the clearance (a correction moved the map, or
+//     thin structure shows up as the vehicle comes near) is left by retreating along the way
+//     flown (up to 3 m back, to the newest flown position that is clear); without one, by a
+//     straight move away from the voxels (at most 3 in a row). The target flown to gets a failure;
 //  6. finishes when no target is left (no cluster with a viewpoint that is not blacklisted) and the
 //     vehicle has come to rest: no reachable frontier is left.
 // Before exploring, the vehicle turns once on the spot (initial_turn; FUEL's simulations start
@@ -66,7 +70,9 @@
 #include <Eigen/Geometry>
 
 #include <cstdint>
+#include <deque>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -193,7 +199,8 @@ struct ExplorationCounters {
   std::size_t target_failures = 0;  ///< failures counted against targets
   std::size_t blacklisted = 0;      ///< clusters skipped as blacklisted at the last replan
   std::size_t holds = 0;            ///< times the vehicle was stopped by a hold
-  std::size_t escapes = 0;          ///< straight moves out of a start blocked by occupied voxels
+  std::size_t escapes = 0;          ///< moves out of a start blocked by occupied voxels (retreats included)
+  std::size_t retreats = 0;         ///< escapes back along the way flown
   std::size_t revisit_rounds = 0;   ///< ExplorationParams::revisit_rounds done
   std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
 };
@@ -274,18 +281,33 @@ class ExplorationManager {
   std::vector<Target> liveTargets(const MapQuery& map);
   ExplorationStatus replan(const MapQuery& map, const VehicleState& vehicle, double t_s, ExplorationStep& step);
   PlanOutcome planTo(const MapQuery& map, const VehicleState& vehicle, const Viewpoint& view, double t_s);
-  /// The start is blocked by occupied voxels within the clearance (a correction moved the map, or
-  /// drift brought the vehicle close to a wall): moves straight away from them to the nearest clear
-  /// point within kEscapeReach_m, so that the next replan starts from there. False: none found.
+  /// The start is blocked by occupied voxels within the clearance (a correction moved the map,
+  /// drift brought the vehicle close to a wall, or voxels of thin structure flicker as it comes
+  /// near): gets out so that the next replan starts from a clear point. First back along the way
+  /// flown (retreat), else straight away from the occupied voxels to the nearest clear point within
+  /// kEscapeReach_m, at most kMaxChainedEscapes times in a row. False: neither was possible.
   bool escape(const MapQuery& map, const VehicleState& vehicle, double t_s);
+  /// Flies back along flown_W_ to the newest flown position at least a voxel away that keeps the
+  /// path clearance in the current map, within kRetreatReach_m of way. The vehicle flew that way,
+  /// so the way's corridor reads free, occupied voxels too; the map only vets the end.
+  bool retreat(const MapQuery& map, const VehicleState& vehicle, double t_s);
+  /// Records the vehicle's position in flown_W_ (one voxel apart).
+  void recordFlown(const Vec3d& p_W, double voxel_m);
   std::optional<AlcDecision> decideLoopDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
                                               const std::vector<TourTarget>& tour_targets, const GlobalTour& global);
   void startTrajectory(Trajectory trajectory, double t_s);
   void hold(const VehicleState& vehicle, double t_s);
   void addFailure(const FrontierCluster& cluster);
+  /// A failure against the current target (its voxels when it was planned); nothing without one.
+  void addTargetFailure();
 
   ExplorationParams params_;
   std::vector<Eigen::AlignedBox3d> free_boxes_;
+  /// The vehicle's positions at past updates, one voxel apart, newest last, at most kFlownKept;
+  /// in the current estimate frame (cleared on a frame shift).
+  std::deque<Vec3d> flown_W_;
+  int chained_escapes_ = 0;  ///< escapes since the last plan that started clear
+  double retreat_end_t_ = -std::numeric_limits<double>::infinity();  ///< the current retreat's end (flown_W_ does not record it)
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
   std::unique_ptr<PairCostTable> table_;
