@@ -163,7 +163,7 @@ void ExplorationManager::startTrajectory(Trajectory trajectory, double t_s) {
   trajectory_t0_ = t_s;
   shift_ = Eigen::Isometry3d::Identity();
   was_moving_ = trajectory_.motionDuration() > 0.0;
-  retreat_end_t_ = -std::numeric_limits<double>::infinity();
+  escape_end_t_ = -std::numeric_limits<double>::infinity();
 }
 
 void ExplorationManager::hold(const VehicleState& vehicle, double t_s) {
@@ -271,17 +271,20 @@ ReplanReason ExplorationManager::replanReason(const MapQuery& map, double t_s) {
     turning_ = false;  // the last part is done
   }
   if (shift_requested_) return ReplanReason::FrameShift;
-  if (was_moving_ && !remainingTrajectoryClear(map, t_s)) return ReplanReason::CollisionRisk;
+  // An escape is flown to its end, with no other replan on the way: it was planned through the
+  // voxels that blocked its start (a retreat along the way flown), and leaves no target behind.
+  const bool escaping = t_s <= escape_end_t_;
+  if (was_moving_ && !escaping && !remainingTrajectoryClear(map, t_s)) return ReplanReason::CollisionRisk;
   if (failed_last_) return ReplanReason::Retry;
   if (alc_ && alc_->detourTimedOut(t_s)) return ReplanReason::LoopDetourTimeout;
-  if (target_ == 0 && !on_detour_) return ReplanReason::Start;
+  if (target_ == 0 && !on_detour_ && !escaping) return ReplanReason::Start;
   const double elapsed = t_s - trajectory_t0_;
   const double left = trajectory_t0_ + trajectory_.duration() - t_s;
   if (left < params_.replan_time_left_s) return ReplanReason::TrajectoryEnd;
   // A detour flies through known space to a pose flown before: new frontiers cannot change where
   // it goes, so it is not replanned periodically (that would also switch viewpoints just before
   // arriving, since refinement skips viewpoints near the vehicle).
-  if (on_detour_) return ReplanReason::None;
+  if (on_detour_ || escaping) return ReplanReason::None;
   if (elapsed > params_.replan_covered_after_s && targetCoveredFraction() > params_.covered_fraction)
     return ReplanReason::TargetCovered;
   if (elapsed > params_.replan_period_s) return ReplanReason::Periodic;
@@ -293,7 +296,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (t_s < last_t_) throw std::invalid_argument("ExplorationManager::update: time went backwards");
   last_t_ = t_s;
   ++counters_.updates;
-  if (t_s > retreat_end_t_) recordFlown(vehicle.position_W, base_map.voxelSize());  // not the way back again
+  if (t_s > escape_end_t_) recordFlown(vehicle.position_W, base_map.voxelSize());  // not an escape's way
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap map(base_map, free_boxes_);
   ExplorationStep step;
@@ -536,7 +539,7 @@ bool ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicl
   // backwards instead of returning here.
   flown_W_.resize(keep);
   startTrajectory(std::move(traj.trajectory), t_s);
-  retreat_end_t_ = t_s + trajectory_.duration();
+  escape_end_t_ = t_s + trajectory_.duration();
   return true;
 }
 
@@ -592,6 +595,7 @@ bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle
       TrajectoryResult traj = planTrajectory({p, q}, vehicle, vehicle.yaw_rad, escape_map, params_.trajectory);
       if (!traj.ok()) continue;
       startTrajectory(std::move(traj.trajectory), t_s);
+      escape_end_t_ = t_s + trajectory_.duration();
       ++counters_.escapes;
       ++chained_escapes_;
       return true;

@@ -410,6 +410,13 @@ TEST_CASE("A start blocked mid-flight retreats along the way flown, and the targ
   CHECK(test::bruteClear(map, end, m.params().path.clearance_m - 1e-9));
   CHECK((end - ahead).norm() > (blocked - ahead).norm());
   for (double u = 0.0; u <= T; u += 0.02) CHECK(nearestFlown(m.command(m.trajectoryStartTime() + u).position_W) < kVoxel);
+  // Flying it, the block near its start is no collision risk: the retreat goes on to its end.
+  const double t0 = m.trajectoryStartTime();
+  for (double u = 1.0 / 15.0; u < T - m.params().replan_time_left_s; u += 1.0 / 15.0) {
+    step = m.update(map, CoordBBox(), onTrajectory(m, t0 + u), t0 + u);
+    CHECK(step.reason == ReplanReason::None);
+  }
+  CHECK(m.counters().retreats == 1);
 }
 
 TEST_CASE("Straight escapes are bounded: a start that stays blocked fails after three in a row",

@@ -307,7 +307,9 @@ class ExplorationManager {
   /// in the current estimate frame (cleared on a frame shift).
   std::deque<Vec3d> flown_W_;
   int chained_escapes_ = 0;  ///< escapes since the last plan that started clear
-  double retreat_end_t_ = -std::numeric_limits<double>::infinity();  ///< the current retreat's end (flown_W_ does not record it)
+  /// The end of the escape (or retreat) being flown: until then no replan but at its end or for a
+  /// frame shift, and flown_W_ does not record
+  double escape_end_t_ = -std::numeric_limits<double>::infinity();
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
   std::unique_ptr<PairCostTable> table_;
