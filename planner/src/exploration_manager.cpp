@@ -31,6 +31,16 @@ constexpr int kMaxChainedEscapes = 3;
 constexpr double kEscapeReach_m = 1.0;
 
 double yawOf(const Eigen::Isometry3d& T) { return std::atan2(T.linear()(1, 0), T.linear()(0, 0)); }
+
+/// A box around each segment of `way`, grown by `grow_m`: where an escape's trajectory may pass
+/// voxels that blocked its start (AssumeFreeMap with occupied_too).
+std::vector<Eigen::AlignedBox3d> corridorAround(const std::vector<Vec3d>& way, double grow_m) {
+  std::vector<Eigen::AlignedBox3d> boxes;
+  const Vec3d grow = Vec3d::Constant(grow_m);
+  for (std::size_t k = 1; k < way.size(); ++k)
+    boxes.emplace_back(way[k - 1].cwiseMin(way[k]) - grow, way[k - 1].cwiseMax(way[k]) + grow);
+  return boxes;
+}
 }  // namespace
 
 const char* toString(ExplorationStatus s) {
@@ -525,11 +535,7 @@ bool ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicl
     }
   }
   if (keep == 0) return false;
-  std::vector<Eigen::AlignedBox3d> corridor;
-  const Vec3d grow = Vec3d::Constant(r + vs);
-  for (std::size_t k = 1; k < way.size(); ++k)
-    corridor.emplace_back(way[k - 1].cwiseMin(way[k]) - grow, way[k - 1].cwiseMax(way[k]) + grow);
-  const AssumeFreeMap corridor_map(map, corridor, /*occupied_too=*/true);
+  const AssumeFreeMap corridor_map(map, corridorAround(way, r + vs), /*occupied_too=*/true);
   // From rest: a lead-in along the current velocity would first fly on toward what blocked it.
   VehicleState at_rest = vehicle;
   at_rest.velocity_W.setZero();
@@ -539,17 +545,23 @@ bool ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicl
   // backwards instead of returning here.
   flown_W_.resize(keep);
   startTrajectory(std::move(traj.trajectory), t_s);
-  escape_end_t_ = t_s + trajectory_.duration();
   return true;
 }
 
 bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle, double t_s) {
   if (retreat(map, vehicle, t_s)) {
-    ++counters_.escapes;
     ++counters_.retreats;
-    return true;
+  } else if (chained_escapes_ < kMaxChainedEscapes && escapeStraight(map, vehicle, t_s)) {
+    ++chained_escapes_;
+  } else {
+    return false;
   }
-  if (chained_escapes_ >= kMaxChainedEscapes) return false;
+  ++counters_.escapes;
+  escape_end_t_ = t_s + trajectory_.duration();
+  return true;
+}
+
+bool ExplorationManager::escapeStraight(const MapQuery& map, const VehicleState& vehicle, double t_s) {
   const double vs = map.voxelSize(), r = params_.path.clearance_m;
   const Vec3d& p = vehicle.position_W;
   MapProbe probe(map);
@@ -589,15 +601,10 @@ bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle
       const Vec3d q = p + u * d;
       if (!params_.box_W.contains(q) || !probe.isClear(q, r) || !wayFree(q)) continue;
       // The move was checked here: let the trajectory pass the voxels near the start.
-      Eigen::AlignedBox3d way(p.cwiseMin(q), p.cwiseMax(q));
-      way = Eigen::AlignedBox3d(way.min() - Vec3d::Constant(r + vs), way.max() + Vec3d::Constant(r + vs));
-      const AssumeFreeMap escape_map(map, {way}, /*occupied_too=*/true);
+      const AssumeFreeMap escape_map(map, corridorAround({p, q}, r + vs), /*occupied_too=*/true);
       TrajectoryResult traj = planTrajectory({p, q}, vehicle, vehicle.yaw_rad, escape_map, params_.trajectory);
       if (!traj.ok()) continue;
       startTrajectory(std::move(traj.trajectory), t_s);
-      escape_end_t_ = t_s + trajectory_.duration();
-      ++counters_.escapes;
-      ++chained_escapes_;
       return true;
     }
   }

@@ -291,6 +291,9 @@ class ExplorationManager {
   /// path clearance in the current map, within kRetreatReach_m of way. The vehicle flew that way,
   /// so the way's corridor reads free, occupied voxels too; the map only vets the end.
   bool retreat(const MapQuery& map, const VehicleState& vehicle, double t_s);
+  /// Moves straight away from the occupied voxels within the clearance to the nearest clear point
+  /// within kEscapeReach_m whose straight way crosses no occupied voxel.
+  bool escapeStraight(const MapQuery& map, const VehicleState& vehicle, double t_s);
   /// Records the vehicle's position in flown_W_ (one voxel apart).
   void recordFlown(const Vec3d& p_W, double voxel_m);
   std::optional<AlcDecision> decideLoopDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
@@ -304,7 +307,7 @@ class ExplorationManager {
   ExplorationParams params_;
   std::vector<Eigen::AlignedBox3d> free_boxes_;
   /// The vehicle's positions at past updates, one voxel apart, newest last, at most kFlownKept;
-  /// in the current estimate frame (cleared on a frame shift).
+  /// in the current estimate frame (moved with it on a frame shift).
   std::deque<Vec3d> flown_W_;
   int chained_escapes_ = 0;  ///< escapes since the last plan that started clear
   /// The end of the escape (or retreat) being flown: until then no replan but at its end or for a
