@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # Sets up (Debian packages, Release build into build/) and runs the main job:
 #  1. the simulated vehicle explores the AWS small house world at odometry drift s3 with the
-#     mapper (keyframes mode, 0.1 m voxels) and the exploration planner in closed loop, and writes
+#     mapper (keyframes mode, 0.1 m voxels) and the exploration planner with active loop closure
+#     (--alc on) in closed loop, and writes
 #     the run folder demo_out/explore_house_s3/ (log/, map.vdb, mesh.ply, trajectories,
 #     summary.json), printing the summary; about two minutes;
 #  2. the 500 real 7-Scenes RedKitchen depth frames integrated at 5 cm into
 #     demo_out/redkitchen.vdb with its mesh and JSON summary (a few seconds), and a picture
 #     rendered by OpenVDB's vdb_render when it is installed.
-# Extra arguments go to `vdbmap explore` (e.g. --drift s1 --seed 2). See README.md.
+# Extra arguments go to `vdbmap explore` (e.g. --drift s1 --seed 2, or --alc off). See README.md.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 vdbmap_install_packages
@@ -23,7 +24,9 @@ mkdir -p demo_out
 vdbmap="$vdbmap_build/bin/vdbmap"
 
 echo "== 1. exploring the small house at drift s3 =="
-"$vdbmap" explore --world "$house" --drift s3 --seed 1 -o demo_out/explore_house_s3 --overwrite "$@"
+alc=(--alc on)  # unless the extra arguments choose
+for arg in "$@"; do [[ "$arg" == --alc* ]] && alc=(); done
+"$vdbmap" explore --world "$house" --drift s3 --seed 1 "${alc[@]}" -o demo_out/explore_house_s3 --overwrite "$@"
 echo "demo_out/explore_house_s3/summary.json:"
 cat demo_out/explore_house_s3/summary.json
 
