@@ -252,6 +252,13 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
 
 // ---- decisions ---------------------------------------------------------------------------------
 
+double ExplorationManager::promisedCoveredFraction() const {
+  if (target_promised_.empty()) return targetCoveredFraction();
+  std::size_t gone = 0;
+  for (const openvdb::Coord& v : target_promised_) gone += frontiers_.isFrontier(v) ? 0 : 1;
+  return double(gone) / double(target_promised_.size());
+}
+
 double ExplorationManager::targetCoveredFraction() const {
   if (target_voxels_.empty()) return 1.0;
   std::size_t gone = 0;
@@ -353,10 +360,10 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
 // ---- replanning --------------------------------------------------------------------------------
 
 void ExplorationManager::checkVisit() {
-  // The vehicle reached (or nearly reached) its target: if the target's frontier is still mostly
-  // there, it cannot be observed from that viewpoint.
+  // The vehicle reached (or nearly reached) its target: if the frontier its viewpoint saw is still
+  // mostly there, the target cannot be observed from that viewpoint.
   if (target_ == 0 || target_voxels_.empty()) return;
-  if (targetCoveredFraction() > params_.covered_fraction) return;
+  if (promisedCoveredFraction() > params_.covered_fraction) return;
   addTargetFailure();
 }
 
@@ -409,6 +416,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     }
     target_ = 0;
     target_voxels_.clear();
+    target_promised_.clear();
     if (!trajectoryDone(t_s) && step.reason != ReplanReason::CollisionRisk) return ExplorationStatus::NoFrontier;
     if (!trajectoryDone(t_s) || was_moving_) hold(vehicle, t_s);
     return ExplorationStatus::Finished;
@@ -446,6 +454,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
       on_detour_ = true;
       target_ = 0;
       target_voxels_.clear();
+      target_promised_.clear();
       step.loop_detour = true;
       return ExplorationStatus::Planned;
     }
@@ -467,6 +476,13 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     if (outcome == PlanOutcome::Ok) {
       target_ = t.cluster;
       target_voxels_ = cluster->voxels;
+      target_promised_.clear();
+      MapProbe probe(map);
+      for (const openvdb::Coord& c : cluster->samples) {
+        const Vec3d p = map.voxelCenter(c);
+        if (params_.viewpoint.camera.contains(view.position_W, view.yaw_rad, p) && probe.isVisible(p, view.position_W))
+          target_promised_.push_back(c);
+      }
       step.target = t.cluster;
       return ExplorationStatus::Planned;
     }
@@ -477,6 +493,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
       if (!escape(map, vehicle, t_s)) break;
       target_ = 0;
       target_voxels_.clear();
+      target_promised_.clear();
       return ExplorationStatus::Planned;
     }
     addFailure(*cluster);

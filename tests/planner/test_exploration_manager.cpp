@@ -252,6 +252,52 @@ TEST_CASE("A frontier that stays unobserved after visits is blacklisted, then ex
   CHECK(m.counters().blacklisted == clusters);
 }
 
+TEST_CASE("A visit is judged by what its viewpoint saw: uncovering that part of a tall cluster is no failure",
+          "[planner][exploration]") {
+  // A room 8 m long, 6 m wide and 8 m tall, known up to x = 4 m: the frontier plane's clusters are
+  // far taller than a camera at a ring viewpoint sees (half vertical field of view 32 deg at most
+  // 2.5 m away), so one visit can uncover only part of its cluster.
+  DenseMap map(kVoxel, CoordBBox(Coord(-2), Coord(82, 62, 82)));
+  map.fill(CoordBBox(Coord(0), Coord(79, 59, 79)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(1), Coord(39, 58, 78)), Occupancy::Free);
+  map.fill(CoordBBox(Coord(40, 1, 1), Coord(78, 58, 78)), Occupancy::Unknown);
+  ExplorationParams p = roomParams();
+  p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(8, 6, 8));
+  const Vec3d start(1.5, 3.0, 4.0);
+  ExplorationManager m(p, at(start), 0.0);
+  REQUIRE(m.update(map, CoordBBox(), at(start), 0.0).status == ExplorationStatus::Planned);
+  const FrontierCluster* target = m.frontiers().find(m.target());
+  REQUIRE(target != nullptr);
+
+  // What the camera sees at the viewpoint (the trajectory's end) becomes known: the unknown space
+  // behind each frontier voxel it sees turns free, as integrating that view would make it.
+  const double t_end = m.trajectoryStartTime() + m.trajectory().duration();
+  const TrajectoryState eye = m.command(t_end);
+  MapProbe probe(map);
+  std::vector<Coord> seen;
+  for (const Coord& v : target->voxels) {
+    const Vec3d c = map.voxelCenter(v);
+    if (p.viewpoint.camera.contains(eye.position_W, eye.yaw_rad, c) && probe.isVisible(c, eye.position_W))
+      seen.push_back(v);
+  }
+  const double seen_fraction = double(seen.size()) / double(target->voxels.size());
+  INFO("the viewpoint sees " << seen.size() << " of the cluster's " << target->voxels.size() << " voxels");
+  // The scenario discriminates: judged by the whole cluster, this visit would be a failure.
+  REQUIRE(seen_fraction > 0.05);
+  REQUIRE(seen_fraction < p.covered_fraction);
+  CoordBBox dirty;
+  for (const Coord& v : seen) {
+    const CoordBBox behind(v.offsetBy(1, 0, 0), v.offsetBy(3, 0, 0));
+    map.fill(behind, Occupancy::Free);
+    dirty.expand(behind);
+  }
+
+  const double t = t_end + 0.01;
+  const ExplorationStep step = m.update(map, dirty, onTrajectory(m, t), t);
+  CHECK(step.reason == ReplanReason::TrajectoryEnd);
+  CHECK(m.counters().target_failures == 0);
+}
+
 TEST_CASE("A revisit round computes viewpoints again for clusters that had none", "[planner][exploration]") {
   // The vehicle's room (x < 1 m) and a 0.2 m free slab at x = 3.8-3.9 m in front of unknown space,
   // with an occupied block between them: the slab's frontier has no viewpoint (every candidate lies

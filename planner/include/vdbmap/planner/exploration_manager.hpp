@@ -20,8 +20,10 @@
 //     fails (no path, no trajectory) the next ones of the tour are tried, up to
 //     max_targets_per_replan;
 //  4. counts failures per target and blacklists targets that keep failing: a failure is a failed
-//     path or trajectory to it, or a visit (the trajectory to it ended) after which most of its
-//     frontier voxels are still frontier (it cannot be observed from there). Failures are kept per
+//     path or trajectory to it, or a visit (the trajectory to it ended) after which most of the
+//     frontier its viewpoint saw when planned is still frontier (it cannot be observed from
+//     there; a large cluster, seen only in part from any viewpoint, is judged by that part, so a
+//     visit that uncovers it is progress, not a failure). Failures are kept per
 //     frontier voxel, because a cluster changes its id whenever its voxels change: a cluster counts
 //     the median failure count of its voxels, and is blacklisted at max_failures. When no target
 //     is left but clusters are (blacklisted, or without a viewpoint), every blacklisted cluster
@@ -114,7 +116,8 @@ struct ExplorationParams {
   /// Replan when the trajectory has run this long (FUEL thresh_replan3); (0, 1000]
   double replan_period_s = 1.5;
   /// A target is covered when more than this fraction of its frontier voxels (at planning time)
-  /// are no longer frontier; (0, 1]
+  /// are no longer frontier (a replan trigger); a visit succeeds when more than this fraction of
+  /// the frontier samples its viewpoint saw (at planning time) are no longer frontier; (0, 1]
   double covered_fraction = 0.5;
   /// The rest of the trajectory must keep this much known-free space around it (the vehicle's
   /// radius; less than the planning clearance, so that a replan is not triggered by the margin
@@ -277,6 +280,8 @@ class ExplorationManager {
   ReplanReason replanReason(const MapQuery& map, double t_s);
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
   double targetCoveredFraction() const;
+  /// The fraction of target_promised_ no longer frontier (1 without a target).
+  double promisedCoveredFraction() const;
   void checkVisit();
   std::vector<Target> liveTargets(const MapQuery& map);
   ExplorationStatus replan(const MapQuery& map, const VehicleState& vehicle, double t_s, ExplorationStep& step);
@@ -323,6 +328,9 @@ class ExplorationManager {
   Eigen::Isometry3d shift_ = Eigen::Isometry3d::Identity();  ///< applied to trajectory_ (frame shifts since it was planned)
   ClusterId target_ = 0;
   std::vector<openvdb::Coord> target_voxels_;  ///< the target's frontier voxels when it was planned
+  /// The target's frontier samples that the viewpoint flown to saw when it was planned: what a
+  /// visit is judged by (checkVisit). A large cluster is seen in part from any one viewpoint.
+  std::vector<openvdb::Coord> target_promised_;
   int turns_left_ = 0;                         ///< parts of the initial turn still to plan
   bool turning_ = false;                       ///< the initial turn is not over
   bool first_update_ = true;
