@@ -252,6 +252,18 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
 
 // ---- decisions ---------------------------------------------------------------------------------
 
+std::vector<openvdb::Coord> ExplorationManager::samplesSeen(const MapQuery& map, const FrontierCluster& cluster,
+                                                            const Viewpoint& view) const {
+  std::vector<openvdb::Coord> seen;
+  MapProbe probe(map);
+  for (const openvdb::Coord& c : cluster.samples) {
+    const Vec3d p = map.voxelCenter(c);
+    if (params_.viewpoint.camera.contains(view.position_W, view.yaw_rad, p) && probe.isVisible(p, view.position_W))
+      seen.push_back(c);
+  }
+  return seen;
+}
+
 double ExplorationManager::promisedCoveredFraction() const {
   if (target_promised_.empty()) return targetCoveredFraction();
   std::size_t gone = 0;
@@ -476,13 +488,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     if (outcome == PlanOutcome::Ok) {
       target_ = t.cluster;
       target_voxels_ = cluster->voxels;
-      target_promised_.clear();
-      MapProbe probe(map);
-      for (const openvdb::Coord& c : cluster->samples) {
-        const Vec3d p = map.voxelCenter(c);
-        if (params_.viewpoint.camera.contains(view.position_W, view.yaw_rad, p) && probe.isVisible(p, view.position_W))
-          target_promised_.push_back(c);
-      }
+      target_promised_ = samplesSeen(map, *cluster, view);
       step.target = t.cluster;
       return ExplorationStatus::Planned;
     }

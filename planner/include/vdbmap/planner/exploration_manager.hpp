@@ -280,7 +280,10 @@ class ExplorationManager {
   ReplanReason replanReason(const MapQuery& map, double t_s);
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
   double targetCoveredFraction() const;
-  /// The fraction of target_promised_ no longer frontier (1 without a target).
+  /// The cluster's frontier samples that a camera at `view` sees in `map` (as countVisible counts).
+  std::vector<openvdb::Coord> samplesSeen(const MapQuery& map, const FrontierCluster& cluster,
+                                          const Viewpoint& view) const;
+  /// The fraction of target_promised_ no longer frontier (targetCoveredFraction when it is empty).
   double promisedCoveredFraction() const;
   void checkVisit();
   std::vector<Target> liveTargets(const MapQuery& map);
