@@ -252,16 +252,10 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
 
 // ---- decisions ---------------------------------------------------------------------------------
 
-std::vector<openvdb::Coord> ExplorationManager::samplesSeen(const MapQuery& map, const FrontierCluster& cluster,
-                                                            const Viewpoint& view) const {
-  std::vector<openvdb::Coord> seen;
-  MapProbe probe(map);
-  for (const openvdb::Coord& c : cluster.samples) {
-    const Vec3d p = map.voxelCenter(c);
-    if (params_.viewpoint.camera.contains(view.position_W, view.yaw_rad, p) && probe.isVisible(p, view.position_W))
-      seen.push_back(c);
-  }
-  return seen;
+void ExplorationManager::clearTarget() {
+  target_ = 0;
+  target_voxels_.clear();
+  target_promised_.clear();
 }
 
 double ExplorationManager::promisedCoveredFraction() const {
@@ -426,9 +420,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
       nothing.costs = RealCostMatrix(1);
       step.alc_status = decideLoopDetour(map, vehicle, t_s, {}, nothing)->status;
     }
-    target_ = 0;
-    target_voxels_.clear();
-    target_promised_.clear();
+    clearTarget();
     if (!trajectoryDone(t_s) && step.reason != ReplanReason::CollisionRisk) return ExplorationStatus::NoFrontier;
     if (!trajectoryDone(t_s) || was_moving_) hold(vehicle, t_s);
     return ExplorationStatus::Finished;
@@ -464,9 +456,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     const PlanOutcome outcome = planTo(map, vehicle, view, t_s);
     if (outcome == PlanOutcome::Ok) {
       on_detour_ = true;
-      target_ = 0;
-      target_voxels_.clear();
-      target_promised_.clear();
+      clearTarget();
       step.loop_detour = true;
       return ExplorationStatus::Planned;
     }
@@ -488,7 +478,9 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     if (outcome == PlanOutcome::Ok) {
       target_ = t.cluster;
       target_voxels_ = cluster->voxels;
-      target_promised_ = samplesSeen(map, *cluster, view);
+      MapProbe probe(map);
+      target_promised_ =
+          visibleVoxels(probe, view.position_W, view.yaw_rad, cluster->samples, params_.viewpoint.camera);
       step.target = t.cluster;
       return ExplorationStatus::Planned;
     }
@@ -497,9 +489,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
       // for that, so that a target whose approach keeps getting blocked is given up.
       addTargetFailure();
       if (!escape(map, vehicle, t_s)) break;
-      target_ = 0;
-      target_voxels_.clear();
-      target_promised_.clear();
+      clearTarget();
       return ExplorationStatus::Planned;
     }
     addFailure(*cluster);

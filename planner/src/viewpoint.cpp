@@ -74,13 +74,28 @@ double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, 
   return sum.squaredNorm() > 0.0 ? std::atan2(sum.y(), sum.x()) : 0.0;
 }
 
+namespace {
+/// The camera sees the voxel's centre: inside the frustum and range, nothing but known-free
+/// voxels on the ray.
+bool sees(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const openvdb::Coord& voxel,
+          const CameraFrustum& camera) {
+  const Vec3d p = probe.map().voxelCenter(voxel);
+  return camera.contains(eye_W, yaw_rad, p) && probe.isVisible(p, eye_W);
+}
+}  // namespace
+
 int countVisible(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
                  const CameraFrustum& camera) {
   int seen = 0;
-  for (const openvdb::Coord& c : voxels) {
-    const Vec3d p = probe.map().voxelCenter(c);
-    if (camera.contains(eye_W, yaw_rad, p) && probe.isVisible(p, eye_W)) ++seen;
-  }
+  for (const openvdb::Coord& c : voxels) seen += sees(probe, eye_W, yaw_rad, c, camera) ? 1 : 0;
+  return seen;
+}
+
+std::vector<openvdb::Coord> visibleVoxels(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
+                                          const std::vector<openvdb::Coord>& voxels, const CameraFrustum& camera) {
+  std::vector<openvdb::Coord> seen;
+  for (const openvdb::Coord& c : voxels)
+    if (sees(probe, eye_W, yaw_rad, c, camera)) seen.push_back(c);
   return seen;
 }
 

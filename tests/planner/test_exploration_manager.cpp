@@ -37,7 +37,6 @@ ExplorationParams roomParams(double length_m = 8.0) {
   return p;
 }
 
-
 /// The vehicle as the manager commands it at t (exactly on its trajectory).
 VehicleState onTrajectory(const ExplorationManager& m, double t) {
   const TrajectoryState c = m.command(t);
@@ -274,12 +273,7 @@ TEST_CASE("A visit is judged by what its viewpoint saw: uncovering that part of 
   const double t_end = m.trajectoryStartTime() + m.trajectory().duration();
   const TrajectoryState eye = m.command(t_end);
   MapProbe probe(map);
-  std::vector<Coord> seen;
-  for (const Coord& v : target->voxels) {
-    const Vec3d c = map.voxelCenter(v);
-    if (p.viewpoint.camera.contains(eye.position_W, eye.yaw_rad, c) && probe.isVisible(c, eye.position_W))
-      seen.push_back(v);
-  }
+  const std::vector<Coord> seen = visibleVoxels(probe, eye.position_W, eye.yaw_rad, target->voxels, p.viewpoint.camera);
   const double seen_fraction = double(seen.size()) / double(target->voxels.size());
   INFO("the viewpoint sees " << seen.size() << " of the cluster's " << target->voxels.size() << " voxels");
   // The scenario discriminates: judged by the whole cluster, this visit would be a failure.

@@ -280,9 +280,8 @@ class ExplorationManager {
   ReplanReason replanReason(const MapQuery& map, double t_s);
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
   double targetCoveredFraction() const;
-  /// The cluster's frontier samples that a camera at `view` sees in `map` (as countVisible counts).
-  std::vector<openvdb::Coord> samplesSeen(const MapQuery& map, const FrontierCluster& cluster,
-                                          const Viewpoint& view) const;
+  /// No target: target_ 0, its voxels and the samples its viewpoint saw cleared.
+  void clearTarget();
   /// The fraction of target_promised_ no longer frontier (targetCoveredFraction when it is empty).
   double promisedCoveredFraction() const;
   void checkVisit();

@@ -106,4 +106,8 @@ double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, 
 int countVisible(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
                  const CameraFrustum& camera);
 
+/// The voxels that countVisible counts, in the order of `voxels`.
+std::vector<openvdb::Coord> visibleVoxels(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
+                                          const std::vector<openvdb::Coord>& voxels, const CameraFrustum& camera);
+
 }  // namespace vdbmap::planner
