@@ -1,6 +1,6 @@
 // `vdbmap explore --world W.ply [--drift s1..s4] [--seed N] [--voxel-size M] [--max-time-s T]
 // [--mode keyframes|all|none|submap] [--start x,y,z] [--box ...] [--ceiling Z] [--alc on|off]
-// [--epsilon E] -o RUNDIR`: explores
+// [--epsilon E] [--budgets counted|wall-clock] -o RUNDIR`: explores
 // the world with the simulated vehicle, the mapper and the exploration planner in closed loop, and
 // writes the run folder (see sim/exploration.hpp).
 #include "cli_util.hpp"
@@ -29,6 +29,7 @@ struct ExploreOptions {
   double start_yaw = 0.0;
   std::vector<double> start, box;
   std::string alc = "off";
+  std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcParams{}.epsilon;
   int min_cluster_size = planner::FrontierParams{}.min_cluster_size;
   int revisit_rounds = planner::ExplorationParams{}.revisit_rounds;
@@ -70,6 +71,7 @@ void runExplore(const ExploreOptions& o) {
   config.simulator.loop_closure = sim::parseLoopClosureMode(o.loop_closure);
   config.mapper.mode = parseConsistencyMode(o.mode);
   config.max_time_s = o.max_time_s;
+  sim::setBudgets(config, sim::parseBudgetMode(o.budgets));
   config.planner.initial_turn = !o.no_initial_turn;
   config.planner.alc_enabled = o.alc == "on";
   config.planner.alc.epsilon = o.epsilon;
@@ -86,7 +88,7 @@ void runExplore(const ExploreOptions& o) {
                             std::to_string(o.seed) + " --mode " + o.mode + " --min-cluster-size " +
                             std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
                             std::to_string(o.final_min_cluster_size) + " --revisit-rounds " +
-                            std::to_string(o.revisit_rounds) + " --alc " + o.alc +
+                            std::to_string(o.revisit_rounds) + " --budgets " + o.budgets + " --alc " + o.alc +
                             (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -155,6 +157,11 @@ const Registration registration("explore", [](CLI::App& app) {
                   "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
                   "more try each, with viewpoints computed in the map as it is then")
       ->check(CLI::Range(0, 100));
+  sub->add_option("--budgets", o->budgets,
+                  "How path searches, tours and re-integration cycles are limited: counted (iterations and "
+                  "frames: the same command gives the same run on any machine) or wall-clock (time limits, as on "
+                  "a robot: runs vary with the machine's load)")
+      ->check(CLI::IsMember({"counted", "wall-clock"}));
   sub->add_flag("--no-initial-turn", o->no_initial_turn, "Skip the turn on the spot at take-off");
   sub->add_flag("--overwrite", o->overwrite, "Replace a run already in RUNDIR");
   sub->add_option("-o,--output", o->output, "Run folder to write")->required();

@@ -41,6 +41,14 @@ std::function<void(const ExplorationProgress&)> progressWithSignals(
 }
 
 void bindConfig(py::module_& m) {
+  py::enum_<BudgetMode> budgets(m, "BudgetMode", "How the planner's and the mapper's per-cycle budgets are counted.");
+  budgets.value("WallClock", BudgetMode::WallClock, "wall-clock limits, as on a robot; str() is 'wall-clock'")
+      .value("Counted", BudgetMode::Counted, "iterations and frames: runs repeat exactly; str() is 'counted'");
+  budgets.def(py::init([](const std::string& text) { return parseBudgetMode(text); }), py::arg("name"),
+              "From the name the CLI uses; ValueError lists the accepted names.");
+  budgets.attr("__str__") = py::cpp_function([](BudgetMode v) { return std::string(toString(v)); },
+                                             py::name("__str__"), py::is_method(budgets), "'wall-clock' or 'counted'");
+
   py::class_<ExplorationConfig> c(
       m, "ExplorationConfig",
       "A closed-loop exploration: simulator (camera, drift, loop closure), mapper, planner, "
@@ -106,6 +114,13 @@ void bindConfig(py::module_& m) {
           py::arg("world"), py::arg("start_height_m") = 1.0, py::arg("start_clearance_m") = 0.6,
           "Defaults with the box and start `vdbmap explore` picks: default_exploration_box(world) and "
           "default_start_position there.")
+      .def(
+          "set_budgets",
+          [](ExplorationConfig& self, py::handle mode) { setBudgets(self, toEnum(mode, &parseBudgetMode, "mode")); },
+          py::arg("mode"),
+          "Sets the planner's and the mapper's per-cycle budgets: BudgetMode.Counted (or 'counted', what "
+          "`vdbmap explore` uses: the same config gives the same run) or BudgetMode.WallClock (or 'wall-clock', "
+          "the defaults, as on a robot).")
       .def("validate", &ExplorationConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   m.def(

@@ -80,6 +80,8 @@ void bindCostsAndPaths(py::module_& m) {
   p.def_readwrite("clearance_m", &PathParams::clearance_m, "known-free distance around the path; [0, 5]")
       .def_readwrite("check_step_m", &PathParams::check_step_m, "OMPL's validity-check resolution; 0 = half a voxel")
       .def_readwrite("time_limit_s", &PathParams::time_limit_s, "wall-clock budget of one search; (0, 60]")
+      .def_readwrite("max_iterations", &PathParams::max_iterations,
+                     "RRTConnect iterations of one search; 0 = only the time limit; [0, 1e9]")
       .def_readwrite("rrt_range_m", &PathParams::rrt_range_m, "RRTConnect's extension length; 0 = OMPL's default")
       .def_readwrite("simplify_rounds", &PathParams::simplify_rounds, "shortcutting rounds; [0, 100]")
       .def_readwrite("seed", &PathParams::seed, "OMPL's seed")

@@ -83,6 +83,7 @@ void PathParams::validate() const {
   if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) fail("clearance_m", "[0, 5]");
   if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) fail("check_step_m", "[0, 1]");
   if (!(time_limit_s > 0.0 && time_limit_s <= 60.0)) fail("time_limit_s", "(0, 60]");
+  if (max_iterations > 1'000'000'000u) fail("max_iterations", "[0, 1e9]");
   if (!(rrt_range_m >= 0.0 && rrt_range_m <= 1e3)) fail("rrt_range_m", "[0, 1000]");
   if (simplify_rounds < 0 || simplify_rounds > 100) fail("simplify_rounds", "[0, 100]");
   if (bounds_W && bounds_W->isEmpty()) fail("bounds_W", "non-empty boxes");
@@ -237,7 +238,16 @@ PathResult PathPlanner::searchOmpl(const Vec3d& start_W, const Vec3d& goal_W, st
   rrt->setup();
 
   PathResult result;
-  const ob::PlannerStatus status = rrt->solve(ob::timedPlannerTerminationCondition(params_.time_limit_s));
+  // RRTConnect evaluates the condition once per iteration; counting the evaluations gives an
+  // iteration budget that is the same on every machine.
+  const std::uint64_t cap = params_.max_iterations;
+  const ob::PlannerTerminationCondition counted([&result, cap] {
+    if (cap != 0 && result.iterations >= cap) return true;
+    ++result.iterations;
+    return false;
+  });
+  const ob::PlannerStatus status =
+      rrt->solve(ob::plannerOrTerminationCondition(counted, ob::timedPlannerTerminationCondition(params_.time_limit_s)));
   if (status != ob::PlannerStatus::EXACT_SOLUTION || !pdef->getSolutionPath()) {
     result.status = PathStatus::NoPath;
     return result;

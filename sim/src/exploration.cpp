@@ -249,6 +249,40 @@ Vec3d defaultStartPosition(const World& world, const Eigen::AlignedBox3d& box, d
   return best;
 }
 
+const char* toString(BudgetMode mode) {
+  switch (mode) {
+    case BudgetMode::WallClock: return "wall-clock";
+    case BudgetMode::Counted: return "counted";
+  }
+  return "?";
+}
+
+BudgetMode parseBudgetMode(const std::string& text) {
+  if (text == "wall-clock") return BudgetMode::WallClock;
+  if (text == "counted") return BudgetMode::Counted;
+  throw std::invalid_argument("budgets must be counted or wall-clock, got '" + text + "'");
+}
+
+void setBudgets(ExplorationConfig& config, BudgetMode mode) {
+  planner::ExplorationParams& p = config.planner;
+  const planner::PathParams flight = planner::ExplorationParams::flightPathDefaults();
+  const planner::PathParams cost = planner::ExplorationParams::costPathDefaults();
+  const planner::TourParams tour;
+  const ReintegrationConfig reintegration;
+  const bool counted = mode == BudgetMode::Counted;
+  const double backstop = counted ? 20.0 : 1.0;
+  p.path.time_limit_s = backstop * flight.time_limit_s;
+  p.path.max_iterations = counted ? kCountedFlightPathIterations : 0;
+  p.cost_path.time_limit_s = backstop * cost.time_limit_s;
+  p.cost_path.max_iterations = counted ? kCountedCostPathIterations : 0;
+  for (planner::TourParams* t : {&p.tour, &p.alc.tour}) {
+    t->time_limit_s = backstop * tour.time_limit_s;
+    t->max_iterations = counted ? kCountedTourIterations : 0;
+  }
+  config.mapper.reintegration.budget_ms = counted ? 1e6 : reintegration.budget_ms;
+  config.mapper.reintegration.budget_frames = counted ? kCountedReintegrationFrames : reintegration.budget_frames;
+}
+
 ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,
                                        double voxel_size_m) {
   ExplorationConfig config;
@@ -261,6 +295,7 @@ ExplorationConfig explorationConfigFor(const World& world, const std::string& dr
   config.planner.box_W = defaultExplorationBox(world);
   config.start.p_W = defaultStartPosition(world, config.planner.box_W);
   config.start.yaw = 0.0;
+  setBudgets(config, BudgetMode::Counted);
   return config;
 }
 
@@ -292,6 +327,14 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["mode"] = toString(c.mapper.mode);
   j["voxel_size_m"] = c.mapper.tsdf.voxel_size_m;
   j["max_time_s"] = c.max_time_s;
+  j["budgets"] = {{"path_max_iterations", c.planner.path.max_iterations},
+                  {"path_time_limit_s", c.planner.path.time_limit_s},
+                  {"cost_path_max_iterations", c.planner.cost_path.max_iterations},
+                  {"cost_path_time_limit_s", c.planner.cost_path.time_limit_s},
+                  {"tour_max_iterations", c.planner.tour.max_iterations},
+                  {"tour_time_limit_s", c.planner.tour.time_limit_s},
+                  {"reintegration_budget_frames", c.mapper.reintegration.budget_frames},
+                  {"reintegration_budget_ms", c.mapper.reintegration.budget_ms}};
   j["start"] = {c.start.p_W.x(), c.start.p_W.y(), c.start.p_W.z(), c.start.yaw};
   j["box"] = {{"min", {c.planner.box_W.min().x(), c.planner.box_W.min().y(), c.planner.box_W.min().z()}},
               {"max", {c.planner.box_W.max().x(), c.planner.box_W.max().y(), c.planner.box_W.max().z()}}};

@@ -84,6 +84,26 @@ TEST_CASE("A closed one-voxel wall gives the status NoPath within the time limit
   CHECK(r.time_s < 1.0);  // the limit (0.05 s) plus set-up, with a generous margin
 }
 
+TEST_CASE("An iteration cap ends a hopeless search after exactly that many iterations", "[planner][path]") {
+  const DenseMap map = wallRoom(false);
+  PathParams params;
+  params.time_limit_s = 60.0;  // the cap, not the clock, must end it
+  params.max_iterations = 200;
+  PathPlanner planner(map, params);
+  const PathResult r = planner.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1));
+  CHECK(r.status == PathStatus::NoPath);
+  CHECK(r.iterations == params.max_iterations);
+  // A search that succeeds reports the iterations it used, within the cap.
+  const DenseMap open = wallRoom(true);
+  PathPlanner through(open, params);
+  const PathResult found = through.plan(Vec3d(2, 1, 1), Vec3d(8, 1.2, 1.4));
+  REQUIRE(found.status == PathStatus::Planned);
+  CHECK(found.iterations >= 1);
+  CHECK(found.iterations <= params.max_iterations);
+  // A straight segment needs no search.
+  CHECK(through.plan(Vec3d(1, 1, 1), Vec3d(4, 4, 1.5)).iterations == 0);
+}
+
 TEST_CASE("Starts and goals near obstacles or in unknown space are statuses", "[planner][path]") {
   const DenseMap map = wallRoom(true);
   PathPlanner planner(map);
@@ -128,4 +148,7 @@ TEST_CASE("PathParams::validate names the field", "[planner][path]") {
   p.clearance_m = -1.0;
   const DenseMap map = wallRoom(true);
   CHECK_THROWS_WITH(PathPlanner(map, p), Catch::Contains("clearance_m"));
+  p = PathParams{};
+  p.max_iterations = 2'000'000'000u;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("max_iterations"));
 }

@@ -28,7 +28,7 @@ SUMMARY_KEYS = {
     "mode", "voxel_size_m", "max_time_s", "start", "box", "min_clearance_m", "vehicle_radius_m", "replans",
     "replans_failed", "collision_risk_replans", "target_failures", "blacklisted_clusters", "holds",
     "map_update_ms_median", "frame_wall_ms_median", "reintegrated_frames", "estimate_error_rmse_m",
-    "estimate_error_max_m", "odometry_error_final_m", "observable_surface", "wall_s",
+    "estimate_error_max_m", "odometry_error_final_m", "observable_surface", "wall_s", "budgets",
 }
 # Quaternions of TUM rows are unit to rounding.
 UNIT_QUATERNION_TOLERANCE = 1e-9
@@ -106,6 +106,26 @@ def test_run_exploration_returns_tum_trajectories_and_the_mapper(run):
     # The mesh lies on the room's walls (within two voxels of one of its six planes).
     to_walls = np.minimum(np.abs(vertices - ROOM_MIN), np.abs(vertices - ROOM_MAX)).min(axis=1)
     assert np.median(to_walls) < 2 * 0.2
+
+
+def test_counted_budgets_repeat_a_run_exactly(room):
+    config = tiny_config("s2")
+    config.set_budgets("counted")  # what `vdbmap explore` uses by default
+    assert cli_default("explore", "--budgets") == str(sim.BudgetMode.Counted) == "counted"
+    assert config.planner.path.max_iterations > 0 and config.planner.tour.max_iterations > 0
+    assert config.mapper.reintegration.budget_frames > 0
+    first, second = sim.run_exploration(room, config), sim.run_exploration(room, config)
+    assert first.planner_counters.replans >= 3
+    np.testing.assert_array_equal(first.trajectory_true, second.trajectory_true)
+    np.testing.assert_array_equal(first.trajectory_estimate, second.trajectory_estimate)
+
+    config.set_budgets(sim.BudgetMode.WallClock)  # back to the defaults
+    defaults = sim.ExplorationConfig()
+    assert config.planner.path.max_iterations == 0 and config.planner.tour.max_iterations == 0
+    assert config.planner.path.time_limit_s == defaults.planner.path.time_limit_s
+    assert config.mapper.reintegration.budget_ms == defaults.mapper.reintegration.budget_ms
+    with pytest.raises(ValueError, match="counted or wall-clock"):
+        config.set_budgets("iterations")
 
 
 def test_the_mapper_keeps_its_result_alive(room):

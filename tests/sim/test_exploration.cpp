@@ -100,3 +100,42 @@ TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", 
   // floor and ceiling voxels that a level camera sees only at its frustum's edges.
   CHECK(observable.coverage(planner::TsdfMapQuery(r.mapper->volume())) >= 0.85);
 }
+
+TEST_CASE("Counted budgets make a run repeat exactly; setBudgets switches both ways", "[sim][exploration]") {
+  const World world(twoRooms());
+  ExplorationConfig config = twoRoomConfig("s2");  // drift, loop closures and re-integration
+  config.max_time_s = 40.0;
+  setBudgets(config, BudgetMode::Counted);
+  CHECK(config.planner.path.max_iterations == kCountedFlightPathIterations);
+  CHECK(config.planner.cost_path.max_iterations == kCountedCostPathIterations);
+  CHECK(config.planner.tour.max_iterations == kCountedTourIterations);
+  CHECK(config.planner.alc.tour.max_iterations == kCountedTourIterations);
+  CHECK(config.mapper.reintegration.budget_frames == kCountedReintegrationFrames);
+  config.validate();
+
+  const ExplorationResult a = runExploration(world, config);
+  const ExplorationResult b = runExploration(world, config);
+  INFO("replans " << a.planner_counters.replans << ", loops " << a.loop_closures << ", re-integrated "
+                  << a.reintegrated_frames);
+  REQUIRE(a.planner_counters.replans >= 5);
+  REQUIRE(a.trajectory_true.size() == b.trajectory_true.size());
+  for (std::size_t i = 0; i < a.trajectory_true.size(); ++i)
+    REQUIRE(a.trajectory_true[i].T_W_S.isApprox(b.trajectory_true[i].T_W_S, 1e-12));
+  CHECK(a.loop_closures == b.loop_closures);
+  CHECK(a.reintegrated_frames == b.reintegrated_frames);
+  CHECK(a.mapper->volume().activeVoxelCount() == b.mapper->volume().activeVoxelCount());
+
+  setBudgets(config, BudgetMode::WallClock);
+  const planner::ExplorationParams defaults;
+  CHECK(config.planner.path.max_iterations == 0);
+  CHECK(config.planner.path.time_limit_s == defaults.path.time_limit_s);
+  CHECK(config.planner.cost_path.time_limit_s == defaults.cost_path.time_limit_s);
+  CHECK(config.planner.tour.max_iterations == 0);
+  CHECK(config.planner.tour.time_limit_s == defaults.tour.time_limit_s);
+  CHECK(config.mapper.reintegration.budget_ms == ReintegrationConfig{}.budget_ms);
+  CHECK(config.mapper.reintegration.budget_frames == 0);
+
+  CHECK(parseBudgetMode("counted") == BudgetMode::Counted);
+  CHECK(parseBudgetMode(toString(BudgetMode::WallClock)) == BudgetMode::WallClock);
+  CHECK_THROWS_WITH(parseBudgetMode("iterations"), Catch::Contains("counted or wall-clock"));
+}

@@ -89,6 +89,7 @@ class PathParams:
     clearance_m: float
     check_step_m: float
     time_limit_s: float
+    max_iterations: int
     rrt_range_m: float
     simplify_rounds: int
     seed: int

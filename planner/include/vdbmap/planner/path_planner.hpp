@@ -39,6 +39,10 @@ struct PathParams {
   double check_step_m = 0.0;
   /// Wall-clock budget of one RRTConnect search; (0, 60]
   double time_limit_s = 0.05;
+  /// Iteration budget of one RRTConnect search (its termination checks, one per tree extension);
+  /// 0 = only the time limit; [0, 1e9]. With a cap that binds before the time limit, a search's
+  /// outcome no longer depends on the machine's speed or load.
+  std::uint64_t max_iterations = 0;
   /// RRTConnect's maximum extension length in metres; 0 = OMPL's default (a fifth of the space's
   /// extent); [0, 1e3]
   double rrt_range_m = 0.0;
@@ -65,6 +69,7 @@ struct PathResult {
   std::vector<Vec3d> waypoints;  ///< start ... goal (empty unless ok())
   double length_m = 0.0;         ///< polyline length (0 unless ok())
   double time_s = 0.0;           ///< time spent
+  std::uint64_t iterations = 0;  ///< RRTConnect iterations (0 when no search was needed)
 
   bool ok() const { return status == PathStatus::Straight || status == PathStatus::Planned; }
 };

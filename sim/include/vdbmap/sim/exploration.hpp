@@ -17,12 +17,15 @@
 // cycle runs; then the manager updates frontiers from the map's dirty region and may replan.
 //
 // Time: simulated time stands still while the planner computes (the vehicle neither waits nor
-// moves on during a replan). This keeps a run deterministic for a seed (as long as OMPL and ATSP
-// time limits are not hit) and independent of the machine's load; the planner's wall time per
-// replan is measured and reported (planner_ms), so whether it would keep up in real time can be
-// judged: a replan that takes longer than a frame period (67 ms) would, on a real vehicle, be
-// flown on the old trajectory for that long. At take-off the vehicle hovers through its first
-// replan in the same way (no time passes).
+// moves on during a replan); the planner's wall time per replan is measured and reported
+// (planner_ms), so whether it would keep up in real time can be judged: a replan that takes
+// longer than a frame period (67 ms) would, on a real vehicle, be flown on the old trajectory for
+// that long. At take-off the vehicle hovers through its first replan in the same way (no time
+// passes). Three budgets decide how much work a cycle does: OMPL's path searches, the tour
+// solver, and the mapper's re-integration cycle. Counted in wall-clock time (as on a robot), they
+// make a run depend on the machine's speed and load; counted in iterations and frames
+// (setBudgets, BudgetMode::Counted, what `vdbmap explore` uses), the same config gives the same
+// run on any machine.
 //
 // The run finishes when the manager reports Finished (no reachable frontier left, vehicle at
 // rest) and no re-integration is pending, or when max_time_s of simulated time have passed.
@@ -140,9 +143,37 @@ Eigen::AlignedBox3d defaultExplorationBox(const World& world);
 Vec3d defaultStartPosition(const World& world, const Eigen::AlignedBox3d& box, double start_height_m = 1.0,
                            double start_clearance_m = 0.6);
 
+/// How the per-cycle budgets of the planner and the mapper are counted.
+enum class BudgetMode {
+  /// Wall-clock limits, as a robot needs them (the parameter structs' defaults): OMPL searches of
+  /// 0.1 s (flight paths) and 0.01 s (costs), tours of 0.05 s, re-integration cycles of 20 ms.
+  /// Runs vary with the machine's speed and load.
+  WallClock,
+  /// Iterations and frames (kCounted* below), set to match the wall-clock limits on a 2-core
+  /// 2020s x86 machine; the wall-clock limits stay as a backstop 20 times longer. The same config
+  /// gives the same run on any machine that is not 20 times slower.
+  Counted,
+};
+const char* toString(BudgetMode mode);
+/// Parses counted / wall-clock; throws std::invalid_argument listing the choices.
+BudgetMode parseBudgetMode(const std::string& text);
+
+/// RRTConnect iterations of a flight-path search (PathParams::max_iterations) in Counted mode.
+inline constexpr std::uint64_t kCountedFlightPathIterations = 3000;
+/// RRTConnect iterations of a cost-path search in Counted mode.
+inline constexpr std::uint64_t kCountedCostPathIterations = 300;
+/// Tour-solver rounds (TourParams::max_iterations) in Counted mode, for both ALC tours as well.
+inline constexpr std::uint64_t kCountedTourIterations = 5000;
+/// Frames per re-integration cycle (ReintegrationConfig::budget_frames) in Counted mode.
+inline constexpr int kCountedReintegrationFrames = 4;
+
+/// Sets the budgets of config.planner (path, cost_path, tour, alc.tour) and
+/// config.mapper.reintegration for `mode`, overwriting what was there.
+void setBudgets(ExplorationConfig& config, BudgetMode mode);
+
 /// `vdbmap explore`'s set-up of a world: drift `drift_level` (Table I) seeded with `seed`, which
 /// also seeds the planner's path sampling and tours; voxel size; the default box and start (yaw
-/// 0). Throws std::invalid_argument for an unknown level or no clear start.
+/// 0); counted budgets (setBudgets). Throws std::invalid_argument for an unknown level or no clear start.
 ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,
                                        double voxel_size_m);
 
