@@ -46,6 +46,7 @@ def main() -> int:
     config.voxel_size_m = args.voxel_size
     config.mode = args.mode
     config.max_time_s = args.max_time_s
+    config.set_budgets("counted")  # as `vdbmap explore`: the same arguments give the same run
     if args.camera_scale != 1.0:
         K = config.simulator.camera.intrinsics
         s = args.camera_scale
