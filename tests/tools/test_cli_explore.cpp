@@ -1,5 +1,5 @@
-// `vdbmap explore` writes a complete run folder whose log `vdbmap integrate` replays; bad
-// arguments fail loudly.
+// `vdbmap explore` writes a complete run folder whose log `vdbmap integrate` replays; the same
+// command gives the same run; bad arguments fail loudly.
 #include "tools/cli_test_util.hpp"
 
 #include <catch2/catch.hpp>
@@ -28,7 +28,7 @@ std::size_t lineCount(const fs::path& p) {
 }
 }  // namespace
 
-TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays", "[cli][explore]") {
+TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays, and repeats it exactly", "[cli][explore]") {
   const fs::path dir = fs::temp_directory_path() / "vdbmap_cli_explore";
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -60,6 +60,16 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(lineCount(runs / "trajectory_true.txt") == frames);
   CHECK(lineCount(runs / "trajectory_odom.txt") == frames);
 
+  // Counted budgets (the default) make the same command give the same run.
+  CHECK(s.at("budgets").at("path_max_iterations").get<std::uint64_t>() > 0);
+  CHECK(s.at("budgets").at("reintegration_budget_frames").get<int>() > 0);
+  const fs::path again = dir / "again";
+  REQUIRE(run("explore --world " + (dir / "room.ply").string() + " --ceiling 0 --drift s2 --seed 3 --max-time-s 90 -o " +
+                  again.string(),
+              out) == 0);
+  CHECK(slurp(again / "trajectory_true.txt") == slurp(runs / "trajectory_true.txt"));
+  CHECK(slurp(again / "trajectory_odom.txt") == slurp(runs / "trajectory_odom.txt"));
+
   REQUIRE(run("integrate " + (runs / "log").string() + " -o " + (dir / "replay.vdb").string() + " --json " +
                   (dir / "integrate.json").string(),
               out) == 0);
@@ -75,6 +85,8 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --revisit-rounds -1 -o " + (dir / "x").string(), out) != 0);
   CHECK(slurp(out).find("--revisit-rounds") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --alc maybe -o " + (dir / "x").string(), out) != 0);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --budgets sometimes -o " + (dir / "x").string(), out) != 0);
+  CHECK(slurp(out).find("--budgets") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --epsilon -1 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 2.0,1.0 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 9,9,1 -o " + (dir / "x").string(), out) != 0);
