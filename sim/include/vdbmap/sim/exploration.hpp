@@ -149,9 +149,10 @@ enum class BudgetMode {
   /// 0.1 s (flight paths) and 0.01 s (costs), tours of 0.05 s, re-integration cycles of 20 ms.
   /// Runs vary with the machine's speed and load.
   WallClock,
-  /// Iterations and frames (kCounted* below), set to match the wall-clock limits on a 2-core
-  /// 2020s x86 machine; the wall-clock limits stay as a backstop 20 times longer. The same config
-  /// gives the same run on any machine that is not 20 times slower.
+  /// Iterations and frames (kCounted* below), set to what the wall-clock limits allowed on the
+  /// project's 2-core test machine (docs/exploration.md); the wall-clock limits stay as a backstop
+  /// 20 times longer. The same config gives the same run on any machine that is not 20 times
+  /// slower, with any number of threads.
   Counted,
 };
 const char* toString(BudgetMode mode);
