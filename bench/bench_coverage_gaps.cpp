@@ -189,10 +189,7 @@ int main(int argc, char** argv) {
     fp.split_radius_xy_m = 1e4;
     fp.bounds_W = box;
     planner::FrontierMap frontiers(fp);
-    {
-      planner::TsdfMapQuery rebuild_query(volume);
-      frontiers.rebuild(rebuild_query);
-    }
+    frontiers.rebuild(map);
     std::map<openvdb::Coord, std::size_t> component_size;
     for (const planner::FrontierCluster& c : frontiers.clusters())
       for (const openvdb::Coord& v : c.voxels) component_size[v] = c.voxels.size();
@@ -250,8 +247,7 @@ int main(int argc, char** argv) {
       cp.min_cluster_size = 30;
       cp.bounds_W = box;
       planner::FrontierMap clusters(cp);
-      planner::TsdfMapQuery cluster_query(volume);
-      clusters.rebuild(cluster_query);
+      clusters.rebuild(map);
       std::map<openvdb::Coord, std::size_t> cluster_of;  // voxel -> index into clusters.clusters()
       for (std::size_t i = 0; i < clusters.clusters().size(); ++i)
         for (const openvdb::Coord& v : clusters.clusters()[i].voxels) cluster_of[v] = i;
@@ -277,7 +273,7 @@ int main(int argc, char** argv) {
       std::printf("  %8s %7s %20s %10s %12s\n", "samples", "voxels", "centroid (m)", "viewpoints", "best sees");
       for (const auto& [index, count] : ranked) {
         const planner::FrontierCluster& c = clusters.clusters()[index];
-        const std::vector<planner::Viewpoint> views = planner::computeViewpoints(c, cluster_query, vp);
+        const std::vector<planner::Viewpoint> views = planner::computeViewpoints(c, map, vp);
         const auto& wr = witness_range[index];
         std::printf(
             "  %8zu %7zu  (%5.1f, %5.1f, %4.1f) %10zu %12d   witnesses <1.5/<2.5/<3.5/more m: %zu/%zu/%zu/%zu\n", count,

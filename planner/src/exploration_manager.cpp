@@ -41,6 +41,14 @@ std::vector<Eigen::AlignedBox3d> corridorAround(const std::vector<Vec3d>& way, d
     boxes.emplace_back(way[k - 1].cwiseMin(way[k]) - grow, way[k - 1].cwiseMax(way[k]) + grow);
   return boxes;
 }
+
+/// The fraction of `voxels` that are no longer frontier (1 when there are none).
+double noLongerFrontierFraction(const FrontierMap& frontiers, const std::vector<openvdb::Coord>& voxels) {
+  if (voxels.empty()) return 1.0;
+  std::size_t gone = 0;
+  for (const openvdb::Coord& v : voxels) gone += frontiers.isFrontier(v) ? 0 : 1;
+  return double(gone) / double(voxels.size());
+}
 }  // namespace
 
 const char* toString(ExplorationStatus s) {
@@ -259,18 +267,10 @@ void ExplorationManager::clearTarget() {
 }
 
 double ExplorationManager::promisedCoveredFraction() const {
-  if (target_promised_.empty()) return targetCoveredFraction();
-  std::size_t gone = 0;
-  for (const openvdb::Coord& v : target_promised_) gone += frontiers_.isFrontier(v) ? 0 : 1;
-  return double(gone) / double(target_promised_.size());
+  return target_promised_.empty() ? targetCoveredFraction() : noLongerFrontierFraction(frontiers_, target_promised_);
 }
 
-double ExplorationManager::targetCoveredFraction() const {
-  if (target_voxels_.empty()) return 1.0;
-  std::size_t gone = 0;
-  for (const openvdb::Coord& v : target_voxels_) gone += frontiers_.isFrontier(v) ? 0 : 1;
-  return double(gone) / double(target_voxels_.size());
-}
+double ExplorationManager::targetCoveredFraction() const { return noLongerFrontierFraction(frontiers_, target_voxels_); }
 
 bool ExplorationManager::remainingTrajectoryClear(const MapQuery& map, double t_s) const {
   const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
