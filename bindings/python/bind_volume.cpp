@@ -162,6 +162,18 @@ void bindTsdfVolume(py::module_& m) {
           "sample_voxels", [](const TsdfVolume& self, py::handle ijk) { return samples(self, toCoords(ijk, "ijk")); },
           py::arg("ijk"), "Like sample() at voxel indices (N, 3) integers.")
       .def(
+          "hit_counts",
+          [](const TsdfVolume& self, py::handle points_W) {
+            const std::vector<openvdb::Coord> voxels = voxelsOf(self, points_W);
+            py::array_t<std::int64_t> hits(py::ssize_t(voxels.size()));
+            std::int64_t* h = hits.mutable_data();
+            for (std::size_t i = 0; i < voxels.size(); ++i) h[i] = self.sample(voxels[i]).hits;
+            return hits;
+          },
+          py::arg("points_W"),
+          "Surface end points of the integrated frames that fell in the voxels nearest to points (N, 3): "
+          "int64 (N,). Thin structure that the tsdf reads free still holds hits.")
+      .def(
           "world_to_voxel",
           [](const TsdfVolume& self, py::handle points_W) { return coordsToArray(voxelsOf(self, points_W)); },
           py::arg("points_W"), "Indices (N, 3) int32 of the voxels whose centres are nearest to the points.")

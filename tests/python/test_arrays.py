@@ -96,6 +96,20 @@ def test_queries_return_arrays_aligned_with_the_points():
     assert np.abs(centres - points).max() <= 0.5 * 0.05 + 1e-12
 
 
+def test_hit_counts_are_the_end_points_per_voxel_and_vanish_on_deintegration():
+    points = wall_points()
+    T = pose(yaw_deg=10.0)
+    volume = wall_volume(points)
+    ends_W = points @ T[:3, :3].T + T[:3, 3]
+    ijk, counts = np.unique(volume.world_to_voxel(ends_W), axis=0, return_counts=True)
+    hits = volume.hit_counts(volume.voxel_center(ijk))
+    assert hits.dtype == np.int64 and hits.shape == (len(ijk),)
+    np.testing.assert_array_equal(hits, counts)
+    assert volume.hit_counts(np.zeros((1, 3)))[0] == 0  # the camera's own voxel: no surface there
+    volume.deintegrate(0, points, T)
+    assert (volume.hit_counts(volume.voxel_center(ijk)) == 0).all()
+
+
 def test_known_voxels_are_the_saved_grids_values():
     volume = wall_volume(wall_points())
     ijk, tsdf, weight = volume.known_voxels()

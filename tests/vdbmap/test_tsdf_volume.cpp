@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <tuple>
 #include <random>
 
 using namespace vdbmap;
@@ -35,6 +37,7 @@ TEST_CASE("integrating then de-integrating frames in another order restores the 
       for (const std::size_t i : {3, 0, 5, 1, 4, 2}) volume.deintegrate(i, frames[i], poses[i]);
       CHECK(volume.activeVoxelCount() == 0);
       CHECK(volume.weightSumGrid()->tree().leafCount() == 0);  // the tree shrank back
+      CHECK(volume.hitCountGrid()->tree().leafCount() == 0);   // and so did the hit counts
       CHECK(volume.exactlyEquals(TsdfVolume(config(0.1, weighting), in)));
       CHECK(volume.frameCount() == 0);
     }
@@ -132,6 +135,45 @@ TEST_CASE("voxels are free in front of a surface, occupied on and just behind it
   const VoxelSample on = volume.sampleAt({3.0, 0, 1});
   CHECK(std::abs(on.tsdf_m) < 0.25 * voxel);
   CHECK(volume.sampleAt({2.0, 0, 1}).tsdf_m == Approx(config(voxel).truncation_m()));
+}
+
+TEST_CASE("each voxel's hit count is the number of surface end points that fell in it", "[tsdf][hits]") {
+  const auto poses = randomPoses(3, 41);
+  const auto images = randomDepthImages(poses, 42);  // noise, a NaN pixel, pixels beyond 5 m
+  for (const RayMode mode : {RayMode::Merged, RayMode::PerRay, RayMode::Projective}) {
+    INFO("ray mode " << toString(mode));
+    IntegratorConfig in;
+    in.ray_mode = mode;
+    in.max_range_m = 5.0;
+    TsdfVolume volume(config(0.1), in);
+    // Brute force: every pixel's end point, kept when within [min, max] range of the sensor.
+    std::map<std::tuple<int, int, int>, std::int64_t> expected;
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      volume.integrate(i, images[i], smallCamera(), poses[i]);
+      for (const Vec3f& p : backProject(images[i], smallCamera())) {
+        const double r = p.cast<double>().norm();
+        if (!p.allFinite() || !(r >= in.min_range_m) || r > in.max_range_m) continue;
+        const openvdb::Coord c = volume.worldToVoxel(poses[i] * p.cast<double>());
+        ++expected[{c.x(), c.y(), c.z()}];
+      }
+    }
+    REQUIRE(expected.size() > 500);
+    std::size_t voxels = 0;
+    for (auto it = volume.hitCountGrid()->cbeginValueOn(); it; ++it, ++voxels) {
+      const openvdb::Coord c = it.getCoord();
+      REQUIRE(*it == expected[{c.x(), c.y(), c.z()}]);
+      CHECK(volume.sample(c).hits == *it);
+    }
+    CHECK(voxels == expected.size());
+    // Moving a frame moves its hits: reintegrate equals integrating at the new pose.
+    TsdfVolume moved = volume, direct(config(0.1), in);
+    const Pose3d shifted = Eigen::Translation3d(0.13, -0.07, 0.02) * poses[1];
+    moved.reintegrate(1, images[1], smallCamera(), poses[1], shifted);
+    for (std::size_t i = 0; i < poses.size(); ++i)
+      direct.integrate(i, images[i], smallCamera(), i == 1 ? shifted : poses[i]);
+    CHECK(moved.exactlyEquals(direct));
+    CHECK_FALSE(moved.exactlyEquals(volume));
+  }
 }
 
 TEST_CASE("points beyond max range carve free space and add no surface", "[tsdf][range]") {

@@ -1,5 +1,6 @@
 #include "vdbmap/tsdf_volume.hpp"
 
+#include "internal/hit_counter.hpp"
 #include "internal/projective_integrator.hpp"
 #include "internal/ray_integrator.hpp"
 
@@ -34,6 +35,9 @@ TsdfVolume::TsdfVolume(const TsdfConfig& config, const IntegratorConfig& integra
   wsdf_q_ = Int64GridT::create(0);
   wsdf_q_->setTransform(transform_);
   wsdf_q_->setName("wsdf_q");
+  hits_ = Int64GridT::create(0);
+  hits_->setTransform(transform_);
+  hits_->setName("hits");
 }
 
 TsdfVolume::TsdfVolume(const TsdfVolume& other)
@@ -42,10 +46,12 @@ TsdfVolume::TsdfVolume(const TsdfVolume& other)
       transform_(other.transform_->copy()),
       weight_q_(other.weight_q_->deepCopy()),
       wsdf_q_(other.wsdf_q_->deepCopy()),
+      hits_(other.hits_->deepCopy()),
       frames_(other.frames_),
       exact_state_(other.exact_state_) {
   weight_q_->setTransform(transform_);
   wsdf_q_->setTransform(transform_);
+  hits_->setTransform(transform_);
 }
 
 TsdfVolume& TsdfVolume::operator=(const TsdfVolume& other) {
@@ -131,6 +137,7 @@ IntegrationStats TsdfVolume::apply(const PointCloud& points_S, const Pose3d& T_W
     const std::vector<internal::RayBundle> bundles =
         internal::bundleRays(points_S, T_W_S, config_, integrator_, stats);
     internal::castRays(bundles, T_W_S.translation(), config_, *weight_q_, *wsdf_q_, sign, stats);
+    internal::countHits(points_S, T_W_S, config_, integrator_, *hits_, sign);
   });
   return stats;
 }
@@ -141,6 +148,7 @@ IntegrationStats TsdfVolume::apply(const DepthImage& depth_m, const CameraIntrin
   IntegrationStats stats;
   inArena(integrator_.threads, [&] {
     internal::integrateProjective(depth_m, K, {{T_W_S, sign}}, config_, integrator_, *weight_q_, *wsdf_q_, stats);
+    internal::countHits(backProject(depth_m, K), T_W_S, config_, integrator_, *hits_, sign);
   });
   return stats;
 }
@@ -215,6 +223,9 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, 
     inArena(integrator_.threads, [&] {
       internal::integrateProjective(depth_m, K, {{T_W_S_old, -1}, {T_W_S_new, +1}}, config_, integrator_,
                                     *weight_q_, *wsdf_q_, stats);
+      const PointCloud points_S = backProject(depth_m, K);
+      internal::countHits(points_S, T_W_S_old, config_, integrator_, *hits_, -1);
+      internal::countHits(points_S, T_W_S_new, config_, integrator_, *hits_, +1);
     });
   } else {
     stats = apply(depth_m, K, T_W_S_old, -1);
@@ -262,7 +273,9 @@ inline VoxelSample decode(std::int64_t w, std::int64_t wd, const TsdfConfig& c) 
 VoxelSample TsdfVolume::sample(const openvdb::Coord& ijk) const {
   const std::int64_t w = weight_q_->tree().getValue(ijk);
   const std::int64_t wd = wsdf_q_->tree().getValue(ijk);
-  return decode(w, wd, config_);
+  VoxelSample s = decode(w, wd, config_);
+  s.hits = hits_->tree().getValue(ijk);
+  return s;
 }
 
 openvdb::CoordBBox TsdfVolume::activeBoundingBox() const {
@@ -322,7 +335,8 @@ bool treesEqual(const openvdb::Int64Tree& a, const openvdb::Int64Tree& b) {
 }  // namespace
 
 bool TsdfVolume::exactlyEquals(const TsdfVolume& other) const {
-  return treesEqual(weight_q_->tree(), other.weight_q_->tree()) && treesEqual(wsdf_q_->tree(), other.wsdf_q_->tree());
+  return treesEqual(weight_q_->tree(), other.weight_q_->tree()) && treesEqual(wsdf_q_->tree(), other.wsdf_q_->tree()) &&
+         treesEqual(hits_->tree(), other.hits_->tree());
 }
 
 }  // namespace vdbmap

@@ -15,7 +15,10 @@ namespace vdbmap {
 namespace {
 
 /// 2: frame fingerprints by a faster hash (version 1 companions cannot de-integrate their frames).
-constexpr int kFormatVersion = 2;
+/// 3: the companion also holds the hit counts (grid "hits"). Version 2 companions still load, with
+///    no hits: de-integrating their frames then leaves negative counts, which read as no hits.
+constexpr int kFormatVersion = 3;
+constexpr int kOldestReadableVersion = 2;
 
 openvdb::MetaMap configMetadata(const TsdfConfig& c, const IntegratorConfig& in, std::size_t frames) {
   openvdb::MetaMap meta;
@@ -82,7 +85,8 @@ void TsdfVolume::save(const std::filesystem::path& path) const {
     exact_meta.insertMeta("frames_json", openvdb::StringMetadata(registry.dump()));
     exact_meta.insertMeta("weight_scale", openvdb::Int64Metadata(kWeightScale));
     exact_meta.insertMeta("sdf_scale", openvdb::Int64Metadata(kSdfScale));
-    writeGrids(exactStatePath(path), {weight_q_->deepCopyGrid(), wsdf_q_->deepCopyGrid()}, exact_meta);
+    writeGrids(exactStatePath(path), {weight_q_->deepCopyGrid(), wsdf_q_->deepCopyGrid(), hits_->deepCopyGrid()},
+               exact_meta);
   }
 
   openvdb::FloatGrid::Ptr tsdf = tsdfGrid();
@@ -136,9 +140,10 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
       ef.open();
       const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
       const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(*emeta, "vdbmap_format_version", exact);
-      if (version != kFormatVersion)
+      if (version < kOldestReadableVersion || version > kFormatVersion)
         throw std::runtime_error(exact.string() + ": exact state of format version " + std::to_string(version) +
-                                 ", this build reads version " + std::to_string(kFormatVersion) +
+                                 ", this build reads versions " + std::to_string(kOldestReadableVersion) + " to " +
+                                 std::to_string(kFormatVersion) +
                                  " (remove the .exact.vdb file to load the map approximately)");
       if (requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "weight_scale", exact) != kWeightScale ||
           requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "sdf_scale", exact) != kSdfScale)
@@ -148,6 +153,11 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
       if (!w || !wd) throw io::FileError(exact.string() + ": grids weight_q / wsdf_q missing or not Int64");
       volume.weight_q_->setTree(w->treePtr());
       volume.wsdf_q_->setTree(wd->treePtr());
+      if (version >= 3) {
+        auto hits = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("hits"));
+        if (!hits) throw io::FileError(exact.string() + ": grid hits is not Int64");
+        volume.hits_->setTree(hits->treePtr());
+      }
       const auto registry =
           nlohmann::json::parse(requireMeta<openvdb::StringMetadata, std::string>(*emeta, "frames_json", exact));
       for (const auto& f : registry) {

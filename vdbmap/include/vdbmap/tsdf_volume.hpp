@@ -2,7 +2,8 @@
 // de-integration of frames.
 //
 // Per voxel the map holds two 64-bit integers: the weight sum W and the weighted signed-distance
-// sum WD, both in fixed point (see kWeightScale, kSdfScale). Integer addition is exact and
+// sum WD, both in fixed point (see kWeightScale, kSdfScale); and, beside them, how many surface end
+// points fell in the voxel (its hits), which keeps structures thinner than a voxel visible. Integer addition is exact and
 // commutative, so integrating a frame and then de-integrating it restores every voxel bit for bit,
 // and neither the order of frames nor the number of threads changes the map. Voxels whose weight
 // returns to zero are removed, so the tree shrinks back.
@@ -44,6 +45,10 @@ struct VoxelSample {
   VoxelState state = VoxelState::Unknown;
   float tsdf_m = 0.0f;   ///< weighted mean signed distance; +truncation when unknown
   float weight = 0.0f;   ///< weight sum in ray units (0 when never observed)
+  /// Surface end points of the integrated frames that fell in this voxel. A voxel can read free
+  /// (rays passing beside a thin upright carve it) and still hold hits: the planner reads those
+  /// as obstacles. Negative only in a map loaded from a format-2 companion, which had no counts.
+  std::int64_t hits = 0;
 };
 
 /// Why the map refuses a frame in integrate() / deintegrate(). Misuse, so an exception.
@@ -111,8 +116,8 @@ class TsdfVolume {
 
   /// Number of voxels with any weight (known or not).
   std::size_t activeVoxelCount() const { return weight_q_->activeVoxelCount(); }
-  /// Memory of the exact state in bytes (both trees).
-  std::size_t memoryBytes() const { return weight_q_->memUsage() + wsdf_q_->memUsage(); }
+  /// Memory of the exact state in bytes (the three trees).
+  std::size_t memoryBytes() const { return weight_q_->memUsage() + wsdf_q_->memUsage() + hits_->memUsage(); }
   /// Index-space bounding box of voxels with any weight (empty when the map is empty).
   openvdb::CoordBBox activeBoundingBox() const;
 
@@ -124,8 +129,10 @@ class TsdfVolume {
   /// The exact state (read-only views; copy before modifying).
   openvdb::Int64Grid::ConstPtr weightSumGrid() const { return weight_q_; }
   openvdb::Int64Grid::ConstPtr weightedSdfSumGrid() const { return wsdf_q_; }
+  /// Surface end points per voxel (Int64Grid "hits", background 0; see VoxelSample::hits).
+  openvdb::Int64Grid::ConstPtr hitCountGrid() const { return hits_; }
 
-  /// True when both maps hold bit-identical exact state (values and topology).
+  /// True when both maps hold bit-identical exact state (values and topology, hit counts included).
   bool exactlyEquals(const TsdfVolume& other) const;
 
   // ---- files (implemented in tsdf_volume_io.cpp) ---------------------------------------------
@@ -166,6 +173,7 @@ class TsdfVolume {
   openvdb::math::Transform::Ptr transform_;
   Int64GridT::Ptr weight_q_;  ///< W in units of 1 / kWeightScale
   Int64GridT::Ptr wsdf_q_;    ///< WD in units of truncation / (kWeightScale * kSdfScale)
+  Int64GridT::Ptr hits_;      ///< surface end points per voxel
   std::map<FrameId, FrameRecord> frames_;
   bool exact_state_ = true;
 };
