@@ -14,27 +14,31 @@ namespace {
 /// that, without thin obstacles, the planner and the map never disagree on a voxel.
 class TsdfReader : public MapReader {
  public:
-  TsdfReader(openvdb::Int64Grid::ConstPtr w, openvdb::Int64Grid::ConstPtr wd, const TsdfConfig& c,
-             const TsdfMapQueryParams& p)
+  TsdfReader(openvdb::Int64Grid::ConstPtr w, openvdb::Int64Grid::ConstPtr wd, openvdb::Int64Grid::ConstPtr hits,
+             const TsdfConfig& c, const TsdfMapQueryParams& p)
       : w_grid_(std::move(w)),
         wd_grid_(std::move(wd)),
+        hits_grid_(std::move(hits)),
         w_acc_(w_grid_->getConstAccessor()),
         wd_acc_(wd_grid_->getConstAccessor()),
+        hits_acc_(hits_grid_->getConstAccessor()),
         min_w_(c.min_weight * double(kWeightScale)),
         truncation_m_(c.truncation_m()),
         occupied_below_m_(c.occupancy_threshold_vox * c.voxel_size_m),
         thin_(p.thin_obstacles),
         thin_below_m_(float(p.thin_below_vox * c.voxel_size_m)),
-        thin_margin_m_(float(p.thin_margin_vox * c.voxel_size_m)) {}
+        thin_margin_m_(float(p.thin_margin_vox * c.voxel_size_m)),
+        hit_obstacles_(p.hit_obstacles),
+        min_hits_(p.min_hits) {}
 
   Occupancy at(const openvdb::Coord& ijk) override {
-    return classify(tsdfAt(ijk), [&](const openvdb::Coord& d) { return tsdfAt(ijk + d); });
+    return classify(tsdfAt(ijk), ijk, [&](const openvdb::Coord& d) { return tsdfAt(ijk + d); });
   }
 
-  /// Leaf by leaf: one tree descent per 8^3 block instead of one per voxel. With thin obstacles the
-  /// block is read one voxel wider, for the valley test's neighbours.
+  /// Leaf by leaf: one tree descent per 8^3 block instead of one per voxel. With thin obstacles or
+  /// hit obstacles the block is read one voxel wider, for the neighbours.
   void readBox(const openvdb::CoordBBox& box, Occupancy* out) override {
-    const openvdb::CoordBBox wide = thin_ ? box.expandBy(1) : box;
+    const openvdb::CoordBBox wide = (thin_ || hit_obstacles_) ? box.expandBy(1) : box;
     tsdf_.resize(std::size_t(wide.volume()));
     readTsdf(wide, tsdf_.data());
     const openvdb::Coord dim = wide.dim();
@@ -45,7 +49,7 @@ class TsdfReader : public MapReader {
         for (int z = box.min().z(); z <= box.max().z(); ++z, ++i) {
           const std::ptrdiff_t k =
               std::ptrdiff_t(x - wide.min().x()) * sx + std::ptrdiff_t(y - wide.min().y()) * sy + (z - wide.min().z());
-          out[i] = classify(tsdf_[std::size_t(k)], [&](const openvdb::Coord& d) {
+          out[i] = classify(tsdf_[std::size_t(k)], openvdb::Coord(x, y, z), [&](const openvdb::Coord& d) {
             return tsdf_[std::size_t(k + d.x() * sx + d.y() * sy + d.z())];
           });
         }
@@ -60,14 +64,28 @@ class TsdfReader : public MapReader {
   }
   float tsdfAt(const openvdb::Coord& ijk) { return tsdfOf(w_acc_.getValue(ijk), wd_acc_.getValue(ijk)); }
 
-  /// The map's rule (unknown, occupied below the threshold, free), plus tsdf valleys as occupied.
-  /// `tsdf_at(d)` gives the tsdf of the neighbour at offset d (NaN when unknown).
+  /// The map's rule (unknown, occupied below the threshold, free), plus tsdf valleys and lone
+  /// voxels with hits as occupied. `tsdf_at(d)` gives the tsdf of the neighbour at offset d (NaN
+  /// when unknown).
   template <typename Neighbour>
-  Occupancy classify(float t, Neighbour&& tsdf_at) const {
+  Occupancy classify(float t, const openvdb::Coord& ijk, Neighbour&& tsdf_at) {
     if (std::isnan(t)) return Occupancy::Unknown;
     if (t < occupied_below_m_) return Occupancy::Occupied;
     if (thin_ && t < thin_below_m_ && isValley(t, tsdf_at)) return Occupancy::Occupied;
+    if (hit_obstacles_ && hits_acc_.getValue(ijk) >= min_hits_ && !hasOccupiedFaceNeighbour(tsdf_at))
+      return Occupancy::Occupied;
     return Occupancy::Free;
+  }
+
+  template <typename Neighbour>
+  bool hasOccupiedFaceNeighbour(Neighbour&& tsdf_at) const {
+    for (int axis = 0; axis < 3; ++axis)
+      for (int s = -1; s <= 1; s += 2) {
+        openvdb::Coord d(0, 0, 0);
+        d[axis] = s;
+        if (tsdf_at(d) < occupied_below_m_) return true;  // false for NaN (unknown)
+      }
+    return false;
   }
 
   /// Lower by the margin than both neighbours along x, y or z (unknown neighbours are not higher).
@@ -115,14 +133,18 @@ class TsdfReader : public MapReader {
 
   openvdb::Int64Grid::ConstPtr w_grid_;
   openvdb::Int64Grid::ConstPtr wd_grid_;
+  openvdb::Int64Grid::ConstPtr hits_grid_;
   openvdb::Int64Grid::ConstAccessor w_acc_;
   openvdb::Int64Grid::ConstAccessor wd_acc_;
+  openvdb::Int64Grid::ConstAccessor hits_acc_;
   double min_w_;
   double truncation_m_;
   double occupied_below_m_;
   bool thin_;
   float thin_below_m_;
   float thin_margin_m_;
+  bool hit_obstacles_;
+  std::int64_t min_hits_;
   std::vector<float> tsdf_;  ///< readBox's scratch
 };
 }  // namespace
@@ -132,6 +154,8 @@ void TsdfMapQueryParams::validate() const {
     throw std::invalid_argument("TsdfMapQueryParams.thin_below_vox must be in (0, 100]");
   if (!(thin_margin_vox > 0.0 && thin_margin_vox <= 100.0))
     throw std::invalid_argument("TsdfMapQueryParams.thin_margin_vox must be in (0, 100]");
+  if (!(min_hits >= 1 && min_hits <= 1000000000))
+    throw std::invalid_argument("TsdfMapQueryParams.min_hits must be in [1, 1e9]");
 }
 
 TsdfMapQuery::TsdfMapQuery(const TsdfVolume& volume, const TsdfMapQueryParams& params)
@@ -144,8 +168,8 @@ double TsdfMapQuery::voxelSize() const { return volume_->config().voxel_size_m; 
 openvdb::CoordBBox TsdfMapQuery::knownBounds() const { return volume_->activeBoundingBox(); }
 
 std::unique_ptr<MapReader> TsdfMapQuery::reader() const {
-  return std::make_unique<TsdfReader>(volume_->weightSumGrid(), volume_->weightedSdfSumGrid(), volume_->config(),
-                                      params_);
+  return std::make_unique<TsdfReader>(volume_->weightSumGrid(), volume_->weightedSdfSumGrid(),
+                                      volume_->hitCountGrid(), volume_->config(), params_);
 }
 
 }  // namespace vdbmap::planner

@@ -157,7 +157,8 @@ TEST_CASE("AssumeFreeMap reads unknown voxels in its boxes as free and keeps occ
   CHECK(assumed.isClear(Vec3d(0.0, 0.0, 0.15), 0.05));
 }
 
-TEST_CASE("TsdfMapQuery without thin obstacles agrees with TsdfVolume::state on every voxel", "[planner][map]") {
+TEST_CASE("TsdfMapQuery without thin and hit obstacles agrees with TsdfVolume::state on every voxel",
+          "[planner][map]") {
   TsdfConfig config;
   config.voxel_size_m = 0.1;
   TsdfVolume volume(config);
@@ -172,6 +173,7 @@ TEST_CASE("TsdfMapQuery without thin obstacles agrees with TsdfVolume::state on 
 
   TsdfMapQueryParams exact;
   exact.thin_obstacles = false;
+  exact.hit_obstacles = false;
   const TsdfMapQuery query(volume, exact);
   CHECK(query.voxelSize() == 0.1);
   CHECK(query.knownBounds() == volume.activeBoundingBox());
@@ -265,49 +267,97 @@ bool occupiedNear(MapReader& reader, const MapQuery& map, const Vec3d& p) {
 }
 }  // namespace
 
-TEST_CASE("TsdfMapQuery reads a post thinner than a voxel as an obstacle; walls stay as the map has them",
+TEST_CASE("TsdfMapQuery reads a post thinner than a voxel as an obstacle, and walls stay as the map has them",
           "[planner][map]") {
   const Eigen::Vector2d post_xy(0.03, 0.03);  // off the voxel centres
-  TsdfMapQueryParams exact_params;
-  exact_params.thin_obstacles = false;
+  // Four readers: the map's own states, tsdf valleys only, hits only, and both (the default).
+  TsdfMapQueryParams exact_params, valley_params, hits_params;
+  exact_params.thin_obstacles = exact_params.hit_obstacles = false;
+  valley_params.hit_obstacles = false;
+  hits_params.thin_obstacles = false;
   {
     const TsdfVolume volume = postScene(true, post_xy);
-    const TsdfMapQuery thin(volume), exact(volume, exact_params);
-    auto thin_reader = thin.reader();
+    const TsdfMapQuery both(volume), exact(volume, exact_params), valleys(volume, valley_params),
+        hits(volume, hits_params);
+    auto both_reader = both.reader();
     auto exact_reader = exact.reader();
+    auto valley_reader = valleys.reader();
+    auto hits_reader = hits.reader();
     int exact_misses = 0;
     for (double z = -0.4; z <= 0.4 + 1e-9; z += 0.1) {
+      INFO("z = " << z);
       const Vec3d p(post_xy.x(), post_xy.y(), z);
-      CHECK(occupiedNear(*thin_reader, thin, p));
+      CHECK(occupiedNear(*both_reader, both, p));
+      CHECK(occupiedNear(*valley_reader, valleys, p));
+      CHECK(occupiedNear(*hits_reader, hits, p));  // each rule finds the post on its own
       exact_misses += occupiedNear(*exact_reader, exact, p) ? 0 : 1;
     }
-    // The reason for the rule: the map's own states lose the post at most heights.
+    // The reason for the rules: the map's own states lose the post at most heights.
     CHECK(exact_misses >= 5);
-    // readBox reads what at() reads, valleys included.
+    // readBox reads what at() reads, valleys and hits included.
     const CoordBBox box(Coord(-8, -8, -5), Coord(8, 8, 5));
-    std::vector<Occupancy> block(box.volume());
-    thin_reader->readBox(box, block.data());
-    std::size_t i = 0, valleys = 0;
-    for (auto it = box.begin(); it; ++it, ++i) {
-      REQUIRE(block[i] == thin_reader->at(*it));
-      valleys += block[i] != exact_reader->at(*it);
+    for (MapReader* reader : {both_reader.get(), valley_reader.get(), hits_reader.get()}) {
+      std::vector<Occupancy> block(box.volume());
+      reader->readBox(box, block.data());
+      std::size_t i = 0, added = 0;
+      for (auto it = box.begin(); it; ++it, ++i) {
+        REQUIRE(block[i] == reader->at(*it));
+        added += block[i] != exact_reader->at(*it);
+      }
+      CHECK(added > 0);
     }
-    CHECK(valleys > 0);
   }
   {
-    // Only the wall: no voxel reads differently.
+    // Only the room: no voxel reads differently, so walls are not thickened.
     const TsdfVolume volume = postScene(false, post_xy);
-    const TsdfMapQuery thin(volume), exact(volume, exact_params);
-    auto thin_reader = thin.reader();
+    const TsdfMapQuery both(volume), exact(volume, exact_params);
+    auto both_reader = both.reader();
     auto exact_reader = exact.reader();
-    std::size_t occupied = 0;
+    std::size_t occupied = 0, with_hits = 0;
     for (auto it = volume.activeBoundingBox().begin(); it; ++it) {
-      REQUIRE(thin_reader->at(*it) == exact_reader->at(*it));
+      REQUIRE(both_reader->at(*it) == exact_reader->at(*it));
       occupied += exact_reader->at(*it) == Occupancy::Occupied;
+      with_hits += exact_reader->at(*it) == Occupancy::Free && volume.sample(*it).hits >= 2;
     }
     CHECK(occupied > 100);
+    CHECK(with_hits > 100);  // free voxels in front of the walls hold their end points
   }
   TsdfMapQueryParams bad;
   bad.thin_margin_vox = 0.0;
   CHECK_THROWS_WITH(bad.validate(), Catch::Contains("thin_margin_vox"));
+  TsdfMapQueryParams no_hits;
+  no_hits.min_hits = 0;
+  CHECK_THROWS_WITH(no_hits.validate(), Catch::Contains("min_hits"));
+}
+
+TEST_CASE("TsdfMapQuery reads a post as an obstacle from its hits when rays beside it leave no valley",
+          "[planner][map]") {
+  // A hand-made map: one row of free voxels along x with a flat tsdf of 1.5 voxels (no valley),
+  // and end points in the middle one, as a side-seen 2.5 cm upright leaves it.
+  TsdfConfig config;
+  config.voxel_size_m = 0.1;
+  TsdfVolume volume(config);
+  PointCloud ray_ends_S;  // rays along +x from the origin to x = 1.0 m (a wall there)
+  for (int k = 0; k < 20; ++k) ray_ends_S.emplace_back(1.0f, 0.0f, 0.0f);
+  volume.integrate(1, ray_ends_S, Pose3d::Identity());
+  // The post's end points: 3 points ending in voxel (5, 0, 0), centre 0.5 m.
+  PointCloud post_S(3, Vec3f(0.52f, 0.01f, 0.0f));
+  const Pose3d T = Pose3d::Identity();
+  volume.integrate(2, post_S, T);
+  const Coord post(5, 0, 0);
+  REQUIRE(volume.sample(post).hits == 3);
+  REQUIRE(volume.state(post) == VoxelState::Free);  // 20 rays pass through it to the wall
+
+  TsdfMapQueryParams valley_only;
+  valley_only.hit_obstacles = false;
+  CHECK(TsdfMapQuery(volume, valley_only).reader()->at(post) == Occupancy::Free);
+  CHECK(TsdfMapQuery(volume).reader()->at(post) == Occupancy::Occupied);
+  TsdfMapQueryParams strict;
+  strict.min_hits = 4;  // more hits needed than the voxel holds
+  CHECK(TsdfMapQuery(volume, strict).reader()->at(post) == Occupancy::Free);
+  // The wall's end points sit in an occupied voxel: nothing changes there or in front of it.
+  const Coord wall(10, 0, 0), front(9, 0, 0);
+  CHECK(volume.sample(wall).hits == 20);
+  CHECK(TsdfMapQuery(volume).reader()->at(wall) == TsdfMapQuery(volume, valley_only).reader()->at(wall));
+  CHECK(TsdfMapQuery(volume).reader()->at(front) == TsdfMapQuery(volume, valley_only).reader()->at(front));
 }

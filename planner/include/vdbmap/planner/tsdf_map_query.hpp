@@ -12,6 +12,13 @@
 // option on, such voxels read occupied: the planner keeps its clearance from them. The map's own
 // states (TsdfVolume::sample) are unchanged.
 //
+// A post seen only from the side, with rays passing close beside it, may not even leave a valley
+// (a 2.5 cm warehouse upright read 0.14-0.16 m, as high as its neighbours). Its depth end points
+// still land in its voxel: TsdfVolume counts them (VoxelSample::hits). With `hit_obstacles` on (the
+// default), a free voxel holding at least `min_hits` of them reads occupied, unless one of its six
+// face neighbours is occupied: that is a surface the map already has (the voxel in front of a wall
+// holds that wall's end points), and reading it occupied would only thicken the wall.
+//
 // Lifetime and threads: the adapter refers to the volume; it must not outlive it, and the volume
 // must not change while planner threads read it (run the planner between integration cycles).
 // Readers hold the grids they were created on, so a reader outlives a map that is replaced.
@@ -32,6 +39,10 @@ struct TsdfMapQueryParams {
   double thin_below_vox = 1.5;
   /// Both neighbours along the valley's axis are known and at least this many voxels higher; (0, 100]
   double thin_margin_vox = 0.5;
+  /// Read free voxels holding surface end points, with no occupied face neighbour, as occupied.
+  bool hit_obstacles = true;
+  /// End points a voxel needs for that; [1, 1e9]
+  std::int64_t min_hits = 2;
 
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
