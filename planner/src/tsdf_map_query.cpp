@@ -72,20 +72,21 @@ class TsdfReader : public MapReader {
     if (std::isnan(t)) return Occupancy::Unknown;
     if (t < occupied_below_m_) return Occupancy::Occupied;
     if (thin_ && t < thin_below_m_ && isValley(t, tsdf_at)) return Occupancy::Occupied;
-    if (hit_obstacles_ && hits_acc_.getValue(ijk) >= min_hits_ && !hasOccupiedFaceNeighbour(tsdf_at))
+    if (hit_obstacles_ && hits_acc_.getValue(ijk) >= min_hits_ && faceNeighboursAllFree(tsdf_at))
       return Occupancy::Occupied;
     return Occupancy::Free;
   }
 
+  /// Whether all six face neighbours are known and free (by the map's own rule).
   template <typename Neighbour>
-  bool hasOccupiedFaceNeighbour(Neighbour&& tsdf_at) const {
+  bool faceNeighboursAllFree(Neighbour&& tsdf_at) const {
     for (int axis = 0; axis < 3; ++axis)
       for (int s = -1; s <= 1; s += 2) {
         openvdb::Coord d(0, 0, 0);
         d[axis] = s;
-        if (tsdf_at(d) < occupied_below_m_) return true;  // false for NaN (unknown)
+        if (!(tsdf_at(d) >= occupied_below_m_)) return false;  // occupied, or unknown (NaN)
       }
-    return false;
+    return true;
   }
 
   /// Lower by the margin than both neighbours along x, y or z (unknown neighbours are not higher).

@@ -15,9 +15,11 @@
 // A post seen only from the side, with rays passing close beside it, may not even leave a valley
 // (a 2.5 cm warehouse upright read 0.14-0.16 m, as high as its neighbours). Its depth end points
 // still land in its voxel: TsdfVolume counts them (VoxelSample::hits). With `hit_obstacles` on (the
-// default), a free voxel holding at least `min_hits` of them reads occupied, unless one of its six
-// face neighbours is occupied: that is a surface the map already has (the voxel in front of a wall
-// holds that wall's end points), and reading it occupied would only thicken the wall.
+// default), a free voxel holding at least `min_hits` of them reads occupied when its six face
+// neighbours are all known and free, as around a post in mapped space. A voxel beside an occupied
+// one is a surface the map already has (the voxel in front of a wall holds that wall's end points),
+// and reading it occupied would only thicken the wall; a voxel beside unknown space is a surface
+// being discovered, and reading it occupied would hide the frontier there.
 //
 // Lifetime and threads: the adapter refers to the volume; it must not outlive it, and the volume
 // must not change while planner threads read it (run the planner between integration cycles).
@@ -39,7 +41,7 @@ struct TsdfMapQueryParams {
   double thin_below_vox = 1.5;
   /// Both neighbours along the valley's axis are known and at least this many voxels higher; (0, 100]
   double thin_margin_vox = 0.5;
-  /// Read free voxels holding surface end points, with no occupied face neighbour, as occupied.
+  /// Read free voxels holding surface end points, with only free face neighbours, as occupied.
   bool hit_obstacles = true;
   /// End points a voxel needs for that; [1, 1e9]
   std::int64_t min_hits = 2;
