@@ -32,7 +32,8 @@ class TsdfReader : public MapReader {
         min_hits_(p.min_hits) {}
 
   Occupancy at(const openvdb::Coord& ijk) override {
-    return classify(tsdfAt(ijk), ijk, [&](const openvdb::Coord& d) { return tsdfAt(ijk + d); });
+    return classify(
+        tsdfAt(ijk), [&] { return hits_acc_.getValue(ijk); }, [&](const openvdb::Coord& d) { return tsdfAt(ijk + d); });
   }
 
   /// Leaf by leaf: one tree descent per 8^3 block instead of one per voxel. With thin obstacles or
@@ -41,6 +42,10 @@ class TsdfReader : public MapReader {
     const openvdb::CoordBBox wide = (thin_ || hit_obstacles_) ? box.expandBy(1) : box;
     tsdf_.resize(std::size_t(wide.volume()));
     readTsdf(wide, tsdf_.data());
+    if (hit_obstacles_) {
+      hits_.resize(std::size_t(box.volume()));
+      readHits(box, hits_.data());
+    }
     const openvdb::Coord dim = wide.dim();
     const std::ptrdiff_t sx = std::ptrdiff_t(dim.y()) * dim.z(), sy = dim.z();
     std::size_t i = 0;
@@ -49,9 +54,9 @@ class TsdfReader : public MapReader {
         for (int z = box.min().z(); z <= box.max().z(); ++z, ++i) {
           const std::ptrdiff_t k =
               std::ptrdiff_t(x - wide.min().x()) * sx + std::ptrdiff_t(y - wide.min().y()) * sy + (z - wide.min().z());
-          out[i] = classify(tsdf_[std::size_t(k)], openvdb::Coord(x, y, z), [&](const openvdb::Coord& d) {
-            return tsdf_[std::size_t(k + d.x() * sx + d.y() * sy + d.z())];
-          });
+          out[i] = classify(
+              tsdf_[std::size_t(k)], [&] { return hits_[i]; },
+              [&](const openvdb::Coord& d) { return tsdf_[std::size_t(k + d.x() * sx + d.y() * sy + d.z())]; });
         }
   }
 
@@ -66,13 +71,13 @@ class TsdfReader : public MapReader {
 
   /// The map's rule (unknown, occupied below the threshold, free), plus tsdf valleys and lone
   /// voxels with hits as occupied. `tsdf_at(d)` gives the tsdf of the neighbour at offset d (NaN
-  /// when unknown).
-  template <typename Neighbour>
-  Occupancy classify(float t, const openvdb::Coord& ijk, Neighbour&& tsdf_at) {
+  /// when unknown); `hits()` the voxel's hit count.
+  template <typename Hits, typename Neighbour>
+  Occupancy classify(float t, Hits&& hits, Neighbour&& tsdf_at) const {
     if (std::isnan(t)) return Occupancy::Unknown;
     if (t < occupied_below_m_) return Occupancy::Occupied;
     if (thin_ && t < thin_below_m_ && isValley(t, tsdf_at)) return Occupancy::Occupied;
-    if (hit_obstacles_ && hits_acc_.getValue(ijk) >= min_hits_ && faceNeighboursAllFree(tsdf_at))
+    if (hit_obstacles_ && hits() >= min_hits_ && faceNeighboursAllFree(tsdf_at))
       return Occupancy::Occupied;
     return Occupancy::Free;
   }
@@ -102,34 +107,57 @@ class TsdfReader : public MapReader {
     return false;
   }
 
+  /// Calls part_fn(origin, part) for each piece of `box` inside one 8^3 leaf at `origin`.
+  template <typename PartFn>
+  static void forEachLeafPart(const openvdb::CoordBBox& box, PartFn&& part_fn) {
+    constexpr int kDim = int(openvdb::Int64Tree::LeafNodeType::DIM);
+    const openvdb::Coord first = box.min() & ~(kDim - 1);
+    for (int lx = first.x(); lx <= box.max().x(); lx += kDim)
+      for (int ly = first.y(); ly <= box.max().y(); ly += kDim)
+        for (int lz = first.z(); lz <= box.max().z(); lz += kDim) {
+          const openvdb::Coord origin(lx, ly, lz);
+          openvdb::CoordBBox part = openvdb::CoordBBox::createCube(origin, kDim);
+          part.intersect(box);
+          part_fn(origin, part);
+        }
+  }
+
+  /// Index of voxel (x, y, z) in an x-major array over `box` (readBox's order).
+  static std::size_t indexIn(const openvdb::CoordBBox& box, int x, int y, int z) {
+    const openvdb::Coord dim = box.dim();
+    return (std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
+               std::size_t(dim.z()) +
+           std::size_t(z - box.min().z());
+  }
+
   /// The tsdf of every voxel of `box` (NaN when unknown), x-major as readBox's output.
   void readTsdf(const openvdb::CoordBBox& box, float* out) {
-    using LeafT = openvdb::Int64Tree::LeafNodeType;
-    const openvdb::Coord dim = box.dim();
-    auto index = [&](int x, int y, int z) {
-      return (std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
-                 std::size_t(dim.z()) +
-             std::size_t(z - box.min().z());
-    };
-    const openvdb::Coord first = box.min() & ~(LeafT::DIM - 1);
-    for (int lx = first.x(); lx <= box.max().x(); lx += LeafT::DIM)
-      for (int ly = first.y(); ly <= box.max().y(); ly += LeafT::DIM)
-        for (int lz = first.z(); lz <= box.max().z(); lz += LeafT::DIM) {
-          const openvdb::Coord origin(lx, ly, lz);
-          openvdb::CoordBBox part = openvdb::CoordBBox::createCube(origin, LeafT::DIM);
-          part.intersect(box);
-          // Without a leaf the region holds one tile value (usually the background 0: unknown).
-          const LeafT* w_leaf = w_acc_.probeConstLeaf(origin);
-          const LeafT* wd_leaf = wd_acc_.probeConstLeaf(origin);
-          const std::int64_t w_tile = w_leaf ? 0 : w_acc_.getValue(origin);
-          const std::int64_t wd_tile = wd_leaf ? 0 : wd_acc_.getValue(origin);
-          for (int x = part.min().x(); x <= part.max().x(); ++x)
-            for (int y = part.min().y(); y <= part.max().y(); ++y)
-              for (int z = part.min().z(); z <= part.max().z(); ++z) {
-                const openvdb::Coord c(x, y, z);
-                out[index(x, y, z)] = tsdfOf(w_leaf ? w_leaf->getValue(c) : w_tile, wd_leaf ? wd_leaf->getValue(c) : wd_tile);
-              }
-        }
+    forEachLeafPart(box, [&](const openvdb::Coord& origin, const openvdb::CoordBBox& part) {
+      // Without a leaf the region holds one tile value (usually the background 0: unknown).
+      const auto* w_leaf = w_acc_.probeConstLeaf(origin);
+      const auto* wd_leaf = wd_acc_.probeConstLeaf(origin);
+      const std::int64_t w_tile = w_leaf ? 0 : w_acc_.getValue(origin);
+      const std::int64_t wd_tile = wd_leaf ? 0 : wd_acc_.getValue(origin);
+      for (int x = part.min().x(); x <= part.max().x(); ++x)
+        for (int y = part.min().y(); y <= part.max().y(); ++y)
+          for (int z = part.min().z(); z <= part.max().z(); ++z) {
+            const openvdb::Coord c(x, y, z);
+            out[indexIn(box, x, y, z)] =
+                tsdfOf(w_leaf ? w_leaf->getValue(c) : w_tile, wd_leaf ? wd_leaf->getValue(c) : wd_tile);
+          }
+    });
+  }
+
+  /// The hit count of every voxel of `box`, x-major.
+  void readHits(const openvdb::CoordBBox& box, std::int64_t* out) {
+    forEachLeafPart(box, [&](const openvdb::Coord& origin, const openvdb::CoordBBox& part) {
+      const auto* leaf = hits_acc_.probeConstLeaf(origin);
+      const std::int64_t tile = leaf ? 0 : hits_acc_.getValue(origin);
+      for (int x = part.min().x(); x <= part.max().x(); ++x)
+        for (int y = part.min().y(); y <= part.max().y(); ++y)
+          for (int z = part.min().z(); z <= part.max().z(); ++z)
+            out[indexIn(box, x, y, z)] = leaf ? leaf->getValue(openvdb::Coord(x, y, z)) : tile;
+    });
   }
 
   openvdb::Int64Grid::ConstPtr w_grid_;
@@ -146,7 +174,8 @@ class TsdfReader : public MapReader {
   float thin_margin_m_;
   bool hit_obstacles_;
   std::int64_t min_hits_;
-  std::vector<float> tsdf_;  ///< readBox's scratch
+  std::vector<float> tsdf_;          ///< readBox's scratch
+  std::vector<std::int64_t> hits_;  ///< readBox's scratch
 };
 }  // namespace
 
