@@ -6,15 +6,15 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
 namespace vdbmap::internal {
 namespace {
 
-/// Points are keyed in fixed chunks, so the work does not depend on how TBB splits it.
+/// Points are run-length coded in fixed chunks, so the work does not depend on how TBB splits it.
 constexpr std::size_t kPointChunk = 4096;
-constexpr std::uint64_t kNoKey = ~std::uint64_t(0);
 
 /// 21 bits per axis, offset so that negative coordinates sort correctly; coordinates wrap beyond
 /// +-2^20 voxels (100 km at 0.1 m), as in the ray integrator.
@@ -41,32 +41,46 @@ void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig
   const double max2 = integrator.max_range_m * integrator.max_range_m;
   const double inv_voxel = 1.0 / tsdf.voxel_size_m;
 
-  // The voxel of every surface end point (kNoKey for the others), in point order.
-  std::vector<std::uint64_t> keys(points_S.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points_S.size(), kPointChunk), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Vec3f& p = points_S[i];
-      const double r2 = p.cast<double>().squaredNorm();
-      if (!p.allFinite() || !(r2 > 0.0) || r2 < min2 || r2 > max2) {
-        keys[i] = kNoKey;
-        continue;
+  // Per chunk of points, the runs of consecutive end points in the same voxel: neighbouring pixels
+  // mostly share a voxel, so the runs are about ten times fewer than the points.
+  struct Run {
+    std::uint64_t key;
+    std::int64_t count;
+  };
+  const std::size_t chunks = (points_S.size() + kPointChunk - 1) / kPointChunk;
+  std::vector<std::vector<Run>> chunk_runs(chunks);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks), [&](const auto& r) {
+    for (std::size_t c = r.begin(); c != r.end(); ++c) {
+      std::vector<Run>& runs = chunk_runs[c];
+      const std::size_t end = std::min(points_S.size(), (c + 1) * kPointChunk);
+      for (std::size_t i = c * kPointChunk; i < end; ++i) {
+        const Vec3d p = points_S[i].cast<double>();
+        const double r2 = p.squaredNorm();
+        if (!p.allFinite() || !(r2 > 0.0) || r2 < min2 || r2 > max2) continue;
+        const Vec3d e = (R * p + t) * inv_voxel;  // voxel centres at integer coordinates
+        const std::uint64_t key = packVoxel(openvdb::Coord(int(std::floor(e.x() + 0.5)), int(std::floor(e.y() + 0.5)),
+                                                           int(std::floor(e.z() + 0.5))));
+        if (!runs.empty() && runs.back().key == key)
+          ++runs.back().count;
+        else
+          runs.push_back({key, 1});
       }
-      const Vec3d e = (R * p.cast<double>() + t) * inv_voxel;  // voxel centres at integer coordinates
-      keys[i] = packVoxel(openvdb::Coord(int(std::floor(e.x() + 0.5)), int(std::floor(e.y() + 0.5)),
-                                         int(std::floor(e.z() + 0.5))));
     }
   });
-  tbb::parallel_sort(keys.begin(), keys.end());
+  std::vector<Run> runs;
+  for (const std::vector<Run>& c : chunk_runs) runs.insert(runs.end(), c.begin(), c.end());
+  tbb::parallel_sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.key < b.key; });
 
   // Serial: few distinct voxels (the surface a frame sees), and OpenVDB trees are not thread-safe
   // for writes.
   openvdb::Int64Grid::Accessor acc = hits.getAccessor();
   bool removed = false;
-  for (std::size_t i = 0; i < keys.size() && keys[i] != kNoKey;) {
-    std::size_t j = i + 1;
-    while (j < keys.size() && keys[j] == keys[i]) ++j;
-    const openvdb::Coord c = unpackVoxel(keys[i]);
-    const std::int64_t n = acc.getValue(c) + sign * std::int64_t(j - i);
+  for (std::size_t i = 0; i < runs.size();) {
+    std::int64_t count = 0;
+    std::size_t j = i;
+    for (; j < runs.size() && runs[j].key == runs[i].key; ++j) count += runs[j].count;
+    const openvdb::Coord c = unpackVoxel(runs[i].key);
+    const std::int64_t n = acc.getValue(c) + sign * count;
     if (n == 0) {
       acc.setValueOff(c, 0);
       removed = true;
