@@ -11,7 +11,7 @@ namespace vdbmap::planner {
 
 namespace {
 /// Decodes W and WD exactly as TsdfVolume::sample() does (same float rounding of the tsdf), so
-/// that, without thin obstacles, the planner and the map never disagree on a voxel.
+/// that, without thin and hit obstacles, the planner and the map never disagree on a voxel.
 class TsdfReader : public MapReader {
  public:
   TsdfReader(openvdb::Int64Grid::ConstPtr w, openvdb::Int64Grid::ConstPtr wd, openvdb::Int64Grid::ConstPtr hits,
@@ -69,8 +69,8 @@ class TsdfReader : public MapReader {
   }
   float tsdfAt(const openvdb::Coord& ijk) { return tsdfOf(w_acc_.getValue(ijk), wd_acc_.getValue(ijk)); }
 
-  /// The map's rule (unknown, occupied below the threshold, free), plus tsdf valleys and lone
-  /// voxels with hits as occupied. `tsdf_at(d)` gives the tsdf of the neighbour at offset d (NaN
+  /// The map's rule (unknown, occupied below the threshold, free), plus tsdf valleys and, amid free
+  /// voxels, voxels with hits as occupied. `tsdf_at(d)` gives the tsdf of the neighbour at offset d (NaN
   /// when unknown); `hits()` the voxel's hit count.
   template <typename Hits, typename Neighbour>
   Occupancy classify(float t, Hits&& hits, Neighbour&& tsdf_at) const {
