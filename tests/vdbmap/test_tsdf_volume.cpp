@@ -240,6 +240,30 @@ TEST_CASE("save then load gives identical grids, metadata and frame registry", "
     CHECK(text.find("tsdf") != std::string::npos);
     CHECK(text.find("weight") != std::string::npos);
   }
+  SECTION("a format 2 companion, from before hit counts, loads with none and de-integrates exactly") {
+    const auto exact = TsdfVolume::exactStatePath(path);
+    openvdb::GridPtrVec grids;
+    openvdb::MetaMap::Ptr meta;
+    {
+      openvdb::io::File file(exact.string());
+      file.open();
+      meta = file.getMetadata();
+      grids.push_back(file.readGrid("weight_q"));
+      grids.push_back(file.readGrid("wsdf_q"));
+    }
+    meta->removeMeta("vdbmap_format_version");
+    meta->insertMeta("vdbmap_format_version", openvdb::Int32Metadata(2));
+    openvdb::io::File(exact.string()).write(grids, *meta);
+    TsdfVolume old = TsdfVolume::load(path);
+    CHECK(old.hasExactState());
+    CHECK(old.hitCountGrid()->activeVoxelCount() == 0);
+    old.deintegrate(0, frames[0], poses[0]);
+    old.deintegrate(1, frames[1], poses[1]);
+    CHECK(old.activeVoxelCount() == 0);  // the sums are exact
+    // The hits of frames integrated before the save go negative: they read as no hits.
+    REQUIRE(old.hitCountGrid()->activeVoxelCount() > 0);
+    for (auto it = old.hitCountGrid()->cbeginValueOn(); it; ++it) REQUIRE(*it < 0);
+  }
   SECTION("without the companion file the map loads approximately, flagged as such") {
     std::filesystem::remove(TsdfVolume::exactStatePath(path));
     TsdfVolume approx = TsdfVolume::load(path);
