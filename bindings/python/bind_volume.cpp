@@ -167,7 +167,11 @@ void bindTsdfVolume(py::module_& m) {
             const std::vector<openvdb::Coord> voxels = voxelsOf(self, points_W);
             py::array_t<std::int64_t> hits(py::ssize_t(voxels.size()));
             std::int64_t* h = hits.mutable_data();
-            for (std::size_t i = 0; i < voxels.size(); ++i) h[i] = self.sample(voxels[i]).hits;
+            {
+              py::gil_scoped_release nogil;
+              const auto acc = self.hitCountGrid()->getConstAccessor();  // the counts only, not the sums
+              for (std::size_t i = 0; i < voxels.size(); ++i) h[i] = acc.getValue(voxels[i]);
+            }
             return hits;
           },
           py::arg("points_W"),
