@@ -50,7 +50,11 @@ AssumeFreeMap::AssumeFreeMap(const MapQuery& base, std::vector<Eigen::AlignedBox
     const openvdb::CoordBBox box = base.voxelsIn(b);
     if (!box.empty()) boxes_.push_back(box);
   }
+  if (&base.sightMap() != &base)
+    sight_ = std::make_shared<const AssumeFreeMap>(base.sightMap(), std::move(free_boxes_W), occupied_too);
 }
+
+const MapQuery& AssumeFreeMap::sightMap() const { return sight_ ? *sight_ : *this; }
 
 openvdb::CoordBBox AssumeFreeMap::knownBounds() const {
   openvdb::CoordBBox bounds = base_->knownBounds();

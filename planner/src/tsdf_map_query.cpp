@@ -191,7 +191,14 @@ void TsdfMapQueryParams::validate() const {
 TsdfMapQuery::TsdfMapQuery(const TsdfVolume& volume, const TsdfMapQueryParams& params)
     : volume_(&volume), params_(params) {
   params_.validate();
+  if (params_.thin_obstacles || params_.hit_obstacles) {
+    TsdfMapQueryParams own = params_;
+    own.thin_obstacles = own.hit_obstacles = false;
+    sight_ = std::make_shared<const TsdfMapQuery>(volume, own);
+  }
 }
+
+const MapQuery& TsdfMapQuery::sightMap() const { return sight_ ? *sight_ : *this; }
 
 double TsdfMapQuery::voxelSize() const { return volume_->config().voxel_size_m; }
 

@@ -115,8 +115,9 @@ struct Rings {
 };
 
 /// The candidates on `rings` that pass, in ring order.
-void searchRings(const FrontierCluster& cluster, MapProbe& probe, const ViewpointParams& params, const Rings& rings,
-                 std::vector<Viewpoint>& out) {
+/// `probe` checks clearance, `sight` (on the map's sightMap()) what a candidate sees.
+void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sight, const ViewpointParams& params,
+                 const Rings& rings, std::vector<Viewpoint>& out) {
   const MapQuery& map = probe.map();
   // Every check below stays within the outer ring, the samples, and the clearance around them:
   // read that region once.
@@ -129,6 +130,7 @@ void searchRings(const FrontierCluster& cluster, MapProbe& probe, const Viewpoin
                                cluster.centroid_W + Vec3d(reach, reach, margin_z + dz_hi));
     for (const openvdb::Coord& c : cluster.samples) region.extend(map.voxelCenter(c));
     probe.cacheBox(map.voxelsIn(region).expandBy(1));
+    if (&sight.map() != &map) sight.cacheBox(map.voxelsIn(region).expandBy(1));
   }
   const double step = params.angle_step_deg * M_PI / 180.0;
   const int angles = std::max(1, int(std::ceil(2.0 * M_PI / step - 1e-9)));
@@ -144,7 +146,7 @@ void searchRings(const FrontierCluster& cluster, MapProbe& probe, const Viewpoin
         if (params.bounds_W && !params.bounds_W->contains(p)) continue;
         if (!probe.isClear(p, rings.min_clearance_m)) continue;
         const double yaw = yawToward(p, cluster.samples, map);
-        const int seen = countVisible(probe, p, yaw, cluster.samples, params.camera);
+        const int seen = countVisible(sight, p, yaw, cluster.samples, params.camera);
         if (seen > rings.min_visible_samples) out.push_back({p, yaw, seen});
       }
     }
@@ -158,8 +160,8 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
   params.validate();
   std::vector<Viewpoint> viewpoints;
   if (cluster.samples.empty()) return viewpoints;
-  MapProbe probe(map);
-  searchRings(cluster, probe, params,
+  MapProbe probe(map), sight(map.sightMap());
+  searchRings(cluster, probe, sight, params,
               {params.ring_radius_min_m, params.ring_radius_max_m, params.ring_count, params.height_offsets_m,
                params.min_clearance_m, params.min_visible_samples},
               viewpoints);
@@ -169,7 +171,7 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
     // than min_visible_samples, and never with none.
     const int fraction_of_samples = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size()))) - 1;
     const int threshold = std::max(0, std::min(params.min_visible_samples, fraction_of_samples));
-    searchRings(cluster, probe, params,
+    searchRings(cluster, probe, sight, params,
                 {fb.ring_radius_min_m, fb.ring_radius_max_m, fb.ring_count, fb.height_offsets_m, fb.min_clearance_m,
                  threshold}, viewpoints);
   }

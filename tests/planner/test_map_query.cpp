@@ -367,4 +367,27 @@ TEST_CASE("TsdfMapQuery reads a post as an obstacle from its hits when rays besi
   CHECK(volume.sample(wall).hits == 20);
   CHECK(TsdfMapQuery(volume).reader()->at(wall) == Occupancy::Occupied);
   CHECK(TsdfMapQuery(volume).reader()->at(front) == TsdfMapQuery(volume, valley_only).reader()->at(front));
+
+  // Lines of sight read the map's own states: the post keeps the vehicle away but hides only a
+  // sliver of its voxel from a camera. The start box wrapper keeps that, and adds its box to both.
+  const TsdfMapQuery map(volume);
+  REQUIRE(&map.sightMap() != &map);
+  CHECK(map.sightMap().reader()->at(post) == Occupancy::Free);
+  const Vec3d eye_W(0.1, 0.0, 0.0), beyond_W(0.9, 0.0, 0.0);
+  MapProbe flight(map), sight(map.sightMap());
+  CHECK_FALSE(flight.isVisible(eye_W, beyond_W));
+  CHECK(sight.isVisible(eye_W, beyond_W));
+  const Coord unknown(5, 2, 0);
+  const AssumeFreeMap start(map, {boxAround(map.voxelCenter(unknown), Vec3d::Constant(0.01))});
+  CHECK(start.reader()->at(post) == Occupancy::Occupied);
+  CHECK(start.sightMap().reader()->at(post) == Occupancy::Free);
+  CHECK(start.reader()->at(unknown) == Occupancy::Free);
+  CHECK(start.sightMap().reader()->at(unknown) == Occupancy::Free);
+  // Without the rules, and for other maps, sight reads the same map.
+  TsdfMapQueryParams own;
+  own.thin_obstacles = own.hit_obstacles = false;
+  const TsdfMapQuery exact(volume, own);
+  CHECK(&exact.sightMap() == &exact);
+  const AssumeFreeMap exact_start(exact, {});
+  CHECK(&exact_start.sightMap() == &exact_start);
 }

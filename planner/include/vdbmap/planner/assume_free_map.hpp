@@ -12,6 +12,7 @@
 
 #include <Eigen/Geometry>
 
+#include <memory>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -27,6 +28,8 @@ class AssumeFreeMap : public MapQuery {
   /// The base map's bounds grown by the boxes.
   openvdb::CoordBBox knownBounds() const override;
   std::unique_ptr<MapReader> reader() const override;
+  /// The same boxes over the base's sightMap() (this map when the base is its own).
+  const MapQuery& sightMap() const override;
 
   const std::vector<openvdb::CoordBBox>& freeBoxes() const { return boxes_; }
 
@@ -34,6 +37,7 @@ class AssumeFreeMap : public MapQuery {
   const MapQuery* base_;
   std::vector<openvdb::CoordBBox> boxes_;  ///< index-space boxes of the voxels assumed free
   bool occupied_too_ = false;
+  std::shared_ptr<const AssumeFreeMap> sight_;  ///< null: sightMap() is this map
 };
 
 /// A box of half-extents `half_size_m` centred at `centre_W`: the usual start box.

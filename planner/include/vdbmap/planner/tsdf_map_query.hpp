@@ -28,6 +28,8 @@
 
 #include "vdbmap/planner/map_query.hpp"
 
+#include <memory>
+
 namespace vdbmap {
 class TsdfVolume;
 }
@@ -58,10 +60,13 @@ class TsdfMapQuery : public MapQuery {
   /// The box around every voxel with any weight (a superset of the known voxels).
   openvdb::CoordBBox knownBounds() const override;
   std::unique_ptr<MapReader> reader() const override;
+  /// Without the thin-structure rules (the map's own states) when either is on, else this map.
+  const MapQuery& sightMap() const override;
 
  private:
   const TsdfVolume* volume_;
   TsdfMapQueryParams params_;
+  std::shared_ptr<const TsdfMapQuery> sight_;  ///< null: sightMap() is this map
 };
 
 }  // namespace vdbmap::planner
