@@ -29,6 +29,8 @@ constexpr double kRetreatReach_m = 3.0;
 constexpr int kMaxChainedEscapes = 3;
 /// How far a straight escape looks for a clear point.
 constexpr double kEscapeReach_m = 1.0;
+/// Back-tracks in a row (without a plan in between) after every target failed.
+constexpr int kMaxChainedBacktracks = 2;
 
 double yawOf(const Eigen::Isometry3d& T) { return std::atan2(T.linear()(1, 0), T.linear()(0, 0)); }
 
@@ -469,6 +471,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
 
   // Fly to the refined viewpoint of the first cluster; if that fails, to the next clusters' best.
   const std::size_t tries = std::min<std::size_t>(order.size(), std::size_t(params_.max_targets_per_replan));
+  bool start_was_clear = true;
   for (std::size_t k = 0; k < tries; ++k) {
     const Target& t = targets[order[k]];
     const FrontierCluster* cluster = frontiers_.find(t.cluster);
@@ -488,11 +491,23 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
       // Not this target's fault, but the way to the one flown to so far ended blocked: one failure
       // for that, so that a target whose approach keeps getting blocked is given up.
       addTargetFailure();
+      start_was_clear = false;
       if (!escape(map, vehicle, t_s)) break;
       clearTarget();
       return ExplorationStatus::Planned;
     }
     addFailure(*cluster);
+  }
+  // Every target failed from a clear start: the vehicle may have squeezed into a place whose way
+  // out is narrower, in the map as it reads now, than a path search can find (a corridor behind
+  // shelving that thin structure, seen on the way in, narrowed). It goes back the way it came.
+  if (tries > 0 && start_was_clear && chained_backtracks_ < kMaxChainedBacktracks &&
+      retreat(map, vehicle, t_s, /*farthest=*/true)) {
+    ++chained_backtracks_;
+    ++counters_.retreats;
+    escape_end_t_ = t_s + trajectory_.duration();
+    clearTarget();
+    return ExplorationStatus::Planned;
   }
   if (step.reason == ReplanReason::CollisionRisk) hold(vehicle, t_s);
   return ExplorationStatus::Failed;
@@ -520,6 +535,7 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
   if (!traj.ok()) return PlanOutcome::Failed;
   startTrajectory(std::move(traj.trajectory), t_s);
   if (!start_free) chained_escapes_ = 0;
+  chained_backtracks_ = 0;
   return PlanOutcome::Ok;
 }
 
@@ -529,12 +545,13 @@ void ExplorationManager::recordFlown(const Vec3d& p_W, double voxel_m) {
   if (flown_W_.size() > kFlownKept) flown_W_.pop_front();
 }
 
-bool ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicle, double t_s) {
+bool ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicle, double t_s, bool farthest) {
   const double vs = map.voxelSize(), r = params_.path.clearance_m;
   MapProbe probe(map);
   std::vector<Vec3d> way{vehicle.position_W};
   double length = 0.0;
-  std::size_t keep = 0;  // flown positions left once back at the end: those flown before it
+  std::size_t keep = 0;      // flown positions left once back at the end: those flown before it
+  std::size_t way_end = 0;  // the end's index in `way`
   for (std::size_t i = flown_W_.size(); i-- > 0;) {
     const Vec3d& q = flown_W_[i];
     const double step = (q - way.back()).norm();
@@ -544,10 +561,12 @@ bool ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicl
     way.push_back(q);
     if (length >= vs && params_.box_W.contains(q) && probe.isClear(q, r)) {
       keep = i + 1;
-      break;
+      way_end = way.size() - 1;
+      if (!farthest) break;
     }
   }
   if (keep == 0) return false;
+  way.resize(way_end + 1);
   const AssumeFreeMap corridor_map(map, corridorAround(way, r + vs), /*occupied_too=*/true);
   // From rest: a lead-in along the current velocity would first fly on toward what blocked it.
   VehicleState at_rest = vehicle;

@@ -295,9 +295,10 @@ class ExplorationManager {
   /// kEscapeReach_m, at most kMaxChainedEscapes times in a row. False: neither was possible.
   bool escape(const MapQuery& map, const VehicleState& vehicle, double t_s);
   /// Flies back along flown_W_ to the newest flown position at least a voxel away that keeps the
-  /// path clearance in the current map, within kRetreatReach_m of way. The vehicle flew that way,
-  /// so the way's corridor reads free, occupied voxels too; the map only vets the end.
-  bool retreat(const MapQuery& map, const VehicleState& vehicle, double t_s);
+  /// path clearance in the current map (the farthest such within reach, with `farthest`), within
+  /// kRetreatReach_m of way. The vehicle flew that way, so the way's corridor reads free, occupied
+  /// voxels too; the map only vets the end.
+  bool retreat(const MapQuery& map, const VehicleState& vehicle, double t_s, bool farthest = false);
   /// Moves straight away from the occupied voxels within the clearance to the nearest clear point
   /// within kEscapeReach_m whose straight way crosses no occupied voxel.
   bool escapeStraight(const MapQuery& map, const VehicleState& vehicle, double t_s);
@@ -317,6 +318,7 @@ class ExplorationManager {
   /// in the current estimate frame (moved with it on a frame shift).
   std::deque<Vec3d> flown_W_;
   int chained_escapes_ = 0;  ///< escapes since the last plan that started clear
+  int chained_backtracks_ = 0;  ///< retreats after every target failed, since the last plan
   /// The end of the escape (or retreat) being flown: until then no replan but at its end or for a
   /// frame shift, and flown_W_ does not record
   double escape_end_t_ = -std::numeric_limits<double>::infinity();
