@@ -8,6 +8,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <unordered_set>
 #include <utility>
 
 namespace vdbmap::planner {
@@ -262,6 +263,23 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
 
 // ---- decisions ---------------------------------------------------------------------------------
 
+std::size_t ExplorationManager::currentTargetIndex(const std::vector<Target>& targets) const {
+  for (std::size_t i = 0; i < targets.size(); ++i)
+    if (targets[i].cluster == target_) return i;
+  // The map changed around the target and its cluster was made anew (new id): the target is the
+  // cluster holding most of its frontier voxels.
+  const std::unordered_set<openvdb::Coord, CoordHash> voxels(target_voxels_.begin(), target_voxels_.end());
+  std::size_t best = targets.size(), best_count = 0;
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    const FrontierCluster* c = frontiers_.find(targets[i].cluster);
+    if (!c) continue;
+    std::size_t count = 0;
+    for (const openvdb::Coord& v : c->voxels) count += voxels.count(v);
+    if (count > best_count) best = i, best_count = count;
+  }
+  return best;
+}
+
 void ExplorationManager::clearTarget() {
   target_ = 0;
   target_voxels_.clear();
@@ -440,7 +458,14 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
   const std::optional<AlcDecision> decision = decideLoopDetour(map, vehicle, t_s, tour_targets, global);
   if (decision) step.alc_status = decision->status;
   const bool detour = decision && decision->detour();
-  const std::vector<std::size_t>& order = decision ? decision->order() : global.tour.order;
+  std::vector<std::size_t> order = decision ? decision->order() : global.tour.order;
+  if (params_.keep_target && !detour && target_ != 0 &&
+      (step.reason == ReplanReason::Periodic || step.reason == ReplanReason::FrameShift)) {
+    // The current target stays first; the rest keep the tour's order.
+    const std::size_t current = currentTargetIndex(targets);
+    const auto kept = std::find(order.begin(), order.end(), current);
+    if (kept != order.end()) std::rotate(order.begin(), kept, kept + 1);
+  }
   std::vector<std::vector<Viewpoint>> layers;
   if (decision) {
     layers = alcRefinementLayers(vehicle, *decision, target_views, params_.refinement);
@@ -481,7 +506,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     if (outcome == PlanOutcome::Ok) {
       target_ = t.cluster;
       target_voxels_ = cluster->voxels;
-      MapProbe probe(map);
+      MapProbe probe(map.sightMap());
       target_promised_ =
           visibleVoxels(probe, view.position_W, view.yaw_rad, cluster->samples, params_.viewpoint.camera);
       step.target = t.cluster;

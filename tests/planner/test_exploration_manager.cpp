@@ -192,6 +192,43 @@ TEST_CASE("Replan triggers: trajectory end, period, collision risk, target cover
   }
 }
 
+TEST_CASE("Periodic replans keep flying to the current target; without keep_target the tour's first wins",
+          "[planner][exploration]") {
+  // The vehicle is reported at another cluster's viewpoint (as if the tour had turned there): from
+  // there that cluster is the tour's first. A periodic replan keeps the target it flies to unless
+  // keep_target is off.
+  const DenseMap map = halfKnownRoom(120, 80);
+  const Vec3d start(1.0, 3.0, 1.5);
+  for (const bool keep : {true, false}) {
+    INFO("keep_target " << keep);
+    ExplorationParams p = roomParams(12.0);
+    p.keep_target = keep;
+    ExplorationManager m(p, at(start), 0.0);
+    REQUIRE(m.update(map, CoordBBox(), at(start), 0.0).status == ExplorationStatus::Planned);
+    const ClusterId first = m.target();
+    REQUIRE(first != 0);
+    // The other cluster whose viewpoint lies farthest from the first's.
+    const Vec3d first_view = m.viewpoints().at(first).front().position_W;
+    const Viewpoint* other = nullptr;
+    for (const auto& [id, views] : m.viewpoints())
+      if (id != first && !views.empty() &&
+          (!other || (views.front().position_W - first_view).norm() > (other->position_W - first_view).norm()))
+        other = &views.front();
+    REQUIRE(other != nullptr);
+    VehicleState there;
+    there.position_W = other->position_W;
+    there.yaw_rad = other->yaw_rad;
+    const double t = m.trajectoryStartTime() + p.replan_period_s + 0.05;
+    const ExplorationStep step = m.update(map, CoordBBox(), there, t);
+    REQUIRE(step.reason == ReplanReason::Periodic);
+    REQUIRE(step.status == ExplorationStatus::Planned);
+    if (keep)
+      CHECK(m.target() == first);
+    else
+      CHECK(m.target() != first);
+  }
+}
+
 TEST_CASE("A frontier that cannot be reached is retried, blacklisted, and exploration finishes",
           "[planner][exploration]") {
   // Two known rooms separated by a solid wall: the vehicle's room (x < 3.5 m) is closed; the other
@@ -456,6 +493,68 @@ TEST_CASE("A start blocked mid-flight retreats along the way flown, and the targ
     step = m.update(map, CoordBBox(), onTrajectory(m, t0 + u), t0 + u);
     CHECK(step.reason == ReplanReason::None);
   }
+  CHECK(m.counters().retreats == 1);
+}
+
+TEST_CASE("When every target fails from a clear start, the vehicle goes back the way it came, as far as it can",
+          "[planner][exploration]") {
+  // The vehicle flies 3 m toward the frontier; then a shell of occupied voxels 0.6-0.7 m around it
+  // closes every way on (as thin structure seen on the way in narrows a corridor). Its start keeps
+  // the clearance, so no retreat from a blocked start: every target's path fails. It flies back
+  // along the way it came (through the shell: the vehicle was there), to the farthest flown position
+  // within 3 m that keeps the clearance.
+  DenseMap map = halfKnownRoom(120, 80);
+  const Vec3d start(1.0, 3.0, 1.5);
+  ExplorationParams p = roomParams(12.0);
+  ExplorationManager m(p, at(start), 0.0);
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  std::vector<Vec3d> flown{start};
+  double t = 0.0, length = 0.0;
+  VehicleState s = at(start);
+  while (length < 3.0) {
+    t += 1.0 / 15.0;
+    s = onTrajectory(m, t);
+    step = m.update(map, CoordBBox(), s, t);
+    REQUIRE(step.reason != ReplanReason::CollisionRisk);
+    REQUIRE(m.counters().retreats == 0);
+    length += (s.position_W - flown.back()).norm();
+    flown.push_back(s.position_W);
+  }
+  const Vec3d trapped = s.position_W;
+  const CoordBBox shell_box(map.worldToVoxel(trapped) - Coord(8), map.worldToVoxel(trapped) + Coord(8));
+  for (auto it = shell_box.begin(); it; ++it) {
+    const double d = (map.voxelCenter(*it) - trapped).norm();
+    if (d >= 0.6 && d <= 0.7) map.fill(CoordBBox(*it, *it), Occupancy::Occupied);
+  }
+  REQUIRE(test::bruteClear(map, trapped, p.path.clearance_m));
+  s.velocity_W.setZero();
+  t += 1.0 / 15.0;
+  step = m.update(map, shell_box, s, t);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  CHECK(m.counters().retreats == 1);
+  CHECK(m.counters().target_failures >= 1);
+  CHECK(m.target() == 0);
+  const double T = m.trajectory().duration();
+  const Vec3d end = m.command(m.trajectoryStartTime() + T).position_W;
+  const auto nearestFlown = [&](const Vec3d& q) {
+    double best = 1e9;
+    for (std::size_t i = 1; i < flown.size(); ++i) best = std::min(best, test::pointSegmentDistance(q, flown[i - 1], flown[i]));
+    return best;
+  };
+  CHECK(nearestFlown(end) < kTolM);
+  CHECK(test::bruteClear(map, end, p.path.clearance_m - 1e-9));
+  // The nearest clear flown position is about 1 m back (the shell plus the clearance); it went on
+  // to the farthest one within 3 m of way.
+  CHECK((end - trapped).norm() > 2.0);
+  CHECK((end - trapped).norm() <= 3.0 + kTolM);
+  for (double u = 0.0; u <= T; u += 0.02)
+    CHECK(nearestFlown(m.command(m.trajectoryStartTime() + u).position_W) < kVoxel);
+  // From there a path around the shell exists: the next plan (at the back-track's end) flies to a target.
+  t = m.trajectoryStartTime() + T;
+  step = m.update(map, CoordBBox(), onTrajectory(m, t), t);
+  CHECK(step.status == ExplorationStatus::Planned);
+  CHECK(m.target() != 0);
   CHECK(m.counters().retreats == 1);
 }
 

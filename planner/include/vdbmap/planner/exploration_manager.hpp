@@ -14,6 +14,7 @@
 //     - collision risk: the rest of the trajectory no longer keeps collision_radius_m of
 //       known-free space around it in the new map (checked every update),
 //     - a frame shift (shiftFrame: a loop closure moved the estimate), or a failed replan to retry;
+//     periodic and frame-shift replans keep the current target (keep_target);
 //  3. replans: the global tour over the best viewpoint of every live cluster (planGlobalTour), local
 //     refinement over the next clusters' top viewpoints (refineLocalTour), a path to the chosen
 //     viewpoint (PathPlanner) and a trajectory along it (planTrajectory). When the first target
@@ -39,7 +40,10 @@
 //  5b. a start blocked by occupied voxels within the clearance (a correction moved the map, or
 //     thin structure shows up as the vehicle comes near) is left by retreating along the way
 //     flown (up to 3 m back, to the newest flown position that is clear); without one, by a
-//     straight move away from the voxels (at most 3 in a row). The target flown to gets a failure;
+//     straight move away from the voxels (at most 3 in a row). The target flown to gets a failure.
+//     When every target tried fails from a clear start, the vehicle goes back along the way flown
+//     to the farthest clear flown position within 3 m (at most twice without a plan in between):
+//     it came in that way, and the map may have narrowed it since (thin structure seen on the way);
 //  6. finishes when no target is left (no cluster with a viewpoint that is not blacklisted) and the
 //     vehicle has come to rest: no reachable frontier is left.
 // Before exploring, the vehicle turns once on the spot (initial_turn; FUEL's simulations start
@@ -143,6 +147,14 @@ struct ExplorationParams {
   int final_min_cluster_size = 30;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
+  /// Periodic and frame-shift replans keep the current target first while it is a live target
+  /// (its cluster, or the cluster re-made from most of its voxels, not covered, not blacklisted): the tour and the path are planned
+  /// anew, but the vehicle flies on to where it was going until the visit is over and judged. Off,
+  /// as in FUEL, the tour's first target wins every replan. In one warehouse run the vehicle then
+  /// swung between clusters by the south wall for ten minutes, with a loop closure (and a
+  /// re-integration re-making the clusters near it) every 5 s, and no visit ever ended: no
+  /// failure was counted, nothing was blacklisted, and the run hit its time limit.
+  bool keep_target = true;
 
   /// Active loop closure (active_loop_closure.hpp). Off by default, so that the manager is plain
   /// FUEL; alc.unreachable_cost_s is set from cost.unreachable_cost_s by the manager.
@@ -282,6 +294,10 @@ class ExplorationManager {
   double targetCoveredFraction() const;
   /// No target: target_ 0, its voxels and the samples its viewpoint saw cleared.
   void clearTarget();
+  /// The index in `targets` of the current target: its cluster, or, when that was made anew
+  /// (the map changed around it), the cluster holding most of its frontier voxels; targets.size()
+  /// when there is none.
+  std::size_t currentTargetIndex(const std::vector<Target>& targets) const;
   /// The fraction of target_promised_ no longer frontier (targetCoveredFraction when it is empty).
   double promisedCoveredFraction() const;
   void checkVisit();
