@@ -182,6 +182,9 @@ void bindExplorationParams(py::module_& m) {
                      "when no target is left, the frontier's min cluster size drops to this once, for a final "
                      "sweep of the small clusters (0: off); [0, 1e8]")
       .def_readwrite("max_targets_per_replan", &ExplorationParams::max_targets_per_replan, "targets tried per replan")
+      .def_readwrite("keep_target", &ExplorationParams::keep_target,
+                     "periodic and frame-shift replans keep flying to the current target while it is live "
+                     "(off: the tour's first target wins every replan, as in FUEL)")
       .def("validate", &ExplorationParams::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::enum_<ExplorationStatus> status(m, "ExplorationStatus", "What one exploration update decided.");
