@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -115,7 +116,8 @@ struct Rings {
 };
 
 /// The candidates on `rings` that pass, in ring order.
-/// `probe` checks clearance, `sight` (on the map's sightMap()) what a candidate sees.
+/// `probe` checks clearance, `sight` (on the map's sightMap(); `probe` itself when that is the
+/// same map) what a candidate sees.
 void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sight, const ViewpointParams& params,
                  const Rings& rings, std::vector<Viewpoint>& out) {
   const MapQuery& map = probe.map();
@@ -130,7 +132,7 @@ void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sigh
                                cluster.centroid_W + Vec3d(reach, reach, margin_z + dz_hi));
     for (const openvdb::Coord& c : cluster.samples) region.extend(map.voxelCenter(c));
     probe.cacheBox(map.voxelsIn(region).expandBy(1));
-    if (&sight.map() != &map) sight.cacheBox(map.voxelsIn(region).expandBy(1));
+    if (&sight != &probe) sight.cacheBox(map.voxelsIn(region).expandBy(1));
   }
   const double step = params.angle_step_deg * M_PI / 180.0;
   const int angles = std::max(1, int(std::ceil(2.0 * M_PI / step - 1e-9)));
@@ -160,7 +162,9 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
   params.validate();
   std::vector<Viewpoint> viewpoints;
   if (cluster.samples.empty()) return viewpoints;
-  MapProbe probe(map), sight(map.sightMap());
+  MapProbe probe(map);
+  std::optional<MapProbe> own_sight;
+  MapProbe& sight = &map.sightMap() == &map ? probe : own_sight.emplace(map.sightMap());
   searchRings(cluster, probe, sight, params,
               {params.ring_radius_min_m, params.ring_radius_max_m, params.ring_count, params.height_offsets_m,
                params.min_clearance_m, params.min_visible_samples},
