@@ -131,8 +131,9 @@ void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sigh
     Eigen::AlignedBox3d region(cluster.centroid_W - Vec3d(reach, reach, margin_z - dz_lo),
                                cluster.centroid_W + Vec3d(reach, reach, margin_z + dz_hi));
     for (const openvdb::Coord& c : cluster.samples) region.extend(map.voxelCenter(c));
-    probe.cacheBox(map.voxelsIn(region).expandBy(1));
-    if (&sight != &probe) sight.cacheBox(map.voxelsIn(region).expandBy(1));
+    const openvdb::CoordBBox block = map.voxelsIn(region).expandBy(1);
+    probe.cacheBox(block);
+    if (&sight != &probe) sight.cacheBox(block);
   }
   const double step = params.angle_step_deg * M_PI / 180.0;
   const int angles = std::max(1, int(std::ceil(2.0 * M_PI / step - 1e-9)));

@@ -150,11 +150,11 @@ struct ExplorationParams {
   /// Periodic and frame-shift replans keep the current target first while it is a live target
   /// (its cluster, or the cluster re-made from most of its voxels; not covered, not blacklisted):
   /// the tour and the path are planned anew, but the vehicle flies on to where it was going until
-  /// the visit is over and judged. Off,
-  /// as in FUEL, the tour's first target wins every replan. In one warehouse run the vehicle then
-  /// swung between clusters by the south wall for ten minutes, with a loop closure (and a
-  /// re-integration re-making the clusters near it) every 5 s, and no visit ever ended: no
-  /// failure was counted, nothing was blacklisted, and the run hit its time limit.
+  /// the visit is over and judged. Off, as in FUEL, the tour's first target wins every replan. In
+  /// one warehouse run the vehicle then swung between clusters by the south wall for ten minutes,
+  /// with a loop closure (and a re-integration re-making the clusters near it) every 5 s, and no
+  /// visit ever ended: no failure was counted, nothing was blacklisted, and the run hit its time
+  /// limit.
   bool keep_target = true;
 
   /// Active loop closure (active_loop_closure.hpp). Off by default, so that the manager is plain
