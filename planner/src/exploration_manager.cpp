@@ -466,8 +466,11 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     const auto kept = std::find(order.begin(), order.end(), current);
     if (kept != order.end()) std::rotate(order.begin(), kept, kept + 1);
   }
+  // Refinement follows `order`, the order the targets are tried in below: off a detour that is
+  // the frontier tour with a kept target rotated first (ALC's own layers would refine the tour's
+  // first cluster and fly to its viewpoint while the kept target is recorded).
   std::vector<std::vector<Viewpoint>> layers;
-  if (decision) {
+  if (detour) {
     layers = alcRefinementLayers(vehicle, *decision, target_views, params_.refinement);
   } else {
     std::vector<std::vector<Viewpoint>> in_order;

@@ -196,13 +196,17 @@ TEST_CASE("Periodic replans keep flying to the current target; without keep_targ
           "[planner][exploration]") {
   // The vehicle is reported at another cluster's viewpoint (as if the tour had turned there): from
   // there that cluster is the tour's first. A periodic replan keeps the target it flies to unless
-  // keep_target is off.
+  // keep_target is off. Either way the vehicle flies to a viewpoint of the target it records, also
+  // with active loop closure on (whose decision carries its own copy of the tour's order).
   const DenseMap map = halfKnownRoom(120, 80);
   const Vec3d start(1.0, 3.0, 1.5);
+  const bool alc = GENERATE(false, true);
+  INFO("alc_enabled " << alc);
   for (const bool keep : {true, false}) {
     INFO("keep_target " << keep);
     ExplorationParams p = roomParams(12.0);
     p.keep_target = keep;
+    p.alc_enabled = alc;
     ExplorationManager m(p, at(start), 0.0);
     REQUIRE(m.update(map, CoordBBox(), at(start), 0.0).status == ExplorationStatus::Planned);
     const ClusterId first = m.target();
@@ -226,6 +230,12 @@ TEST_CASE("Periodic replans keep flying to the current target; without keep_targ
       CHECK(m.target() == first);
     else
       CHECK(m.target() != first);
+    REQUIRE(step.alc_status.has_value() == alc);
+    const Vec3d end = m.trajectory().sample(m.trajectory().duration()).position_W;
+    bool ends_at_target = false;
+    for (const Viewpoint& v : m.viewpoints().at(m.target()))
+      ends_at_target = ends_at_target || (v.position_W - end).norm() < kTolM;
+    CHECK(ends_at_target);
   }
 }
 
