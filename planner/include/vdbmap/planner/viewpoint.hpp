@@ -50,8 +50,10 @@ struct ViewpointFallback {
   std::vector<double> height_offsets_m = {0.0, -0.5, 0.5, -1.0, 1.0};
   /// Every voxel within this distance of a fallback viewpoint is known-free; [0, 10]. Above
   /// ViewpointParams::min_clearance_m: fallback viewpoints face shelving and clutter from close
-  /// in, where thin posts (narrower than a voxel) can be missing from the map.
-  double min_clearance_m = 0.5;
+  /// in, where thin posts (narrower than a voxel) can be missing from the map. 0.4 m rather than
+  /// 0.5 m: the warehouse's shelf interiors are seen only from aisles 0.6-0.7 m wide, where no
+  /// candidate keeps 0.5 m (docs/exploration.md, "Fallback viewpoints").
+  double min_clearance_m = 0.4;
   /// A fallback viewpoint passes when it sees more than min_visible_samples of the cluster's
   /// samples or at least this fraction of them (a cluster of 12 samples passes with 6); (0, 1]
   double min_visible_fraction = 0.5;
