@@ -154,6 +154,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
 
   std::vector<double> map_ms, frame_ms, frame_times;
   ExplorationProgress progress;
+  std::size_t collisions_seen = 0;
   auto frame_start = Clock::now();
   const auto onFrame = [&](SimFrame& frame) {
     if (recorder) recorder->record(frame);
@@ -169,6 +170,10 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
       const FlatPose shift = compose(sim.bodyEstimate(), inverse(frame.body_estimate));
       manager.shiftFrame(bodyPose(shift));
       manager.notifyLoopClosure(frame.t_s, correctedViewpoints(*frame.correction, frame_times, sim.T_B_S()));
+    }
+    if (vehicle.collisions() > collisions_seen) {  // the flight up to this frame began an event
+      collisions_seen = vehicle.collisions();
+      result.events.push_back({frame.t_s, "collision"});
     }
     const FlatPose estimate = sim.bodyEstimate();
     mapper.reintegrate(estimate.p_W);

@@ -10,6 +10,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <filesystem>
 
 using namespace vdbmap;
@@ -79,6 +80,29 @@ TEST_CASE("Closed-loop exploration of two rooms finishes, covers them, and never
   CHECK(replayed.frames_integrated == r.frames_total);
   CHECK(replayed.correction_events == r.loop_closures);
   std::filesystem::remove_all(log);
+}
+
+TEST_CASE("Each collision event is listed in the run's events, when it began", "[sim][exploration]") {
+  // Collisions are counted against vehicle_radius_m, the planner keeps its own clearance: with a
+  // 0.6 m vehicle the 1 m door (0.5 m from either jamb at its middle) makes at least one event.
+  const World world(twoRooms());
+  ExplorationConfig config = twoRoomConfig("s1");
+  config.vehicle_radius_m = 0.6;
+  const ExplorationResult r = runExploration(world, config);
+  REQUIRE(r.collisions >= 1);
+  std::vector<double> starts;
+  for (const ExplorationEvent& e : r.events)
+    if (e.what == "collision") starts.push_back(e.t_s);
+  REQUIRE(starts.size() == r.collisions);
+  CHECK(std::is_sorted(starts.begin(), starts.end()));
+  // At the frame listed, the true pose is inside the 0.6 m radius of a surface or has just left it
+  // (one frame's flight, at most v_max / 15 Hz, plus the 2 cm hysteresis).
+  for (const double t : starts) {
+    const auto frame = std::find_if(r.trajectory_true.begin(), r.trajectory_true.end(),
+                                    [&](const auto& s) { return s.timestamp_s == t; });
+    REQUIRE(frame != r.trajectory_true.end());
+    CHECK(world.distance(frame->T_W_S.translation(), 2.0) < config.vehicle_radius_m + 0.2);
+  }
 }
 
 TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", "[sim][exploration]") {

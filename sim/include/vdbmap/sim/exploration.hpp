@@ -96,7 +96,8 @@ struct ExplorationOptions {
 };
 
 /// Something that happened in the run, for diagnosis: "loop_closure", "alc_detour" (a detour
-/// started), "alc_gave_up" (a detour given up without a loop closure).
+/// started), "alc_gave_up" (a detour given up without a loop closure), "collision" (a collision
+/// event began in the flight up to this frame).
 struct ExplorationEvent {
   double t_s = 0.0;
   std::string what;
