@@ -4,7 +4,7 @@
 //
 //   cmake --build build --target vdbmap_bench_integrate && build/bin/vdbmap_bench_integrate [frames] [projective|merged|per_ray]
 #include "vdbmap/camera.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <nlohmann/json.hpp>
@@ -20,8 +20,8 @@
 using namespace vdbmap;
 
 namespace {
-sim::AnalyticScene benchRoom() {
-  sim::AnalyticScene s;
+testing::AnalyticScene benchRoom() {
+  testing::AnalyticScene s;
   s.addRoom({-10, -7, 0}, {10, 7, 3})
       .addBox({-6, -4, 0}, {-4, -2, 2})
       .addBox({2, 3, 0}, {5, 4, 1.2})
@@ -49,7 +49,7 @@ double median(std::vector<double> v) {
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 40;
   const std::string only_mode = argc > 2 ? argv[2] : "";  // "projective", "merged" or "per_ray": only that one
-  const sim::AnalyticScene scene = benchRoom();
+  const testing::AnalyticScene scene = benchRoom();
   const CameraIntrinsics K;
   std::vector<Pose3d> poses;
   std::vector<PointCloud> clouds;
@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
   std::size_t points = 0;
   for (int i = 0; i < frames; ++i) {
     const double a = 2 * M_PI * i / frames;
-    const Pose3d T = sim::lookingPose({5.0 * std::cos(a), 3.5 * std::sin(a), 1.3}, a + M_PI / 2 + 0.3 * std::sin(3 * a), 0.1);
+    const Pose3d T = vdbmap::lookingPose({5.0 * std::cos(a), 3.5 * std::sin(a), 1.3}, a + M_PI / 2 + 0.3 * std::sin(3 * a), 0.1);
     poses.push_back(T);
     images.push_back(scene.renderDepth(K, T, 6.0));
     clouds.push_back(backProject(images.back(), K));

@@ -16,7 +16,7 @@
 #include "vdbmap/planner/trajectory.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
 #include "vdbmap/planner/viewpoint.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <nlohmann/json.hpp>
@@ -31,8 +31,8 @@ using namespace vdbmap;
 using namespace vdbmap::planner;
 
 namespace {
-sim::AnalyticScene benchRoom() {
-  sim::AnalyticScene s;
+testing::AnalyticScene benchRoom() {
+  testing::AnalyticScene s;
   s.addRoom({-10, -7, 0}, {10, 7, 3})
       .addBox({-6, -4, 0}, {-4, -2, 2})
       .addBox({2, 3, 0}, {5, 4, 1.2})
@@ -59,12 +59,12 @@ double timeMedian(int repeats, const std::function<void()>& f) {
   return ms[ms.size() / 2];
 }
 
-openvdb::CoordBBox integrateTurn(TsdfVolume& volume, const sim::AnalyticScene& scene, const Vec3d& at, int frames,
+openvdb::CoordBBox integrateTurn(TsdfVolume& volume, const testing::AnalyticScene& scene, const Vec3d& at, int frames,
                                  FrameId first_id) {
   const CameraIntrinsics K;
   openvdb::CoordBBox touched;
   for (int i = 0; i < frames; ++i) {
-    const Pose3d T = sim::lookingPose(at, 2.0 * M_PI * i / frames, 0.0);
+    const Pose3d T = vdbmap::lookingPose(at, 2.0 * M_PI * i / frames, 0.0);
     const IntegrationStats s = volume.integrate(first_id + FrameId(i), backProject(scene.renderDepth(K, T, 30.0), K), T);
     touched.expand(s.touched_voxels);
   }
@@ -74,7 +74,7 @@ openvdb::CoordBBox integrateTurn(TsdfVolume& volume, const sim::AnalyticScene& s
 
 int main(int argc, char** argv) {
   const int repeats = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
-  const sim::AnalyticScene scene = benchRoom();
+  const testing::AnalyticScene scene = benchRoom();
   TsdfConfig config;
   config.voxel_size_m = 0.1;
   IntegratorConfig integrator;
@@ -182,7 +182,7 @@ int main(int argc, char** argv) {
   openvdb::CoordBBox dirty;
   std::size_t added = 0, removed = 0;
   for (int i = 0; i < 12; ++i) {
-    const Pose3d T = sim::lookingPose(Vec3d(2.0, 0.5, 1.3), 2.0 * M_PI * i / 12, 0.0);
+    const Pose3d T = vdbmap::lookingPose(Vec3d(2.0, 0.5, 1.3), 2.0 * M_PI * i / 12, 0.0);
     const CameraIntrinsics K;
     const openvdb::CoordBBox box =
         volume.integrate(FrameId(100 + i), backProject(scene.renderDepth(K, T, 30.0), K), T).touched_voxels;

@@ -4,7 +4,7 @@
 //
 //   cmake --build build --target vdbmap_bench_reintegrate && build/bin/vdbmap_bench_reintegrate [frames] [voxel]
 #include "vdbmap/mapper.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -18,7 +18,7 @@ using namespace vdbmap;
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 500;
   const double voxel = argc > 2 ? std::atof(argv[2]) : 0.05;
-  sim::AnalyticScene scene;
+  testing::AnalyticScene scene;
   scene.addRoom({-10, -7, 0}, {10, 7, 3}).addBox({-6, -4, 0}, {-4, -2, 2}).addSphere({4, -3, 1.2}, 0.9);
   auto K = std::make_shared<const CameraIntrinsics>();
   MapperConfig config;
@@ -29,7 +29,7 @@ int main(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   for (int i = 0; i < frames; ++i) {
     const double a = 4 * M_PI * i / frames;
-    const Pose3d T = sim::lookingPose({5.0 * std::cos(a), 3.5 * std::sin(a), 1.3}, a + M_PI / 2, 0.1);
+    const Pose3d T = vdbmap::lookingPose({5.0 * std::cos(a), 3.5 * std::sin(a), 1.3}, a + M_PI / 2, 0.1);
     mapper.addDepthFrame(i, 0.1 * i, scene.renderDepth(*K, T, 6.0), K, T);
     Pose3d C = T;  // a correction that grows along the path, as after a loop closure
     C.translation() += Vec3d(0.05, -0.03, 0.01) * double(i) / frames;

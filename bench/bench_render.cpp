@@ -7,7 +7,7 @@
 //   build/bin/vdbmap_bench_render [mesh.ply] [frames] [threads]
 // (default mesh: ../shared/data/aws_small_house_world/small_house_visual_mesh.ply)
 #include "vdbmap/io/mesh_io.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/camera.hpp"
 #include "vdbmap/sim/depth_camera.hpp"
 #include "vdbmap/sim/trajectory.hpp"
 #include "vdbmap/sim/world.hpp"
@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
     while (int(ms.size()) < frames) {
       const Vec3d p(ux(rng), uy(rng), 1.0);
       if (!world.isClear(p, 0.5)) continue;
-      const Pose3d T_W_S = sim::lookingPose(p, uyaw(rng));
+      const Pose3d T_W_S = vdbmap::lookingPose(p, uyaw(rng));
       const auto t0 = Clock::now();
       const DepthImage depth = camera.render(world, T_W_S);
       ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());

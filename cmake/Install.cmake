@@ -1,7 +1,8 @@
 # `cmake --install`: headers, libraries, the CLI and a CMake package, so that another project does
 #
-#   find_package(vdbmap 0.1 REQUIRED)            # optionally COMPONENTS planner sim
-#   target_link_libraries(app PRIVATE vdbmap::vdbmap)   # vdbmap::planner, vdbmap::sim when built
+#   find_package(vdbmap 0.1 REQUIRED)            # optionally COMPONENTS io testing planner sim
+#   target_link_libraries(app PRIVATE vdbmap::vdbmap)   # and vdbmap::io, vdbmap::testing,
+#                                                       # vdbmap::planner, vdbmap::sim
 #
 # The libraries are shared by default (BUILD_SHARED_LIBS); when static, their private dependencies
 # (libpng, zlib, nlohmann_json, OMPL, Ceres) become part of the link interface, so
@@ -27,7 +28,7 @@ function(vdbmap_install_library target export_name export_set)
 endfunction()
 
 # Headers: every module's include/ tree, merged (all live under include/vdbmap/).
-foreach(module vdbmap planner sim)
+foreach(module vdbmap vdbmap/io testing planner sim)
   if(IS_DIRECTORY ${PROJECT_SOURCE_DIR}/${module}/include)
     install(DIRECTORY ${PROJECT_SOURCE_DIR}/${module}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
             COMPONENT devel FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h")
@@ -35,7 +36,9 @@ foreach(module vdbmap planner sim)
 endforeach()
 
 vdbmap_install_library(vdbmap vdbmap vdbmapTargets)
-set(VDBMAP_EXPORTED_COMPONENTS "")
+vdbmap_install_library(vdbmap_io io vdbmapIoTargets)
+vdbmap_install_library(vdbmap_testing testing vdbmapTestingTargets)
+set(VDBMAP_EXPORTED_COMPONENTS io testing)
 set(VDBMAP_SIM_USES_CERES OFF)
 set(VDBMAP_SIM_USES_PLANNER OFF)
 if(TARGET vdbmap_planner)
@@ -58,12 +61,14 @@ endif()
 
 file(RELATIVE_PATH _vdbmap_lib_from_bin /${CMAKE_INSTALL_BINDIR} /${CMAKE_INSTALL_LIBDIR})
 set_target_properties(vdbmap_cli PROPERTIES INSTALL_RPATH "$ORIGIN/${_vdbmap_lib_from_bin}")
-foreach(library vdbmap vdbmap_planner vdbmap_sim)
+foreach(library vdbmap vdbmap_io vdbmap_testing vdbmap_planner vdbmap_sim)
   if(TARGET ${library})
     set_target_properties(${library} PROPERTIES INSTALL_RPATH "$ORIGIN")
   endif()
 endforeach()
 install(TARGETS vdbmap_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT cli)
+# The embedded default world, where the installed CLI looks for it (tools/world_option.cpp).
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/data/worlds DESTINATION ${CMAKE_INSTALL_DATADIR}/vdbmap COMPONENT cli)
 
 # Where Debian's FindOpenVDB.cmake is (it ships no CMake config), for the user's project.
 find_file(VDBMAP_FIND_OPENVDB_MODULE FindOpenVDB.cmake PATHS ${CMAKE_MODULE_PATH} NO_DEFAULT_PATH)

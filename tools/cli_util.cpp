@@ -1,6 +1,6 @@
 #include "cli_util.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 
 #include <cstdio>
 #include <unistd.h>
@@ -34,7 +34,7 @@ void Progress::finish() {
 }
 
 void writeJson(const std::filesystem::path& path, const nlohmann::json& json) {
-  io::writeFileAtomically(path, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
+  vdbmap::writeFileAtomically(path, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
 }
 
 }  // namespace vdbmap::cli

@@ -26,7 +26,7 @@ struct BenchAlcOptions {
 
 void runBenchAlc(const BenchAlcOptions& o) {
   sim::AlcBenchmarkConfig c;
-  c.world_mesh = o.world;
+  c.world_mesh = requireWorld(o.world);
   if (o.ceiling_m > 0.0) {  // as `vdbmap explore`
     c.world.ceiling_clip_z_m = o.ceiling_m;
     c.world.cap_ceiling = true;

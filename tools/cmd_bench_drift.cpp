@@ -26,7 +26,7 @@ struct BenchDriftOptions {
 
 void runBenchDrift(const BenchDriftOptions& o) {
   sim::DriftBenchmarkConfig c;
-  c.world_mesh = o.world;
+  c.world_mesh = requireWorld(o.world);
   c.world.ceiling_clip_z_m = o.ceiling_clip_m;
   c.levels = o.levels;
   c.modes.clear();

@@ -5,7 +5,7 @@
 #include "vdbmap/camera.hpp"
 #include "vdbmap/io/mesh_io.hpp"
 #include "vdbmap/mesh.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <algorithm>
@@ -26,7 +26,7 @@ struct DemoOptions {
 
 void runDemo(const DemoOptions& o) {
   std::filesystem::create_directories(o.out_dir);
-  const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
+  const testing::AnalyticScene scene = testing::AnalyticScene::demoRoom();
   const CameraIntrinsics K;  // FUEL's simulated camera: 640x480, fx = fy = 387.229
   TsdfConfig config;
   config.voxel_size_m = o.voxel_size_m;
@@ -35,7 +35,7 @@ void runDemo(const DemoOptions& o) {
   TsdfVolume volume(config, integrator);
 
   std::vector<double> ms;
-  const auto poses = sim::AnalyticScene::demoTrajectory(o.frames);
+  const auto poses = testing::AnalyticScene::demoTrajectory(o.frames);
   for (std::size_t i = 0; i < poses.size(); ++i) {
     const PointCloud points_S = backProject(scene.renderDepth(K, poses[i], integrator.max_range_m + 1.0), K);
     const auto t0 = std::chrono::steady_clock::now();

@@ -1,4 +1,4 @@
-// `vdbmap explore --world W.ply [--drift s1..s4] [--seed N] [--voxel-size M] [--max-time-s T]
+// `vdbmap explore [--world W.ply] [--drift s1..s4] [--seed N] [--voxel-size M] [--max-time-s T]
 // [--mode keyframes|all|none|submap] [--start x,y,z] [--box ...] [--ceiling Z] [--alc on|off]
 // [--epsilon E] [--budgets counted|wall-clock] -o RUNDIR`: explores
 // the world with the simulated vehicle, the mapper and the exploration planner in closed loop, and
@@ -65,7 +65,7 @@ void runExplore(const ExploreOptions& o) {
     wc.ceiling_clip_z_m = o.ceiling_m;
     wc.cap_ceiling = true;
   }
-  const sim::World world = sim::World::load(o.world, wc);
+  const sim::World world = sim::World::load(requireWorld(o.world), wc);
 
   sim::ExplorationConfig config = sim::explorationConfigFor(world, o.drift, o.seed, o.voxel_size_m);
   config.simulator.loop_closure = sim::parseLoopClosureMode(o.loop_closure);

@@ -3,7 +3,7 @@
 #include "command.hpp"
 
 #include "vdbmap/io/mesh_io.hpp"
-#include "vdbmap/log_replay.hpp"
+#include "vdbmap/io/log_replay.hpp"
 #include "vdbmap/mesh.hpp"
 
 #include <cstdio>

@@ -27,7 +27,7 @@ struct SimulateOptions {
 void runSimulate(const SimulateOptions& o) {
   sim::WorldConfig wc;
   wc.ceiling_clip_z_m = o.ceiling_clip_m;
-  const sim::World world = sim::World::load(o.world, wc);
+  const sim::World world = sim::World::load(requireWorld(o.world), wc);
   sim::SimulatorConfig config;
   config.drift = sim::DriftConfig::preset(o.drift, o.seed);
   config.loop_closure = sim::parseLoopClosureMode(o.loop_closure);

@@ -37,12 +37,17 @@ inline const std::vector<std::string>& driftLevels() {
   return levels;
 }
 
-/// `--world`, the world mesh the simulator's commands fly through (required, an existing file).
-inline CLI::Option* addWorldOption(CLI::App& sub, std::filesystem::path& world) {
-  return sub.add_option("--world", world, "World mesh (PLY, OBJ, OFF), metres, z up")
-      ->required()
-      ->check(CLI::ExistingFile);
-}
+/// The embedded default world (data/worlds/small_house, the AWS small house): the installed copy
+/// beside the program (<prefix>/share/vdbmap/worlds/...) or the source tree's; empty when neither
+/// exists.
+std::filesystem::path defaultWorldPath();
+
+/// `--world`, the world mesh the simulator's commands fly through (an existing file); defaults to
+/// defaultWorldPath(). The command throws, naming where it looked, when neither is there.
+CLI::Option* addWorldOption(CLI::App& sub, std::filesystem::path& world);
+
+/// The world to load: `world` as given, or the error that no default world was found.
+const std::filesystem::path& requireWorld(const std::filesystem::path& world);
 
 /// `--drift`, one of driftLevels().
 inline CLI::Option* addDriftOption(CLI::App& sub, std::string& drift) {

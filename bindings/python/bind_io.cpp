@@ -9,7 +9,7 @@
 #include "vdbmap/io/point_cloud_io.hpp"
 #include "vdbmap/io/sensor_info.hpp"
 #include "vdbmap/io/tum_trajectory.hpp"
-#include "vdbmap/log_replay.hpp"
+#include "vdbmap/io/log_replay.hpp"
 #include "vdbmap/map_file.hpp"
 
 #include <pybind11/functional.h>

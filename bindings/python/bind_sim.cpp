@@ -3,7 +3,7 @@
 #include "binding.hpp"
 
 #include "vdbmap/io/sensor_info.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/camera.hpp"
 #include "vdbmap/sim/coverage.hpp"
 #include "vdbmap/sim/flight.hpp"
 

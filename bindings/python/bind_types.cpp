@@ -3,7 +3,7 @@
 
 #include "vdbmap/config.hpp"
 #include "vdbmap/io/frame_source.hpp"
-#include "vdbmap/log_replay.hpp"
+#include "vdbmap/io/log_replay.hpp"
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
@@ -130,8 +130,6 @@ void bindTypes(py::module_& m) {
   bindIntrinsics(m);
   bindPoses(m);
   bindBackProjection(m);
-  m.attr("WEIGHT_SCALE") = kWeightScale;
-  m.attr("SDF_SCALE") = kSdfScale;
 }
 
 const BindRegistration registration(kBindTypes, "types", &bindTypes);

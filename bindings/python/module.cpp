@@ -11,7 +11,7 @@ namespace vdbmap::python {
 namespace {
 
 /// C++ exceptions arrive with their messages as: std::invalid_argument (bad parameters, bad
-/// frames) -> ValueError (pybind11's own rule), io::FileError (a file that cannot be opened, read
+/// frames) -> ValueError (pybind11's own rule), vdbmap::FileError (a file that cannot be opened, read
 /// or written, or is malformed) -> OSError, io::BadFrameError -> vdbmap.BadFrameError (an OSError
 /// with frame_index), std::filesystem::filesystem_error -> OSError, std::out_of_range ->
 /// IndexError (pybind11's rule), anything else -> RuntimeError.
@@ -27,7 +27,7 @@ void registerExceptions(py::module_& m) {
       py::object error = py::handle(bad_frame.ptr())(e.what());  // an instance, to carry frame_index
       error.attr("frame_index") = e.frameIndex();
       PyErr_SetObject(bad_frame.ptr(), error.ptr());
-    } catch (const io::FileError& e) {
+    } catch (const vdbmap::FileError& e) {
       PyErr_SetString(PyExc_OSError, e.what());
     } catch (const std::filesystem::filesystem_error& e) {
       PyErr_SetString(PyExc_OSError, e.what());

@@ -10,8 +10,8 @@
 namespace vdbmap::planner {
 
 namespace {
-/// Decodes W and WD exactly as TsdfVolume::sample() does (same float rounding of the tsdf), so
-/// that, without thin and hit obstacles, the planner and the map never disagree on a voxel.
+/// Decodes W and WD through the map's own VoxelCodec, so that, without thin and hit obstacles, the
+/// planner and the map never disagree on a voxel.
 class TsdfReader : public MapReader {
  public:
   TsdfReader(openvdb::Int64Grid::ConstPtr w, openvdb::Int64Grid::ConstPtr wd, openvdb::Int64Grid::ConstPtr hits,
@@ -22,9 +22,7 @@ class TsdfReader : public MapReader {
         w_acc_(w_grid_->getConstAccessor()),
         wd_acc_(wd_grid_->getConstAccessor()),
         hits_acc_(hits_grid_->getConstAccessor()),
-        min_w_(c.min_weight * double(kWeightScale)),
-        truncation_m_(c.truncation_m()),
-        occupied_below_m_(c.occupancy_threshold_vox * c.voxel_size_m),
+        codec_(c),
         thin_(p.thin_obstacles),
         thin_below_m_(float(p.thin_below_vox * c.voxel_size_m)),
         thin_margin_m_(float(p.thin_margin_vox * c.voxel_size_m)),
@@ -61,12 +59,8 @@ class TsdfReader : public MapReader {
   }
 
  private:
-  bool known(std::int64_t w) const { return w > 0 && double(w) > min_w_; }
   /// The voxel's tsdf in metres, NaN when unknown.
-  float tsdfOf(std::int64_t w, std::int64_t wd) const {
-    if (!known(w)) return std::numeric_limits<float>::quiet_NaN();
-    return float(double(wd) / double(w) / double(kSdfScale) * truncation_m_);
-  }
+  float tsdfOf(std::int64_t w, std::int64_t wd) const { return codec_.tsdfOrNan(w, wd); }
   float tsdfAt(const openvdb::Coord& ijk) { return tsdfOf(w_acc_.getValue(ijk), wd_acc_.getValue(ijk)); }
 
   /// The map's rule (unknown, occupied below the threshold, free), plus tsdf valleys and, amid free
@@ -75,7 +69,7 @@ class TsdfReader : public MapReader {
   template <typename Hits, typename Neighbour>
   Occupancy classify(float t, Hits&& hits, Neighbour&& tsdf_at) const {
     if (std::isnan(t)) return Occupancy::Unknown;
-    if (t < occupied_below_m_) return Occupancy::Occupied;
+    if (codec_.occupied(t)) return Occupancy::Occupied;
     if (thin_ && t < thin_below_m_ && isValley(t, tsdf_at)) return Occupancy::Occupied;
     if (hit_obstacles_ && hits() >= min_hits_ && faceNeighboursAllFree(tsdf_at))
       return Occupancy::Occupied;
@@ -89,7 +83,8 @@ class TsdfReader : public MapReader {
       for (int s = -1; s <= 1; s += 2) {
         openvdb::Coord d(0, 0, 0);
         d[axis] = s;
-        if (!(tsdf_at(d) >= occupied_below_m_)) return false;  // occupied, or unknown (NaN)
+        const float t = tsdf_at(d);
+        if (std::isnan(t) || codec_.occupied(t)) return false;  // unknown, or occupied
       }
     return true;
   }
@@ -166,9 +161,7 @@ class TsdfReader : public MapReader {
   openvdb::Int64Grid::ConstAccessor w_acc_;
   openvdb::Int64Grid::ConstAccessor wd_acc_;
   openvdb::Int64Grid::ConstAccessor hits_acc_;
-  double min_w_;
-  double truncation_m_;
-  double occupied_below_m_;
+  VoxelCodec codec_;
   bool thin_;
   float thin_below_m_;
   float thin_margin_m_;

@@ -2,7 +2,7 @@
 
 #include "text_format.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -82,9 +82,9 @@ void writeOutputs(const AlcBenchmarkResult& result, const AlcBenchmarkConfig& co
                   const std::filesystem::path& out_dir) {
   nlohmann::json runs = nlohmann::json::array();
   for (const AlcBenchmarkRun& r : result.runs) runs.push_back(toJson(r));
-  io::writeFileAtomically(out_dir / "alc.json", [&](std::ostream& os) { os << runs.dump(2) << "\n"; });
+  vdbmap::writeFileAtomically(out_dir / "alc.json", [&](std::ostream& os) { os << runs.dump(2) << "\n"; });
   const std::string md = alcBenchmarkMarkdown(result, config);
-  io::writeFileAtomically(out_dir / "alc.md", [&](std::ostream& os) { os << md; });
+  vdbmap::writeFileAtomically(out_dir / "alc.md", [&](std::ostream& os) { os << md; });
 }
 }  // namespace
 

@@ -3,10 +3,10 @@
 #include "text_format.hpp"
 
 #include "vdbmap/eval.hpp"
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/frame_source.hpp"
 #include "vdbmap/io/mesh_io.hpp"
-#include "vdbmap/log_replay.hpp"
+#include "vdbmap/io/log_replay.hpp"
 #include "vdbmap/mesh.hpp"
 
 #include <nlohmann/json.hpp>
@@ -166,9 +166,9 @@ DriftBenchmarkResult runDriftBenchmark(const DriftBenchmarkConfig& config, const
 
   nlohmann::json table = nlohmann::json::array();
   for (const DriftBenchmarkRow& r : result.rows) table.push_back(toJson(r));
-  io::writeFileAtomically(out_dir / "table.json", [&](std::ostream& os) { os << table.dump(2) << "\n"; });
+  vdbmap::writeFileAtomically(out_dir / "table.json", [&](std::ostream& os) { os << table.dump(2) << "\n"; });
   const std::string md = driftBenchmarkMarkdown(result, config);
-  io::writeFileAtomically(out_dir / "table.md", [&](std::ostream& os) { os << md; });
+  vdbmap::writeFileAtomically(out_dir / "table.md", [&](std::ostream& os) { os << md; });
   return result;
 }
 

@@ -3,7 +3,7 @@
 #include "vdbmap/sim/collision_events.hpp"
 
 #include "vdbmap/eval.hpp"
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/mesh_io.hpp"
 #include "vdbmap/mesh.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
@@ -443,7 +443,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   io::writeTumTrajectory(run_dir / "trajectory_odom.txt", r.trajectory_estimate);
   s.wall_s = msSince(wall0) / 1e3;
   const nlohmann::json j = summaryJson(s, r, config, options.description);
-  io::writeFileAtomically(run_dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; });
+  vdbmap::writeFileAtomically(run_dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; });
   report("wrote " + run_dir.string());
   return s;
 }

@@ -1,6 +1,6 @@
 #include "vdbmap/sim/flight.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/log_writer.hpp"
 
 #include <nlohmann/json.hpp>
@@ -149,7 +149,7 @@ FlightResult FlightRecorder::finish(const SimulatorConfig& config, const std::st
   summary["estimate_error_max_m"] = result.estimate_error_max_m;
   summary["frame_ms_median"] = result.frame_ms_median;
   summary["wall_s"] = result.wall_s;
-  io::writeFileAtomically(log_->writer.folder() / "simulation.json",
+  vdbmap::writeFileAtomically(log_->writer.folder() / "simulation.json",
                           [&](std::ostream& os) { os << summary.dump(2) << "\n"; });
   return result;
 }

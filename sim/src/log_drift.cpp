@@ -1,6 +1,6 @@
 #include "vdbmap/sim/log_drift.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/sensor_info.hpp"
 #include "vdbmap/io/tum_trajectory.hpp"
 
@@ -70,7 +70,7 @@ DriftedLog writeDriftedLog(const io::FrameSource& source, const std::filesystem:
 
   std::filesystem::create_directories(out / "corrections");
   io::writeSensorJson(out / "sensor.json", source.sensor());
-  io::writeFileAtomically(out / "frames.csv", [&](std::ostream& os) {
+  vdbmap::writeFileAtomically(out / "frames.csv", [&](std::ostream& os) {
     os << "timestamp,file,tx,ty,tz,qx,qy,qz,qw\n" << std::setprecision(10);
     for (std::size_t i = 0; i < n; ++i) {
       const io::FrameRecord& r = source.record(i);

@@ -1,6 +1,6 @@
 #include "vdbmap/sim/simulator.hpp"
 
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/camera.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
 #include "vdbmap/sim/trajectory.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -245,7 +245,7 @@ std::vector<Waypoint> readWaypoints(const std::filesystem::path& path) {
 }
 
 void writeWaypoints(const std::filesystem::path& path, const std::vector<Waypoint>& waypoints) {
-  io::writeFileAtomically(path, [&](std::ostream& os) {
+  vdbmap::writeFileAtomically(path, [&](std::ostream& os) {
     os << "# x y z yaw (metres, radians)\n" << std::setprecision(9);
     for (const Waypoint& w : waypoints) os << w.p_W.x() << " " << w.p_W.y() << " " << w.p_W.z() << " " << w.yaw << "\n";
   });

@@ -1,9 +1,12 @@
 // Uses the installed vdbmap package: integrates one synthetic depth frame (a wall 2 m in front of
-// the camera) and checks the map's values. Exit code 0 when every check holds.
+// the camera), checks the map's values and writes and reads back its mesh through vdbmap::io.
+// Exit code 0 when every check holds.
+#include <vdbmap/io/io.hpp>
 #include <vdbmap/vdbmap.hpp>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 namespace {
 int failures = 0;
@@ -42,6 +45,13 @@ int main() {
   check(volume.stateAt({0.0, 0.0, 1.0}) == VoxelState::Free, "free space between camera and wall");
   check(volume.stateAt({0.0, 0.0, kWall}) == VoxelState::Occupied, "the wall's voxel is occupied");
   check(volume.stateAt({0.0, 0.0, kWall + 1.0}) == VoxelState::Unknown, "unknown behind the wall");
+  const TriangleMesh mesh = extractMesh(volume);
+  const std::filesystem::path ply = std::filesystem::temp_directory_path() / "vdbmap_consumer_mesh.ply";
+  io::writePlyMesh(ply, mesh);
+  const TriangleMesh read_back = io::readTriangleMesh(ply);
+  std::filesystem::remove(ply);
+  check(!mesh.triangles.empty() && read_back.triangles.size() == mesh.triangles.size(),
+        "the wall's mesh survives a PLY round trip through vdbmap::io");
   volume.deintegrate(0, backProject(depth, K), Pose3d::Identity());
   check(volume.activeVoxelCount() == 0, "de-integration empties the map");
   return failures == 0 ? 0 : 1;

@@ -4,6 +4,8 @@
 #include "vdbmap/planner/atsp.hpp"
 #include "vdbmap/planner/tsplib.hpp"
 
+#include "common/shared_data.hpp"
+
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -18,7 +20,7 @@ using namespace vdbmap::planner;
 
 namespace {
 
-const std::filesystem::path kTsplib = std::filesystem::path(VDBMAP_SHARED_DATA_DIR) / "tsplib_atsp";
+const std::filesystem::path kTsplib = vdbmap::test::sharedDataDir() / "tsplib_atsp";
 
 /// Cost of `order` recomputed here, independently of the solver (no clamping needed: test costs are small).
 std::int64_t recomputedCost(const CostMatrix& costs, const std::vector<std::size_t>& order, bool closed) {
@@ -179,10 +181,7 @@ TEST_CASE("degenerate sizes 0 to 3 are solved exactly", "[atsp]") {
 }
 
 TEST_CASE("TSPLIB br17 = 39 and ftv33 = 1286 are found", "[atsp][tsplib]") {
-  if (!std::filesystem::exists(kTsplib / "br17.atsp")) {
-    WARN("shared data not found at " << kTsplib << "; skipped");
-    return;
-  }
+  vdbmap::test::requireSharedData("tsplib_atsp/br17.atsp");
   // A fixed round count (found within about 100 rounds) keeps the result independent of machine speed.
   AtspOptions options;
   options.time_limit_s = 10.0;
@@ -205,10 +204,7 @@ TEST_CASE("TSPLIB br17 = 39 and ftv33 = 1286 are found", "[atsp][tsplib]") {
 }
 
 TEST_CASE("a tour meeting the assignment bound is proven optimal and returned early (rbg323)", "[atsp][tsplib]") {
-  if (!std::filesystem::exists(kTsplib / "rbg323.atsp")) {
-    WARN("shared data not found at " << kTsplib << "; skipped");
-    return;
-  }
+  vdbmap::test::requireSharedData("tsplib_atsp/rbg323.atsp");
   const TsplibInstance rbg = readTsplib(kTsplib / "rbg323.atsp");
   AtspOptions options;
   options.time_limit_s = 20.0;

@@ -2,6 +2,8 @@
 // junk diagonal, irregular header spacing, EOF), and errors that name the file, line and field.
 #include "vdbmap/planner/tsplib.hpp"
 
+#include "common/shared_data.hpp"
+
 #include <catch2/catch.hpp>
 
 #include <filesystem>
@@ -13,7 +15,7 @@ using namespace vdbmap::planner;
 
 namespace {
 
-const std::filesystem::path kTsplib = std::filesystem::path(VDBMAP_SHARED_DATA_DIR) / "tsplib_atsp";
+const std::filesystem::path kTsplib = vdbmap::test::sharedDataDir() / "tsplib_atsp";
 
 TsplibInstance parse(const std::string& text) {
   std::istringstream in(text);
@@ -48,10 +50,7 @@ TEST_CASE("irregular header spacing, wrapped rows, a junk diagonal and EOF", "[t
 }
 
 TEST_CASE("every shared ATSP file parses with its dimension", "[tsplib]") {
-  if (!std::filesystem::exists(kTsplib / "OPTIMA.txt")) {
-    WARN("shared data not found at " << kTsplib << "; skipped");
-    return;
-  }
+  vdbmap::test::requireSharedData("tsplib_atsp/OPTIMA.txt");
   const std::map<std::string, std::size_t> dimensions = {
       {"br17", 17},    {"ftv33", 34},   {"ftv35", 36},   {"ftv38", 39},    {"p43", 43},
       {"ftv44", 45},   {"ftv47", 48},   {"ry48p", 48},   {"ft53", 53},     {"ftv55", 56},

@@ -2,6 +2,7 @@
 // shared worlds' paths.
 #pragma once
 
+#include "common/shared_data.hpp"
 #include "vdbmap/sim/world.hpp"
 #include "vdbmap/triangle_mesh.hpp"
 
@@ -10,12 +11,11 @@
 
 namespace vdbmap::test {
 
-inline std::filesystem::path houseMesh() {
-  return std::filesystem::path(VDBMAP_SHARED_DATA_DIR) / "aws_small_house_world" / "small_house_visual_mesh.ply";
-}
+/// The AWS small house, embedded in data/worlds (always there).
+inline std::filesystem::path houseMesh() { return embeddedWorld("small_house/small_house_visual_mesh.ply"); }
+/// The AWS small warehouse from the shared data; the test case is skipped when it is missing.
 inline std::filesystem::path warehouseMesh() {
-  return std::filesystem::path(VDBMAP_SHARED_DATA_DIR) / "aws_small_warehouse_world" /
-         "no_roof_small_warehouse_visual_mesh.ply";
+  return requireSharedData("aws_small_warehouse_world/no_roof_small_warehouse_visual_mesh.ply");
 }
 
 /// Adds the 6 faces (12 triangles) of the box [lo, hi]; `skip_face` (0..5 = -x, +x, -y, +y, -z, +z)

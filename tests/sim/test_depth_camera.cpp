@@ -3,7 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "sim/sim_test_helpers.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 #include "vdbmap/sim/depth_camera.hpp"
 
 #include <algorithm>
@@ -11,6 +11,7 @@
 
 using namespace vdbmap;
 using namespace vdbmap::sim;
+using vdbmap::testing::AnalyticScene;
 
 namespace {
 /// A square plane of side 2 * half through `centre` with unit normal `n`, as 2 triangles.

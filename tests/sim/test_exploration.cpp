@@ -4,7 +4,7 @@
 #include "sim/sim_test_helpers.hpp"
 
 #include "vdbmap/io/frame_source.hpp"
-#include "vdbmap/log_replay.hpp"
+#include "vdbmap/io/log_replay.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
 #include "vdbmap/sim/exploration.hpp"
 

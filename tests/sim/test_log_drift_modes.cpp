@@ -3,9 +3,11 @@
 // in every consistency mode and compared with the map integrated at the true poses.
 #include "vdbmap/eval.hpp"
 #include "vdbmap/io/frame_source.hpp"
-#include "vdbmap/log_replay.hpp"
+#include "vdbmap/io/log_replay.hpp"
 #include "vdbmap/mesh.hpp"
 #include "vdbmap/sim/log_drift.hpp"
+
+#include "common/shared_data.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -16,7 +18,7 @@ using namespace vdbmap;
 namespace fs = std::filesystem;
 
 namespace {
-const fs::path kRedKitchen = fs::path(VDBMAP_SHARED_DATA_DIR) / "7scenes_redkitchen_tsdf_fusion_python";
+const fs::path kRedKitchen = vdbmap::test::sharedDataDir() / "7scenes_redkitchen_tsdf_fusion_python";
 
 constexpr double kVoxel_m = 0.05;
 constexpr int kStride = 4;  // 125 of the 500 frames keep the test quick; the drift and the loop are the same
@@ -38,10 +40,7 @@ struct ModeRun {
 }  // namespace
 
 TEST_CASE("after a loop correction keyframes and all match the true-pose map and none does not", "[drift][shared]") {
-  if (!fs::exists(kRedKitchen)) {
-    WARN("shared data not found at " << kRedKitchen << "; skipped");
-    return;
-  }
+  vdbmap::test::requireSharedData("7scenes_redkitchen_tsdf_fusion_python");
   const auto truth_source = io::openDataset(kRedKitchen);
   const fs::path log = fs::temp_directory_path() / "vdbmap_test_drift_modes";
   fs::remove_all(log);

@@ -2,7 +2,7 @@
 #include <catch2/catch.hpp>
 
 #include "sim/sim_test_helpers.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/camera.hpp"
 #include "vdbmap/sim/depth_camera.hpp"
 #include "vdbmap/sim/loop_closure.hpp"
 

@@ -5,7 +5,7 @@
 #include "sim/sim_test_helpers.hpp"
 #include "vdbmap/eval.hpp"
 #include "vdbmap/io/frame_source.hpp"
-#include "vdbmap/log_replay.hpp"
+#include "vdbmap/io/log_replay.hpp"
 #include "vdbmap/mesh.hpp"
 #include "vdbmap/sim/flight.hpp"
 #include "vdbmap/test_io_helpers.hpp"

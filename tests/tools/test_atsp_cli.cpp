@@ -1,5 +1,7 @@
 // `vdbmap atsp`: solves a TSPLIB file and writes {name, n, cost, optimal_proven, time_s}; a bad
 // file fails naming the file and line.
+#include "common/shared_data.hpp"
+
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
@@ -11,7 +13,7 @@
 namespace fs = std::filesystem;
 
 namespace {
-const fs::path kTsplib = fs::path(VDBMAP_SHARED_DATA_DIR) / "tsplib_atsp";
+const std::filesystem::path kTsplib = vdbmap::test::sharedDataDir() / "tsplib_atsp";
 
 int runCli(const std::string& args, const fs::path& out_file) {
   const std::string cmd = std::string(VDBMAP_CLI_PATH) + " " + args + " > " + out_file.string() + " 2>&1";
@@ -25,10 +27,7 @@ std::string readAll(const fs::path& p) {
 }  // namespace
 
 TEST_CASE("vdbmap atsp solves br17 and writes the JSON summary", "[cli][atsp]") {
-  if (!fs::exists(kTsplib / "br17.atsp")) {
-    WARN("shared data not found at " << kTsplib << "; skipped");
-    return;
-  }
+  vdbmap::test::requireSharedData("tsplib_atsp/br17.atsp");
   const fs::path dir = fs::temp_directory_path() / "vdbmap_cli_atsp";
   fs::remove_all(dir);
   fs::create_directories(dir);

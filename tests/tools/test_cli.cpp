@@ -1,5 +1,7 @@
 // The vdbmap program end to end: integrate -> info -> mesh -> eval on the 4 Replica frames, and
 // bad input that must fail loudly without replacing good outputs.
+#include "common/shared_data.hpp"
+
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
@@ -11,7 +13,7 @@
 namespace fs = std::filesystem;
 
 namespace {
-const fs::path kReplica = fs::path(VDBMAP_SHARED_DATA_DIR) / "nvblox_testdata" / "replica";
+const fs::path kReplica = vdbmap::test::sharedDataDir() / "nvblox_testdata" / "replica";
 
 int run(const std::string& args, const fs::path& out_file) {
   const std::string cmd = std::string(VDBMAP_CLI_PATH) + " " + args + " > " + out_file.string() + " 2>&1";
@@ -32,10 +34,7 @@ fs::path freshDir(const std::string& name) {
 }  // namespace
 
 TEST_CASE("integrate, info, mesh and eval chain on a small real log with JSON summaries", "[cli]") {
-  if (!fs::exists(kReplica / "office0")) {
-    WARN("shared data not found at " << kReplica << "; skipped");
-    return;
-  }
+  vdbmap::test::requireSharedData("nvblox_testdata/replica/office0");
   const fs::path dir = freshDir("vdbmap_cli_chain");
   const fs::path map = dir / "map.vdb", log = dir / "log.txt";
   REQUIRE(run("integrate " + (kReplica / "office0").string() + " -o " + map.string() + " --voxel-size 0.05 --mode all" +

@@ -2,6 +2,8 @@
 // writing for corrupt-input cases.
 #pragma once
 
+#include "common/shared_data.hpp"
+
 #include <catch2/catch.hpp>
 
 #include <atomic>
@@ -16,9 +18,8 @@ namespace vdbmap::test {
 inline std::filesystem::path fixture(const std::string& name) {
   return std::filesystem::path(VDBMAP_TEST_DATA_DIR) / "io" / name;
 }
-inline std::filesystem::path sharedData(const std::string& rel) {
-  return std::filesystem::path(VDBMAP_SHARED_DATA_DIR) / rel;
-}
+/// `rel` under the shared data folder; the test case is reported skipped when it is missing.
+inline std::filesystem::path sharedData(const std::string& rel) { return requireSharedData(rel); }
 
 /// A fresh folder under the system temp dir, removed with its content on destruction.
 class TempDir {

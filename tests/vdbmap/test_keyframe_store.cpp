@@ -1,6 +1,6 @@
 // Keyframe storage: exact decoding and memory per frame.
 #include "vdbmap/keyframe_store.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -12,8 +12,8 @@ using namespace vdbmap;
 TEST_CASE("a stored depth frame decodes to the same points every time, within half a depth unit of the input",
           "[keyframes][store]") {
   auto K = std::make_shared<CameraIntrinsics>();  // 640x480, FUEL's camera
-  const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
-  const Pose3d T = sim::lookingPose({0.5, 0.2, 1.2}, 0.7, 0.2);
+  const testing::AnalyticScene scene = testing::AnalyticScene::demoRoom();
+  const Pose3d T = vdbmap::lookingPose({0.5, 0.2, 1.2}, 0.7, 0.2);
   DepthImage depth = scene.renderDepth(*K, T, 5.0);
   depth.at(10, 10) = std::numeric_limits<float>::quiet_NaN();
   depth.at(11, 10) = 0.0f;

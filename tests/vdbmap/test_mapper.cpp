@@ -1,15 +1,14 @@
 // The mapper's consistency modes and budgeted re-integration.
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/mesh.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 
 #include <catch2/catch.hpp>
 
 #include <cmath>
 
 using namespace vdbmap;
-using sim::AnalyticScene;
-using sim::lookingPose;
+using testing::AnalyticScene;
 
 namespace {
 std::shared_ptr<const CameraIntrinsics> smallCamera() {

@@ -4,7 +4,7 @@
 
 #include "vdbmap/camera.hpp"
 #include "vdbmap/set_cover.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <catch2/catch.hpp>
@@ -226,12 +226,12 @@ TEST_CASE("visibleCells holds the cells of every voxel the integrator touches", 
   const TsdfConfig tsdf = tsdfConfig(vs);
   IntegratorConfig integrator;
   integrator.max_range_m = 3.0;
-  const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
+  const testing::AnalyticScene scene = testing::AnalyticScene::demoRoom();
   const CameraIntrinsics K = test::smallCamera();
   // Point clouds have no image: under Projective they are integrated (and walked) as Merged rays.
   for (const RayMode mode : {RayMode::Merged, RayMode::PerRay, RayMode::Projective}) {
     integrator.ray_mode = mode;
-    for (const Pose3d& T : {sim::lookingPose({0.5, 0.3, 1.2}, 0.4, 0.1), sim::lookingPose({-1.5, 0.8, 1.5}, 2.5, -0.2)}) {
+    for (const Pose3d& T : {vdbmap::lookingPose({0.5, 0.3, 1.2}, 0.4, 0.1), vdbmap::lookingPose({-1.5, 0.8, 1.5}, 2.5, -0.2)}) {
       // depth up to 10 m so that some points are beyond max range (carve-only rays)
       const PointCloud points = backProject(scene.renderDepth(K, T, 10.0), K);
       TsdfVolume map(tsdf, integrator);
@@ -267,11 +267,11 @@ TEST_CASE("visibleCells of a depth image under Projective are the cells of the v
   IntegratorConfig integrator;
   integrator.max_range_m = 3.0;
   REQUIRE(integrator.ray_mode == RayMode::Projective);
-  const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
+  const testing::AnalyticScene scene = testing::AnalyticScene::demoRoom();
   const CameraIntrinsics K = test::smallCamera();
   // Level and pitched views: the floor and ceiling are seen only near the frustum's edges, which
   // is where sampled rays would miss cells the integration writes.
-  for (const Pose3d& T : {sim::lookingPose({0.5, 0.3, 1.2}, 0.4, 0.0), sim::lookingPose({-1.5, 0.8, 1.5}, 2.5, -0.2)}) {
+  for (const Pose3d& T : {vdbmap::lookingPose({0.5, 0.3, 1.2}, 0.4, 0.0), vdbmap::lookingPose({-1.5, 0.8, 1.5}, 2.5, -0.2)}) {
     const DepthImage depth = scene.renderDepth(K, T, 10.0);  // beyond max range too: carve-only pixels
     TsdfVolume map(tsdf, integrator);
     const IntegrationStats stats = map.integrate(1, depth, K, T);
@@ -564,16 +564,16 @@ TEST_CASE("FramePruner drops repeated views of real frames", "[set_cover][pruner
   const double vs = 0.1;
   const TsdfConfig tsdf = tsdfConfig(vs);
   const IntegratorConfig integrator;
-  const sim::AnalyticScene scene = sim::AnalyticScene::demoRoom();
+  const testing::AnalyticScene scene = testing::AnalyticScene::demoRoom();
   const CameraIntrinsics K = test::smallCamera();
   SetCoverConfig config;
   config.n_ob = 1;
   FramePruner pruner(config, vs);
   // Frames 1 and 2 are copies of frame 0, frames 3 and 4 nearly so; frame 5 looks the other way.
   std::vector<Pose3d> poses;
-  for (int i = 0; i < 3; ++i) poses.push_back(sim::lookingPose({0.0, 0.0, 1.2}, 0.3, 0.0));
-  for (int i = 1; i <= 2; ++i) poses.push_back(sim::lookingPose({0.0, 0.0, 1.2}, 0.3 + 0.002 * i, 0.0));
-  poses.push_back(sim::lookingPose({0.0, 0.0, 1.2}, 0.3 + M_PI, 0.0));
+  for (int i = 0; i < 3; ++i) poses.push_back(vdbmap::lookingPose({0.0, 0.0, 1.2}, 0.3, 0.0));
+  for (int i = 1; i <= 2; ++i) poses.push_back(vdbmap::lookingPose({0.0, 0.0, 1.2}, 0.3 + 0.002 * i, 0.0));
+  poses.push_back(vdbmap::lookingPose({0.0, 0.0, 1.2}, 0.3 + M_PI, 0.0));
   std::size_t bytes_cells = 0, n_cells = 0;
   for (std::size_t i = 0; i < poses.size(); ++i) {
     CellSet cells = visibleCells(backProject(scene.renderDepth(K, poses[i], 5.0), K), poses[i], tsdf, integrator,

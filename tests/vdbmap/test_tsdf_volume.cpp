@@ -3,7 +3,7 @@
 #include "tsdf_test_helpers.hpp"
 #include "vdbmap/camera.hpp"
 #include "vdbmap/mesh.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <catch2/catch.hpp>

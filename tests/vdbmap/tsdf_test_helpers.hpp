@@ -3,7 +3,7 @@
 
 #include "vdbmap/camera.hpp"
 #include "vdbmap/mesh.hpp"
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <catch2/catch.hpp>
@@ -15,8 +15,7 @@
 
 namespace vdbmap::test {
 
-using sim::AnalyticScene;
-using sim::lookingPose;
+using testing::AnalyticScene;
 
 /// A small camera keeps the tests fast; the geometry is the same as FUEL's camera, scaled.
 inline CameraIntrinsics smallCamera() {

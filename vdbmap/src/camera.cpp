@@ -57,4 +57,17 @@ PointCloud backProject(const DepthImage& depth, const CameraIntrinsics& K, int s
   return points_S;
 }
 
+Pose3d lookingPose(const Vec3d& position_W, double yaw, double pitch) {
+  // Optical frame: z forward, x right, y down. Forward = (cos yaw cos pitch, sin yaw cos pitch, -sin pitch).
+  const Vec3d forward(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch), -std::sin(pitch));
+  const Vec3d right = forward.cross(Vec3d::UnitZ()).normalized();
+  const Vec3d down = forward.cross(right);
+  Pose3d T = Pose3d::Identity();
+  T.linear().col(0) = right;
+  T.linear().col(1) = down;
+  T.linear().col(2) = forward;
+  T.translation() = position_W;
+  return T;
+}
+
 }  // namespace vdbmap

@@ -1,6 +1,6 @@
 #include "vdbmap/map_file.hpp"
 
-#include "vdbmap/io/errors.hpp"
+#include "vdbmap/file_error.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <stdexcept>
@@ -10,12 +10,12 @@ namespace vdbmap {
 namespace {
 openvdb::io::File openFile(const std::filesystem::path& path) {
   initializeOpenVdb();
-  if (!std::filesystem::is_regular_file(path)) throw io::FileError("cannot open map " + path.string() + ": no such file");
+  if (!std::filesystem::is_regular_file(path)) throw vdbmap::FileError("cannot open map " + path.string() + ": no such file");
   openvdb::io::File file(path.string());
   try {
     file.open();
   } catch (const openvdb::Exception& e) {
-    throw io::FileError("cannot read map " + path.string() + ": " + e.what());
+    throw vdbmap::FileError("cannot read map " + path.string() + ": " + e.what());
   }
   return file;
 }
@@ -23,9 +23,9 @@ openvdb::io::File openFile(const std::filesystem::path& path) {
 
 openvdb::FloatGrid::Ptr readTsdfGrid(const std::filesystem::path& path) {
   openvdb::io::File file = openFile(path);
-  if (!file.hasGrid("tsdf")) throw io::FileError(path.string() + ": no grid named 'tsdf' (not a vdbmap map?)");
+  if (!file.hasGrid("tsdf")) throw vdbmap::FileError(path.string() + ": no grid named 'tsdf' (not a vdbmap map?)");
   auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
-  if (!grid) throw io::FileError(path.string() + ": grid 'tsdf' is not a float grid");
+  if (!grid) throw vdbmap::FileError(path.string() + ": grid 'tsdf' is not a float grid");
   return grid;
 }
 

@@ -132,11 +132,22 @@ IntegrationStats applyFrame(TsdfVolume& volume, FrameId id, const EncodedFrame& 
   return applyDecoded(volume, id, decodeFrame(frame), T_W_S, add);
 }
 
-/// The frame's set for the pruner: the coarse cells its integration touches.
-CellSet frameCells(const DecodedFrame& frame, const Pose3d& T_W_S, const MapperConfig& config) {
-  if (frame.depth)
-    return visibleCells(*frame.depth, *frame.K, T_W_S, config.tsdf, config.integrator, config.set_cover.cell_size_vox);
-  return visibleCells(frame.points_S, T_W_S, config.tsdf, config.integrator, config.set_cover.cell_size_vox);
+/// Integrates a decoded frame for the pruner too: returns its set, the coarse cells its integration
+/// touches. Projective integration records them in the same pass (the footprint); the ray modes
+/// walk the frame's rays again on the coarse grid (visibleCells).
+IntegrationStats integrateWithCells(TsdfVolume& volume, FrameId id, const DecodedFrame& frame, const Pose3d& T_W_S,
+                                    const MapperConfig& config, CellSet& cells) {
+  const double cell_vox = config.set_cover.cell_size_vox;
+  if (frame.depth && config.integrator.ray_mode == RayMode::Projective) {
+    VoxelFootprint footprint;
+    const IntegrationStats stats = volume.integrate(id, *frame.depth, *frame.K, T_W_S, &footprint);
+    cells = footprintCells(footprint, cell_vox);
+    return stats;
+  }
+  const IntegrationStats stats = applyDecoded(volume, id, frame, T_W_S, true);
+  cells = frame.depth ? visibleCells(*frame.depth, *frame.K, T_W_S, config.tsdf, config.integrator, cell_vox)
+                      : visibleCells(frame.points_S, T_W_S, config.tsdf, config.integrator, cell_vox);
+  return stats;
 }
 }  // namespace
 
@@ -167,7 +178,9 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
   }
 
   const DecodedFrame decoded = decodeFrame(data);  // once, for integration and the pruner's set
-  stats = applyDecoded(volume_, id, decoded, T_W_S, true);
+  CellSet cells;
+  stats = config_.mode == ConsistencyMode::Keyframes ? integrateWithCells(volume_, id, decoded, T_W_S, config_, cells)
+                                                     : applyDecoded(volume_, id, decoded, T_W_S, true);
   markDirty(stats.touched_voxels);
   if (config_.mode == ConsistencyMode::None) return stats;
 
@@ -180,7 +193,7 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
   store_.add(std::move(kf));
 
   if (config_.mode == ConsistencyMode::Keyframes) {
-    pruner_->addFrame(id, T_W_S.translation(), frameCells(decoded, T_W_S, config_));
+    pruner_->addFrame(id, T_W_S.translation(), std::move(cells));
     if (++frames_since_solve_ >= std::size_t(config_.set_cover.solve_period_frames)) prune();
   }
   return stats;

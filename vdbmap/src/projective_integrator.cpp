@@ -297,11 +297,13 @@ void visitLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Mat
   }
 }
 
-/// Tests the 512 voxels of one leaf against the image and writes their updates into `block`.
+/// Tests the 512 voxels of one leaf against the image and writes their updates into `block`; marks
+/// the visited voxels in `mask` when given (a LeafFootprint's words).
 std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3f& A, const Eigen::Vector3f& b,
-                          const SdfUpdate& update, std::int64_t sign, Block& block) {
+                          const SdfUpdate& update, std::int64_t sign, Block& block, std::uint64_t* mask) {
   std::size_t updates = 0;
   visitLeaf(px, K, A, b, [&](openvdb::Index n, const PixelRay& ray, float d2) {
+    if (mask) mask[n >> 6] |= std::uint64_t(1) << (n & 63);
     if (d2 <= ray.free2) {  // free space: the update does not depend on the distance
       block.addFree(n, sign * ray.weight_q);
       ++updates;
@@ -348,8 +350,9 @@ void checkImageSize(const DepthImage& depth_m, const CameraIntrinsics& K) {
 void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
                          const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
                          const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
-                         IntegrationStats& stats) {
+                         IntegrationStats& stats, VoxelFootprint* footprint) {
   checkImageSize(depth_m, K);
+  if (footprint) footprint->clear();
   const PixelTable px = classifyPixels(depth_m, K, tsdf, integrator, stats);
   if (px.max_range_m <= 0.0 || placements.empty()) return;  // no valid pixel
   KeyIndex index(4096);
@@ -363,16 +366,25 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
 
   std::vector<std::unique_ptr<Block>> blocks(leaves.size());
   std::vector<std::size_t> updates(leaves.size(), 0);
+  VoxelFootprint masks(footprint ? leaves.size() : 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 4), [&](const auto& r) {
     for (std::size_t l = r.begin(); l != r.end(); ++l) {
       const openvdb::Coord& origin = leaves[l];
       for (const View& view : views) {
         if (view.cull.outside(origin)) continue;
         if (!blocks[l]) blocks[l] = acquireBlock(origin);
-        updates[l] += integrateLeaf(px, K, view.A, view.leafOrigin(origin, vs), update, view.sign, *blocks[l]);
+        std::uint64_t* mask = footprint && view.sign > 0 ? masks[l].voxels.data() : nullptr;
+        updates[l] += integrateLeaf(px, K, view.A, view.leafOrigin(origin, vs), update, view.sign, *blocks[l], mask);
       }
     }
   });
+  if (footprint) {
+    for (std::size_t l = 0; l < leaves.size(); ++l) {
+      if (masks[l].empty()) continue;
+      masks[l].origin = leaves[l];
+      footprint->push_back(masks[l]);
+    }
+  }
 
   std::vector<Block*> touched;
   for (std::size_t l = 0; l < leaves.size(); ++l) {
@@ -385,7 +397,7 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
   releaseBlocks(blocks);
 }
 
-std::vector<LeafFootprint> projectiveFootprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
+VoxelFootprint projectiveFootprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
                                                const TsdfConfig& tsdf, const IntegratorConfig& integrator) {
   checkImageSize(depth_m, K);
   IntegrationStats stats;
@@ -396,7 +408,7 @@ std::vector<LeafFootprint> projectiveFootprint(const DepthImage& depth_m, const 
   candidateLeaves(px, K, T_W_S, tsdf, index, leaves);
   const View view(px, K, T_W_S, +1, tsdf);
 
-  std::vector<LeafFootprint> footprints(leaves.size());
+  VoxelFootprint footprints(leaves.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 4), [&](const auto& r) {
     for (std::size_t l = r.begin(); l != r.end(); ++l) {
       LeafFootprint& f = footprints[l];

@@ -280,19 +280,13 @@ CellSet visibleCells(const PointCloud& points_S, const Pose3d& T_W_S, const Tsdf
   return CellSet::fromSortedKeys(dense_keys);
 }
 
-CellSet visibleCells(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
-                     const IntegratorConfig& integrator, double cell_size_vox) {
-  if (integrator.ray_mode != RayMode::Projective) return visibleCells(backProject(depth_m, K), T_W_S, tsdf, integrator, cell_size_vox);
-  tsdf.validate();
-  integrator.validate();
+CellSet footprintCells(const VoxelFootprint& footprint, double cell_size_vox) {
   requireCellSize(cell_size_vox);
-  if (!isValidRigidTransform(T_W_S)) throw std::invalid_argument("visibleCells: T_W_S is not a rigid transform");
-
   // Voxel v lies in cell floor((v + 0.5) / k): its centre v * voxel in cell space (see cellTransform).
   const double inv_k = 1.0 / cell_size_vox;
   const auto cellOfIndex = [inv_k](int v) { return int(std::floor((double(v) + 0.5) * inv_k)); };
   std::vector<std::uint64_t> keys;
-  for (const internal::LeafFootprint& leaf : internal::projectiveFootprint(depth_m, K, T_W_S, tsdf, integrator)) {
+  for (const LeafFootprint& leaf : footprint) {
     // The leaf's cells, deduplicated in a small dense box before they join the frame's list.
     const openvdb::Coord c0(cellOfIndex(leaf.origin.x()), cellOfIndex(leaf.origin.y()), cellOfIndex(leaf.origin.z()));
     const openvdb::Coord c1(cellOfIndex(leaf.origin.x() + 7), cellOfIndex(leaf.origin.y() + 7),
@@ -315,6 +309,16 @@ CellSet visibleCells(const DepthImage& depth_m, const CameraIntrinsics& K, const
   std::sort(keys.begin(), keys.end());
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   return CellSet::fromSortedKeys(keys);
+}
+
+CellSet visibleCells(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+                     const IntegratorConfig& integrator, double cell_size_vox) {
+  if (integrator.ray_mode != RayMode::Projective) return visibleCells(backProject(depth_m, K), T_W_S, tsdf, integrator, cell_size_vox);
+  tsdf.validate();
+  integrator.validate();
+  requireCellSize(cell_size_vox);
+  if (!isValidRigidTransform(T_W_S)) throw std::invalid_argument("visibleCells: T_W_S is not a rigid transform");
+  return footprintCells(internal::projectiveFootprint(depth_m, K, T_W_S, tsdf, integrator), cell_size_vox);
 }
 
 // ---- greedy -----------------------------------------------------------------------------------

@@ -143,11 +143,13 @@ IntegrationStats TsdfVolume::apply(const PointCloud& points_S, const Pose3d& T_W
 }
 
 IntegrationStats TsdfVolume::apply(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
-                                   std::int64_t sign) {
+                                   std::int64_t sign, VoxelFootprint* footprint) {
+  if (footprint) footprint->clear();
   if (integrator_.ray_mode != RayMode::Projective) return apply(backProject(depth_m, K), T_W_S, sign);
   IntegrationStats stats;
   inArena(integrator_.threads, [&] {
-    internal::integrateProjective(depth_m, K, {{T_W_S, sign}}, config_, integrator_, *weight_q_, *wsdf_q_, stats);
+    internal::integrateProjective(depth_m, K, {{T_W_S, sign}}, config_, integrator_, *weight_q_, *wsdf_q_, stats,
+                                  footprint);
     internal::countHits(backProject(depth_m, K), T_W_S, config_, integrator_, *hits_, sign);
   });
   return stats;
@@ -185,9 +187,9 @@ IntegrationStats TsdfVolume::deintegrate(FrameId id, const PointCloud& points_S,
 }
 
 IntegrationStats TsdfVolume::integrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
-                                       const Pose3d& T_W_S) {
+                                       const Pose3d& T_W_S, VoxelFootprint* footprint) {
   checkNewFrame(id, T_W_S);
-  IntegrationStats stats = apply(depth_m, K, T_W_S, +1);
+  IntegrationStats stats = apply(depth_m, K, T_W_S, +1, footprint);
   frames_[id] = FrameRecord{fingerprint(depth_m, K, T_W_S), T_W_S};
   return stats;
 }
@@ -214,15 +216,17 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const PointCloud& points_S,
 }
 
 IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
-                                         const Pose3d& T_W_S_old, const Pose3d& T_W_S_new) {
+                                         const Pose3d& T_W_S_old, const Pose3d& T_W_S_new,
+                                         VoxelFootprint* footprint) {
   const auto it = checkKnownFrame(id, fingerprint(depth_m, K, T_W_S_old), "depth image, intrinsics");
   if (!isValidRigidTransform(T_W_S_new))
     throw FrameError("frame " + std::to_string(id) + ": the new T_W_S is not a rigid transform");
   IntegrationStats stats;
+  if (footprint) footprint->clear();
   if (integrator_.ray_mode == RayMode::Projective) {
     inArena(integrator_.threads, [&] {
       internal::integrateProjective(depth_m, K, {{T_W_S_old, -1}, {T_W_S_new, +1}}, config_, integrator_,
-                                    *weight_q_, *wsdf_q_, stats);
+                                    *weight_q_, *wsdf_q_, stats, footprint);
       const PointCloud points_S = backProject(depth_m, K);
       internal::countHits(points_S, T_W_S_old, config_, integrator_, *hits_, -1);
       internal::countHits(points_S, T_W_S_new, config_, integrator_, *hits_, +1);
@@ -253,27 +257,11 @@ Vec3d TsdfVolume::voxelCenter(const openvdb::Coord& ijk) const {
   return Vec3d(ijk.x(), ijk.y(), ijk.z()) * config_.voxel_size_m;
 }
 
-namespace {
-/// Converts a voxel's exact sums to (state, tsdf, weight).
-inline VoxelSample decode(std::int64_t w, std::int64_t wd, const TsdfConfig& c) {
-  VoxelSample s;
-  const double delta = c.truncation_m();
-  s.weight = float(double(w) / double(kWeightScale));
-  if (w <= 0 || double(w) <= c.min_weight * double(kWeightScale)) {
-    s.tsdf_m = float(delta);
-    s.state = VoxelState::Unknown;
-    return s;
-  }
-  s.tsdf_m = float(double(wd) / double(w) / double(kSdfScale) * delta);
-  s.state = s.tsdf_m < c.occupancy_threshold_vox * c.voxel_size_m ? VoxelState::Occupied : VoxelState::Free;
-  return s;
-}
-}  // namespace
 
 VoxelSample TsdfVolume::sample(const openvdb::Coord& ijk) const {
   const std::int64_t w = weight_q_->tree().getValue(ijk);
   const std::int64_t wd = wsdf_q_->tree().getValue(ijk);
-  VoxelSample s = decode(w, wd, config_);
+  VoxelSample s = VoxelCodec(config_).decode(w, wd);
   s.hits = hits_->tree().getValue(ijk);
   return s;
 }
@@ -291,11 +279,12 @@ openvdb::FloatGrid::Ptr derivedGrid(const openvdb::Int64Grid& weight_q, const op
                                     const TsdfConfig& config, float background, const char* name, ValueFn value) {
   auto tree = std::make_shared<openvdb::FloatTree>(weight_q.tree(), background, openvdb::TopologyCopy());
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(*tree);
+  const VoxelCodec codec(config);
   leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, std::size_t) {
     const auto* w_leaf = weight_q.tree().probeConstLeaf(leaf.origin());
     const auto* wd_leaf = wsdf_q.tree().probeConstLeaf(leaf.origin());
     for (auto it = leaf.beginValueOn(); it; ++it) {
-      const VoxelSample s = decode(w_leaf->getValue(it.pos()), wd_leaf->getValue(it.pos()), config);
+      const VoxelSample s = codec.decode(w_leaf->getValue(it.pos()), wd_leaf->getValue(it.pos()));
       if (s.state == VoxelState::Unknown)
         it.setValueOff();  // the leaf's value stays the background below
       else

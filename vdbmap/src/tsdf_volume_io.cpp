@@ -1,6 +1,6 @@
 // Saving and loading TsdfVolume: the portable float map (.vdb) and the exact companion file.
-#include "vdbmap/io/atomic_file.hpp"
-#include "vdbmap/io/errors.hpp"
+#include "vdbmap/atomic_file.hpp"
+#include "vdbmap/file_error.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <nlohmann/json.hpp>
@@ -39,12 +39,12 @@ openvdb::MetaMap configMetadata(const TsdfConfig& c, const IntegratorConfig& in,
 template <typename MetaT, typename T>
 T requireMeta(const openvdb::MetaMap& meta, const std::string& key, const std::filesystem::path& path) {
   const auto m = meta.getMetadata<MetaT>(key);
-  if (!m) throw io::FileError(path.string() + ": metadata '" + key + "' is missing: not a vdbmap map?");
+  if (!m) throw vdbmap::FileError(path.string() + ": metadata '" + key + "' is missing: not a vdbmap map?");
   return m->value();
 }
 
 void writeGrids(const std::filesystem::path& path, const openvdb::GridPtrVec& grids, const openvdb::MetaMap& meta) {
-  const std::filesystem::path tmp = io::temporaryPathFor(path);
+  const std::filesystem::path tmp = vdbmap::temporaryPathFor(path);
   try {
     openvdb::io::File file(tmp.string());
     file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
@@ -53,9 +53,9 @@ void writeGrids(const std::filesystem::path& path, const openvdb::GridPtrVec& gr
   } catch (const std::exception& e) {
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
-    throw io::FileError("cannot write " + path.string() + ": " + e.what());
+    throw vdbmap::FileError("cannot write " + path.string() + ": " + e.what());
   }
-  io::commitTemporary(tmp, path);
+  vdbmap::commitTemporary(tmp, path);
 }
 
 }  // namespace
@@ -69,7 +69,7 @@ std::filesystem::path TsdfVolume::exactStatePath(const std::filesystem::path& pa
 
 void TsdfVolume::save(const std::filesystem::path& path) const {
   if (path.has_parent_path() && !std::filesystem::is_directory(path.parent_path()))
-    throw io::FileError("cannot write " + path.string() + ": folder " + path.parent_path().string() +
+    throw vdbmap::FileError("cannot write " + path.string() + ": folder " + path.parent_path().string() +
                         " does not exist");
   const openvdb::MetaMap meta = configMetadata(config_, integrator_, frames_.size());
 
@@ -117,7 +117,7 @@ TsdfVolume TsdfVolume::fromWeightedSums(const TsdfConfig& config, const Integrat
 
 TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
   initializeOpenVdb();
-  if (!std::filesystem::is_regular_file(path)) throw io::FileError("cannot open map " + path.string() + ": no such file");
+  if (!std::filesystem::is_regular_file(path)) throw vdbmap::FileError("cannot open map " + path.string() + ": no such file");
   try {
     openvdb::io::File file(path.string());
     file.open();
@@ -147,15 +147,15 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
                                  " (remove the .exact.vdb file to load the map approximately)");
       if (requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "weight_scale", exact) != kWeightScale ||
           requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "sdf_scale", exact) != kSdfScale)
-        throw io::FileError(exact.string() + ": fixed-point scales differ from this build's");
+        throw vdbmap::FileError(exact.string() + ": fixed-point scales differ from this build's");
       auto w = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("weight_q"));
       auto wd = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("wsdf_q"));
-      if (!w || !wd) throw io::FileError(exact.string() + ": grids weight_q / wsdf_q missing or not Int64");
+      if (!w || !wd) throw vdbmap::FileError(exact.string() + ": grids weight_q / wsdf_q missing or not Int64");
       volume.weight_q_->setTree(w->treePtr());
       volume.wsdf_q_->setTree(wd->treePtr());
       if (version >= 3) {
         auto hits = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("hits"));
-        if (!hits) throw io::FileError(exact.string() + ": grid hits is not Int64");
+        if (!hits) throw vdbmap::FileError(exact.string() + ": grid hits is not Int64");
         volume.hits_->setTree(hits->treePtr());
       }
       const auto registry =
@@ -164,7 +164,7 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
         FrameRecord rec;
         rec.fingerprint = std::stoull(f.at("fingerprint").get<std::string>());
         const auto m = f.at("T_W_S").get<std::vector<double>>();
-        if (m.size() != 16) throw io::FileError(exact.string() + ": frame pose must have 16 numbers");
+        if (m.size() != 16) throw vdbmap::FileError(exact.string() + ": frame pose must have 16 numbers");
         std::copy(m.begin(), m.end(), rec.T_W_S.matrix().data());
         volume.frames_[f.at("id").get<FrameId>()] = rec;
       }
@@ -174,14 +174,14 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
     // No companion: rebuild an approximate integer state from the float grids.
     auto tsdf = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
     auto weight = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("weight"));
-    if (!tsdf || !weight) throw io::FileError(path.string() + ": grids tsdf / weight missing or not float");
+    if (!tsdf || !weight) throw vdbmap::FileError(path.string() + ": grids tsdf / weight missing or not float");
     auto weighted = weight->deepCopy();
     for (auto it = weighted->beginValueOn(); it; ++it) it.setValue(*it * tsdf->tree().getValue(it.getCoord()));
     return fromWeightedSums(c, in, *weight, *weighted);
   } catch (const openvdb::Exception& e) {
-    throw io::FileError("cannot read map " + path.string() + ": " + e.what());
+    throw vdbmap::FileError("cannot read map " + path.string() + ": " + e.what());
   } catch (const nlohmann::json::exception& e) {
-    throw io::FileError("cannot read map " + path.string() + ": bad frame registry: " + e.what());
+    throw vdbmap::FileError("cannot read map " + path.string() + ": bad frame registry: " + e.what());
   }
 }
 

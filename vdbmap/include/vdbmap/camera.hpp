@@ -49,4 +49,9 @@ DepthImage depthFromRaw(int width, int height, const std::uint16_t* raw, double 
 /// both directions. Throws std::invalid_argument when the image size differs from the intrinsics.
 PointCloud backProject(const DepthImage& depth, const CameraIntrinsics& K, int stride = 1);
 
+/// A camera pose T_W_S at `position_W` whose optical axis (z) points along yaw in the x-y plane
+/// (yaw 0 = world +x), with the image's y axis pointing down (world -z) and pitched by `pitch`
+/// (radians; positive looks down).
+Pose3d lookingPose(const Vec3d& position_W, double yaw, double pitch = 0.0);
+
 }  // namespace vdbmap

@@ -28,6 +28,7 @@
 #include "vdbmap/config.hpp"
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/types.hpp"
+#include "vdbmap/voxel_footprint.hpp"
 
 #include <cstdint>
 #include <map>
@@ -111,6 +112,11 @@ CellSet visibleCells(const PointCloud& points_S, const Pose3d& T_W_S, const Tsdf
 /// ray modes, the cells of its back-projected points' rays as above.
 CellSet visibleCells(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
                      const IntegratorConfig& integrator, double cell_size_vox);
+
+/// The coarse cells of a voxel footprint (the voxels an integration updated, e.g. from
+/// TsdfVolume::integrate): what visibleCells() gives for the same frame and pose under Projective
+/// integration, without projecting the frame again.
+CellSet footprintCells(const VoxelFootprint& footprint, double cell_size_vox);
 
 /// Greedy multi-cover over explicit sets (see the header comment). Returns the indices of the
 /// selected sets in selection order; ties are broken by the lowest index. Lazy evaluation: a

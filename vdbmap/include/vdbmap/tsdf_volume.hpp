@@ -2,7 +2,7 @@
 // de-integration of frames.
 //
 // Per voxel the map holds two 64-bit integers: the weight sum W and the weighted signed-distance
-// sum WD, both in fixed point (see kWeightScale, kSdfScale); and, beside them, how many surface end
+// sum WD, both in fixed point (vdbmap/voxel_codec.hpp); and, beside them, how many surface end
 // points fell in the voxel (its hits), which keeps structures thinner than a voxel visible. Integer addition is exact and
 // commutative, so integrating a frame and then de-integrating it restores every voxel bit for bit,
 // and neither the order of frames nor the number of threads changes the map. Voxels whose weight
@@ -15,41 +15,14 @@
 #include "vdbmap/config.hpp"
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/types.hpp"
+#include "vdbmap/voxel_footprint.hpp"
+#include "vdbmap/voxel_codec.hpp"
 
 #include <filesystem>
 #include <map>
 #include <optional>
 
 namespace vdbmap {
-
-/// Fixed-point scales of the exact state: one ray of weight 1 adds kWeightScale to W; a voxel at
-/// signed distance +truncation adds kSdfScale per weight unit to WD.
-inline constexpr std::int64_t kWeightScale = 1024;
-inline constexpr std::int64_t kSdfScale = 32768;
-
-enum class VoxelState { Unknown, Free, Occupied };
-const char* toString(VoxelState s);
-
-/// What one call of integrate() or deintegrate() did with its points.
-struct IntegrationStats {
-  std::size_t points_total = 0;
-  std::size_t points_invalid = 0;      ///< NaN, infinite, zero, or closer than min_range_m
-  std::size_t points_beyond_range = 0; ///< beyond max_range_m: carved free space only
-  std::size_t rays_cast = 0;           ///< after bundling (Merged) or one per valid point (PerRay); 0 (Projective)
-  std::size_t voxel_updates = 0;       ///< voxel visits summed over all rays
-  openvdb::CoordBBox touched_voxels;   ///< index-space box around every voxel the rays touched
-};
-
-/// One voxel's value, read from the exact state.
-struct VoxelSample {
-  VoxelState state = VoxelState::Unknown;
-  float tsdf_m = 0.0f;   ///< weighted mean signed distance; +truncation when unknown
-  float weight = 0.0f;   ///< weight sum in ray units (0 when never observed)
-  /// Surface end points of the integrated frames that fell in this voxel. A voxel can read free
-  /// (rays passing beside a thin upright carve it) and still hold hits: the planner reads those
-  /// as obstacles. Negative only in a map loaded from a format-2 companion, which had no counts.
-  std::int64_t hits = 0;
-};
 
 /// Why the map refuses a frame in integrate() / deintegrate(). Misuse, so an exception.
 class FrameError : public std::invalid_argument {
@@ -86,7 +59,10 @@ class TsdfVolume {
   /// intrinsics K from T_W_S: projectively with RayMode::Projective, else as its back-projected
   /// points. Throws FrameError as integrate() does, std::invalid_argument when the image size
   /// differs from K.
-  IntegrationStats integrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S);
+  /// `footprint`, when given, receives the voxels updated (projective integration; left empty
+  /// under the ray modes): the frame's view for set cover (footprintCells), with no second pass.
+  IntegrationStats integrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
+                             VoxelFootprint* footprint = nullptr);
   /// Removes exactly what integrate(id, depth_m, K, T_W_S) added (same checks as above).
   IntegrationStats deintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S);
 
@@ -97,8 +73,9 @@ class TsdfVolume {
   /// T_W_S_old or T_W_S_new is not a rigid transform.
   IntegrationStats reintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S_old,
                                const Pose3d& T_W_S_new);
+  /// `footprint` as for integrate(), at the new pose.
   IntegrationStats reintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
-                               const Pose3d& T_W_S_old, const Pose3d& T_W_S_new);
+                               const Pose3d& T_W_S_old, const Pose3d& T_W_S_new, VoxelFootprint* footprint = nullptr);
 
   bool isIntegrated(FrameId id) const { return frames_.count(id) != 0; }
   std::size_t frameCount() const { return frames_.size(); }
@@ -160,7 +137,8 @@ class TsdfVolume {
     Pose3d T_W_S = Pose3d::Identity();
   };
   IntegrationStats apply(const PointCloud& points_S, const Pose3d& T_W_S, std::int64_t sign);
-  IntegrationStats apply(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, std::int64_t sign);
+  IntegrationStats apply(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, std::int64_t sign,
+                         VoxelFootprint* footprint = nullptr);
   /// Throws FrameError unless `id` is new and T_W_S a rigid transform.
   void checkNewFrame(FrameId id, const Pose3d& T_W_S) const;
   /// Throws FrameError unless `id` is integrated with this fingerprint; returns its record.

@@ -4,24 +4,17 @@
 //
 // It pulls in OpenVDB's core (through vdbmap/openvdb.hpp) but none of OpenVDB's tools, so it costs
 // about as much to compile as one of its headers. Translation units that need only one concept
-// compile faster with that header alone (e.g. vdbmap/tsdf_volume.hpp). The planner and the
-// simulator have their own headers under vdbmap/planner/ and vdbmap/sim/.
+// compile faster with that header alone (e.g. vdbmap/tsdf_volume.hpp). The file formats and frame
+// sources (library vdbmap::io) have their umbrella vdbmap/io/io.hpp; the planner and the simulator
+// have their own headers under vdbmap/planner/ and vdbmap/sim/.
 #pragma once
 
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/camera.hpp"
 #include "vdbmap/config.hpp"
 #include "vdbmap/eval.hpp"
-#include "vdbmap/io/atomic_file.hpp"
-#include "vdbmap/io/errors.hpp"
-#include "vdbmap/io/frame_source.hpp"
-#include "vdbmap/io/log_writer.hpp"
-#include "vdbmap/io/mesh_io.hpp"
-#include "vdbmap/io/png_io.hpp"
-#include "vdbmap/io/point_cloud_io.hpp"
-#include "vdbmap/io/sensor_info.hpp"
-#include "vdbmap/io/tum_trajectory.hpp"
+#include "vdbmap/file_error.hpp"
 #include "vdbmap/keyframe_store.hpp"
-#include "vdbmap/log_replay.hpp"
 #include "vdbmap/map_file.hpp"
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/mesh.hpp"

@@ -21,6 +21,7 @@
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 #include "vdbmap/types.hpp"
+#include "vdbmap/voxel_footprint.hpp"
 
 #include <array>
 #include <cstdint>
@@ -37,29 +38,19 @@ struct ImagePlacement {
 /// Adds the image's updates at every placement (each times its sign) into W and WD, in one pass:
 /// a re-integration {(old pose, -1), (new pose, +1)} classifies the pixels once and applies only
 /// the net change. Throws std::invalid_argument when the image size differs from the intrinsics.
-/// `stats` counts the pixels once and the voxel updates of all placements.
+/// `stats` counts the pixels once and the voxel updates of all placements. When `footprint` is
+/// given it receives the voxels the added placements (sign > 0) update, exactly as
+/// projectiveFootprint() finds them.
 void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
                          const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
                          const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
-                         IntegrationStats& stats);
-
-/// The voxels of one leaf (8^3, origin its voxel (0, 0, 0)) that an integration updates: bit n of
-/// the 512 is the voxel at offset n = 64 i + 8 j + k, as in OpenVDB's leaf nodes.
-struct LeafFootprint {
-  openvdb::Coord origin;
-  std::array<std::uint64_t, 8> voxels{};
-  bool empty() const {
-    for (const std::uint64_t w : voxels)
-      if (w) return false;
-    return true;
-  }
-};
+                         IntegrationStats& stats, VoxelFootprint* footprint = nullptr);
 
 /// The voxels integrateProjective would update for the image seen from T_W_S (free space and the
 /// band around the surface; a band voxel whose weight drops to zero behind the surface counts as
 /// updated), by the very same tests, without writing anything. Leaves with no such voxel are left
 /// out. Throws std::invalid_argument when the image size differs from the intrinsics.
-std::vector<LeafFootprint> projectiveFootprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
+VoxelFootprint projectiveFootprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
                                                const TsdfConfig& tsdf, const IntegratorConfig& integrator);
 
 }  // namespace vdbmap::internal

@@ -18,8 +18,6 @@ from . import planner as planner
 from . import sim as sim
 
 __version__: str
-WEIGHT_SCALE: int
-SDF_SCALE: int
 
 _Path = Union[str, os.PathLike[str]]
 _Array = npt.ArrayLike

@@ -4,7 +4,7 @@
 #include "vdbmap/io/png_io.hpp"
 #include "vdbmap/io/point_cloud_io.hpp"
 
-#include "io/importers.hpp"
+#include "importers.hpp"
 
 #include <algorithm>
 #include <cctype>

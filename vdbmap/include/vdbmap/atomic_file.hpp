@@ -5,7 +5,7 @@
 #include <functional>
 #include <ostream>
 
-namespace vdbmap::io {
+namespace vdbmap {
 
 /// Calls `write` on a stream to a temporary file beside `path` (same folder, so the rename is
 /// atomic), checks the stream, and renames the temporary over `path`. On any failure the
@@ -17,4 +17,4 @@ void writeFileAtomically(const std::filesystem::path& path, const std::function<
 std::filesystem::path temporaryPathFor(const std::filesystem::path& path);
 void commitTemporary(const std::filesystem::path& tmp, const std::filesystem::path& path);
 
-}  // namespace vdbmap::io
+}  // namespace vdbmap

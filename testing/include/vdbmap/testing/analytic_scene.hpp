@@ -8,7 +8,7 @@
 #include <limits>
 #include <vector>
 
-namespace vdbmap::sim {
+namespace vdbmap::testing {
 
 /// One analytic surface.
 struct Primitive {
@@ -49,9 +49,4 @@ class AnalyticScene {
   std::vector<Primitive> primitives_;
 };
 
-/// A camera pose T_W_S at `position_W` whose optical axis (z) points along yaw in the x-y plane
-/// (yaw 0 = world +x), with the image's y axis pointing down (world -z) and pitched by `pitch`
-/// (positive looks down).
-Pose3d lookingPose(const Vec3d& position_W, double yaw, double pitch = 0.0);
-
-}  // namespace vdbmap::sim
+}  // namespace vdbmap::testing

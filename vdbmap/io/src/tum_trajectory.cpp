@@ -1,10 +1,10 @@
 #include "vdbmap/io/tum_trajectory.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/errors.hpp"
 
-#include "io/pose_util.hpp"
-#include "io/text_util.hpp"
+#include "pose_util.hpp"
+#include "text_util.hpp"
 
 #include <Eigen/Geometry>
 

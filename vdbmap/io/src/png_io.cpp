@@ -1,6 +1,6 @@
 #include "vdbmap/io/png_io.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/errors.hpp"
 
 #include <png.h>

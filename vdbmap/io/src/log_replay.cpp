@@ -1,4 +1,4 @@
-#include "vdbmap/log_replay.hpp"
+#include "vdbmap/io/log_replay.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -1,20 +1,12 @@
 // Exceptions of the file layer that callers may want to tell apart.
 #pragma once
 
+#include "vdbmap/file_error.hpp"
+
 #include <cstddef>
-#include <stdexcept>
 #include <string>
 
 namespace vdbmap::io {
-
-/// A file or folder that cannot be opened, read or written, or whose content is malformed (bad
-/// header, truncated data, a listing that does not parse). The message names the file and, where
-/// it helps, the line or element. Callers that only care about "something failed" can keep
-/// catching std::runtime_error; the Python bindings turn this type into OSError.
-class FileError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 /// A problem with one frame of a dataset (missing, corrupt or wrongly sized file, invalid pose):
 /// thrown by FrameSource::load(i) for that frame only, so that a caller can skip the frame

@@ -1,4 +1,4 @@
-#include "vdbmap/sim/analytic_scene.hpp"
+#include "vdbmap/testing/analytic_scene.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -7,7 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
-namespace vdbmap::sim {
+namespace vdbmap::testing {
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMinT = 1e-9;
@@ -156,17 +156,4 @@ std::vector<Pose3d> AnalyticScene::demoTrajectory(int frames) {
   return poses;
 }
 
-Pose3d lookingPose(const Vec3d& position_W, double yaw, double pitch) {
-  // Optical frame: z forward, x right, y down. Forward = (cos yaw cos pitch, sin yaw cos pitch, -sin pitch).
-  const Vec3d forward(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch), -std::sin(pitch));
-  const Vec3d right = forward.cross(Vec3d::UnitZ()).normalized();
-  const Vec3d down = forward.cross(right);
-  Pose3d T = Pose3d::Identity();
-  T.linear().col(0) = right;
-  T.linear().col(1) = down;
-  T.linear().col(2) = forward;
-  T.translation() = position_W;
-  return T;
-}
-
-}  // namespace vdbmap::sim
+}  // namespace vdbmap::testing

@@ -1,10 +1,10 @@
 #include "vdbmap/io/point_cloud_io.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/errors.hpp"
 
-#include "io/ply_reader.hpp"
-#include "io/text_util.hpp"
+#include "ply_reader.hpp"
+#include "text_util.hpp"
 
 #include <algorithm>
 #include <cctype>

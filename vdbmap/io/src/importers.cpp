@@ -2,13 +2,13 @@
 // convention come from the dataset's own files where it has them; where a dataset family does
 // not ship them, the family's documented convention is used (and said in the description).
 // Nothing depends on a folder's name.
-#include "io/importers.hpp"
+#include "importers.hpp"
 
 #include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/png_io.hpp"
 
-#include "io/pose_util.hpp"
-#include "io/text_util.hpp"
+#include "pose_util.hpp"
+#include "text_util.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -1,4 +1,4 @@
-#include "io/pose_util.hpp"
+#include "pose_util.hpp"
 
 #include "vdbmap/io/tum_trajectory.hpp"
 

@@ -1,10 +1,10 @@
 // Reading our log format (docs/formats.md): sensor.json, frames.csv, corrections/, groundtruth.txt.
-#include "io/importers.hpp"
+#include "importers.hpp"
 
 #include "vdbmap/io/errors.hpp"
 
-#include "io/pose_util.hpp"
-#include "io/text_util.hpp"
+#include "pose_util.hpp"
+#include "text_util.hpp"
 
 #include <algorithm>
 #include <sstream>

@@ -1,6 +1,6 @@
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 
-#include "vdbmap/io/errors.hpp"
+#include "vdbmap/file_error.hpp"
 
 #include <atomic>
 #include <fstream>
@@ -8,7 +8,7 @@
 #include <string>
 #include <unistd.h>
 
-namespace vdbmap::io {
+namespace vdbmap {
 
 std::filesystem::path temporaryPathFor(const std::filesystem::path& path) {
   static std::atomic<unsigned> counter{0};
@@ -46,4 +46,4 @@ void writeFileAtomically(const std::filesystem::path& path, const std::function<
   commitTemporary(tmp, path);
 }
 
-}  // namespace vdbmap::io
+}  // namespace vdbmap

@@ -1,6 +1,6 @@
-#include "io/ply_reader.hpp"
+#include "ply_reader.hpp"
 
-#include "io/text_util.hpp"
+#include "text_util.hpp"
 
 #include <cstdint>
 #include <cstring>

@@ -1,9 +1,9 @@
 #include "vdbmap/io/sensor_info.hpp"
 
-#include "vdbmap/io/atomic_file.hpp"
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/errors.hpp"
 
-#include "io/text_util.hpp"
+#include "text_util.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -1,4 +1,4 @@
-#include "io/text_util.hpp"
+#include "text_util.hpp"
 
 #include "vdbmap/io/errors.hpp"
 
