@@ -15,14 +15,24 @@
 #include "vdbmap/config.hpp"
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/types.hpp"
-#include "vdbmap/voxel_footprint.hpp"
 #include "vdbmap/voxel_codec.hpp"
+#include "vdbmap/voxel_footprint.hpp"
 
 #include <filesystem>
 #include <map>
 #include <optional>
 
 namespace vdbmap {
+
+/// What one call of integrate() or deintegrate() did with its points.
+struct IntegrationStats {
+  std::size_t points_total = 0;
+  std::size_t points_invalid = 0;      ///< NaN, infinite, zero, or closer than min_range_m
+  std::size_t points_beyond_range = 0; ///< beyond max_range_m: carved free space only
+  std::size_t rays_cast = 0;           ///< after bundling (Merged) or one per valid point (PerRay); 0 (Projective)
+  std::size_t voxel_updates = 0;       ///< voxel visits summed over all rays
+  openvdb::CoordBBox touched_voxels;   ///< index-space box around every voxel the rays touched
+};
 
 /// Why the map refuses a frame in integrate() / deintegrate(). Misuse, so an exception.
 class FrameError : public std::invalid_argument {
