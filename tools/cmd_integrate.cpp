@@ -29,6 +29,7 @@ struct IntegrateOptions {
   int n_ob = SetCoverConfig{}.n_ob;
   double tau_gain = SetCoverConfig{}.tau_gain;
   double budget_ms = ReintegrationConfig{}.budget_ms;
+  int budget_frames = ReintegrationConfig{}.budget_frames;
   int submap_frames = MapperConfig{}.submap_frames;
 };
 
@@ -46,6 +47,7 @@ void runIntegrate(const IntegrateOptions& o) {
   config.set_cover.n_ob = o.n_ob;
   config.set_cover.tau_gain = o.tau_gain;
   config.reintegration.budget_ms = o.budget_ms;
+  config.reintegration.budget_frames = o.budget_frames;
   config.submap_frames = o.submap_frames;
   Mapper mapper(config);
 
@@ -80,7 +82,12 @@ void runIntegrate(const IntegrateOptions& o) {
       {"bad_frames", bad},
       {"integrate_s", r.integrate_s},
       {"ms_per_frame_median", r.ms_per_frame_median},
+      {"integrate_ms_max", r.integrate_ms_max},
+      {"cycle_ms_median", r.cycle_ms_median},
+      {"ms_per_frame_p99", r.ms_per_frame_p99},
       {"ms_per_frame_max", r.ms_per_frame_max},
+      {"background_frames", r.background_frames},
+      {"pruned_frames_deintegrated", r.pruned_frames_deintegrated},
       {"load_s", r.load_s},
       {"wall_s", r.wall_s},
       {"correction_events", r.correction_events},
@@ -96,11 +103,14 @@ void runIntegrate(const IntegrateOptions& o) {
       {"map", o.output.string()},
   };
   if (!o.json.empty()) writeJson(o.json, summary);
-  std::printf("integrated %zu of %zu frames (%zu skipped) in %.2f s: %.1f ms/frame median (integration only)\n",
-              r.frames_integrated, r.frames_total, r.frames_skipped, r.integrate_s, r.ms_per_frame_median);
-  std::printf("mode %s: %zu keyframes kept, %zu re-integrations (%.0f ms, max cycle %.1f ms), %zu correction events\n",
-              toString(config.mode), mapper.keyframesKept(), s.reintegrated_frames, s.reintegration_ms_total,
-              s.reintegration_ms_max_cycle, r.correction_events);
+  std::printf("integrated %zu of %zu frames (%zu skipped) in %.2f s: %.1f ms/frame median (integration only); "
+              "whole cycle %.1f ms median, %.1f ms p99, %.1f ms max\n",
+              r.frames_integrated, r.frames_total, r.frames_skipped, r.integrate_s, r.ms_per_frame_median,
+              r.cycle_ms_median, r.ms_per_frame_p99, r.ms_per_frame_max);
+  std::printf("mode %s: %zu keyframes kept, %zu re-integrations and %zu dropped frames de-integrated in background "
+              "cycles (%.0f ms, max cycle %.1f ms), %zu correction events\n",
+              toString(config.mode), mapper.keyframesKept(), s.reintegrated_frames, s.frames_dropped,
+              s.reintegration_ms_total, s.reintegration_ms_max_cycle, r.correction_events);
   std::printf("wrote %s%s%s\n", o.output.c_str(), o.mesh.empty() ? "" : " and ", o.mesh.c_str());
 }
 
@@ -130,8 +140,14 @@ const Registration registration("integrate", [](CLI::App& app) {
   sub->add_option("--n-ob", o->n_ob, "keyframes: how many kept frames should see each cell")->check(CLI::Range(1, 1000));
   sub->add_option("--tau-gain", o->tau_gain, "keyframes: stop selecting when the best gain (cells) is at most this")
       ->check(CLI::NonNegativeNumber);
-  sub->add_option("--reintegration-budget-ms", o->budget_ms, "Time budget of one re-integration cycle")
+  sub->add_option("--cycle-budget-ms", o->budget_ms,
+                  "Time budget of the background work after each frame (re-integrating moved frames, "
+                  "de-integrating the frames set cover dropped); at least one frame per cycle")
       ->check(CLI::PositiveNumber);
+  sub->add_option("--cycle-budget-frames", o->budget_frames,
+                  "Also stop a cycle's background work after this many frames (0 = no limit; a count "
+                  "makes runs repeat exactly)")
+      ->check(CLI::Range(0, 1000000));
   sub->add_option("--submap-frames", o->submap_frames, "submap: frames per rigid submap")->check(CLI::Range(1, 1000000));
   sub->add_option("--on-bad-frame", o->on_bad_frame, "A corrupt or missing frame: fail the run, or skip and list it")
       ->check(CLI::IsMember({"fail", "skip"}));

@@ -209,7 +209,15 @@ void bindReplay(py::module_& m) {
       .def_readonly("points_invalid", &ReplayResult::points_invalid, "NaN, zero or too close, over all frames")
       .def_readonly("integrate_s", &ReplayResult::integrate_s, "integration only")
       .def_readonly("ms_per_frame_median", &ReplayResult::ms_per_frame_median, "integration only")
-      .def_readonly("ms_per_frame_max", &ReplayResult::ms_per_frame_max, "integration only")
+      .def_readonly("integrate_ms_max", &ReplayResult::integrate_ms_max, "integration only")
+      .def_readonly("cycle_ms_median", &ReplayResult::cycle_ms_median,
+                    "whole cycle: integration, corrections and the background cycle after each frame")
+      .def_readonly("ms_per_frame_p99", &ReplayResult::ms_per_frame_p99, "whole cycle")
+      .def_readonly("ms_per_frame_max", &ReplayResult::ms_per_frame_max, "whole cycle")
+      .def_readonly("background_frames", &ReplayResult::background_frames,
+                    "frames the background cycles processed (re-integrations and drops)")
+      .def_readonly("pruned_frames_deintegrated", &ReplayResult::pruned_frames_deintegrated,
+                    "frames set cover dropped, de-integrated in background cycles")
       .def_readonly("load_s", &ReplayResult::load_s, "reading and decoding frame files (overlaps integration)")
       .def_readonly("wall_s", &ReplayResult::wall_s, "the whole replay")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });

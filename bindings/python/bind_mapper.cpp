@@ -9,20 +9,26 @@ namespace vdbmap::python {
 namespace {
 
 void bindReports(py::module_& m) {
-  py::class_<CycleReport> c(m, "CycleReport", "What one re-integration cycle did.");
+  py::class_<CycleReport> c(m, "CycleReport",
+                            "What one background cycle did (re-integrations and de-integrations of dropped frames).");
   c.def_readonly("frames", &CycleReport::frames, "frames re-integrated in this cycle")
+      .def_readonly("frames_deintegrated", &CycleReport::frames_deintegrated,
+                    "frames set cover dropped, de-integrated and released in this cycle")
       .def_readonly("ms", &CycleReport::ms, "time spent in milliseconds")
-      .def_readonly("queued_left", &CycleReport::queued_left, "frames still waiting")
+      .def_readonly("queued_left", &CycleReport::queued_left, "frames still waiting (both kinds)")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   py::class_<MapperStats> s(m, "MapperStats", "Counters of a Mapper's life.");
   s.def_readonly("frames_total", &MapperStats::frames_total, "frames given to the mapper")
-      .def_readonly("frames_dropped", &MapperStats::frames_dropped, "de-integrated and released by pruning")
+      .def_readonly("frames_dropped", &MapperStats::frames_dropped,
+                    "dropped by pruning, then de-integrated and released")
       .def_readonly("reintegrated_frames", &MapperStats::reintegrated_frames,
                     "re-integrations done (a frame may count many times)")
+      .def_readonly("background_frames", &MapperStats::background_frames,
+                    "frames the background cycles processed (re-integrations and drops)")
       .def_readonly("reintegration_cycles", &MapperStats::reintegration_cycles,
-                    "cycles that re-integrated at least one frame")
-      .def_readonly("reintegration_ms_total", &MapperStats::reintegration_ms_total, "time spent re-integrating")
+                    "background cycles that processed at least one frame")
+      .def_readonly("reintegration_ms_total", &MapperStats::reintegration_ms_total, "time in background cycles")
       .def_readonly("reintegration_ms_max_cycle", &MapperStats::reintegration_ms_max_cycle, "the longest cycle")
       .def_readonly("pruning_solves", &MapperStats::pruning_solves, "set-cover solves (keyframes mode)")
       .def_readonly("submaps", &MapperStats::submaps, "rigid submaps started (submap mode)")

@@ -6,6 +6,7 @@
 #include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/mesh_io.hpp"
 #include "vdbmap/mesh.hpp"
+#include "vdbmap/timing.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
 #include "vdbmap/sim/pose_graph.hpp"
 
@@ -22,13 +23,6 @@ namespace vdbmap::sim {
 namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 /// The inverse of a flat pose (compose(inverse(a), a) = identity).
 FlatPose inverse(const FlatPose& a) { return relativePose(a, FlatPose{}); }
@@ -152,7 +146,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   std::unique_ptr<FlightRecorder> recorder;
   if (!options.log_dir.empty()) recorder = std::make_unique<FlightRecorder>(options.log_dir, sim, options.overwrite);
 
-  std::vector<double> map_ms, frame_ms, frame_times;
+  std::vector<double> map_ms, frame_ms, frame_times, mapper_ms;
   ExplorationProgress progress;
   std::size_t collisions_seen = 0;
   auto frame_start = Clock::now();
@@ -161,6 +155,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     result.trajectory_true.push_back({frame.t_s, frame.T_W_S_true});
     result.trajectory_estimate.push_back({frame.t_s, frame.T_W_S_estimate});
     frame_times.push_back(frame.t_s);
+    const Stopwatch mapper_cycle;
     mapper.addDepthFrame(FrameId(frame.index), frame.t_s, frame.depth, K, frame.T_W_S_estimate);
     if (frame.correction) {
       ++result.loop_closures;
@@ -177,6 +172,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     }
     const FlatPose estimate = sim.bodyEstimate();
     mapper.reintegrate(estimate.p_W);
+    mapper_ms.push_back(mapper_cycle.ms());
     const planner::TsdfMapQuery map(mapper.volume());  // re-created every cycle: the volume changed
     const std::size_t detours_before = manager.alcStats().detours;
     const planner::ExplorationStep step =
@@ -212,10 +208,17 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   result.path_length_m = vehicle.pathLength();
   result.collisions = vehicle.collisions();
   result.min_clearance_m = vehicle.minClearance();
-  result.planner_ms_median = median(result.planner_ms);
+  result.planner_ms_median = percentile(result.planner_ms, 0.5);
   result.planner_ms_max = result.planner_ms.empty() ? 0.0 : *std::max_element(result.planner_ms.begin(), result.planner_ms.end());
-  result.map_update_ms_median = median(map_ms);
-  result.frame_wall_ms_median = median(frame_ms);
+  result.map_update_ms_median = percentile(map_ms, 0.5);
+  result.frame_wall_ms_median = percentile(frame_ms, 0.5);
+  result.frame_wall_ms_p99 = percentile(frame_ms, 0.99);
+  result.frame_wall_ms_max = percentile(frame_ms, 1.0);
+  result.mapper_ms_median = percentile(mapper_ms, 0.5);
+  result.mapper_ms_p99 = percentile(mapper_ms, 0.99);
+  result.mapper_ms_max = percentile(mapper_ms, 1.0);
+  result.background_frames = mapper.stats().background_frames;
+  result.pruned_frames_deintegrated = mapper.stats().frames_dropped;
   result.planner_counters = manager.counters();
   result.alc = manager.alcStats();
   result.keyframes_kept = mapper.keyframesKept();
@@ -357,6 +360,13 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["final_sweep_clusters"] = r.planner_counters.final_sweep_clusters;
   j["map_update_ms_median"] = r.map_update_ms_median;
   j["frame_wall_ms_median"] = r.frame_wall_ms_median;
+  j["frame_wall_ms_p99"] = r.frame_wall_ms_p99;
+  j["frame_wall_ms_max"] = r.frame_wall_ms_max;
+  j["ms_per_frame_median"] = r.mapper_ms_median;
+  j["ms_per_frame_p99"] = r.mapper_ms_p99;
+  j["ms_per_frame_max"] = r.mapper_ms_max;
+  j["background_frames"] = r.background_frames;
+  j["pruned_frames_deintegrated"] = r.pruned_frames_deintegrated;
   j["reintegrated_frames"] = r.reintegrated_frames;
   j["estimate_error_rmse_m"] = s.estimate_error_rmse_m;
   if (r.flight.frames > 0) {  // the log's statistics (with a log only)

@@ -5,6 +5,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 using namespace vdbmap;
@@ -143,6 +144,82 @@ TEST_CASE("each cycle keeps to its budget and takes the frames nearest the robot
   CHECK(mapper.reintegrateAll(robot) == 4);
   CHECK(mapper.stats().reintegration_cycles == 3);
   CHECK(mapper.stats().reintegration_ms_max_cycle <= mapper.stats().reintegration_ms_total);
+}
+
+TEST_CASE("a solve dropping many frames de-integrates them in background cycles within the budget",
+          "[mapper][budget][pruning]") {
+  const auto K = smallCamera();
+  MapperConfig c = config(ConsistencyMode::Keyframes);
+  c.reintegration.budget_frames = 2;
+  c.reintegration.budget_ms = 1e6;
+  c.set_cover.solve_period_frames = 16;
+  Mapper mapper(c);
+  // Sixteen nearly equal views: the set cover keeps a few and drops the rest at the 16th frame.
+  const int n = 16;
+  std::vector<DepthImage> depths;
+  std::vector<Pose3d> poses;
+  for (int i = 0; i < n; ++i) {
+    poses.push_back(lookingPose({0.01 * i, 0.0, 1.2}, 0.002 * i, 0.2));
+    depths.push_back(kScene.renderDepth(*K, poses.back(), 5.0));
+    mapper.addDepthFrame(i, 0.1 * i, depths.back(), K, poses.back());
+  }
+  REQUIRE(mapper.stats().pruning_solves == 1);
+  const std::size_t dropped = mapper.queuedFrames();
+  REQUIRE(dropped >= 8);
+  // The solve itself de-integrated nothing: every frame is still in the map.
+  CHECK(mapper.volume().frameCount() == std::size_t(n));
+  CHECK(mapper.stats().frames_dropped == 0);
+
+  const std::size_t bound = (dropped + 1) / 2;  // budget_frames = 2 per cycle
+  std::size_t cycles = 0;
+  while (mapper.queuedFrames() > 0 && cycles <= bound) {
+    const CycleReport r = mapper.reintegrate(poses.back().translation());
+    CHECK(r.frames == 0);
+    CHECK(r.frames_deintegrated >= 1);
+    CHECK(r.frames_deintegrated <= 2);
+    ++cycles;
+  }
+  CHECK(mapper.queuedFrames() == 0);
+  CHECK(cycles == bound);
+  CHECK(mapper.stats().frames_dropped == dropped);
+  CHECK(mapper.stats().background_frames == dropped);
+
+  // What is left equals integrating only the kept frames: the drops left the map exactly.
+  const std::size_t kept = mapper.keyframesKept();
+  CHECK(kept == std::size_t(n) - dropped);
+  Mapper only_kept(config(ConsistencyMode::All));
+  for (const auto& [id, kf] : mapper.keyframes()) only_kept.addDepthFrame(id, kf.timestamp, depths[id], K, poses[id]);
+  CHECK(mapper.volume().exactlyEquals(only_kept.volume()));
+}
+
+TEST_CASE("after a correction the pruner's cells of a re-integrated frame equal those of integrating it fresh",
+          "[mapper][pruning][reintegration]") {
+  const auto K = smallCamera();
+  MapperConfig c = config(ConsistencyMode::Keyframes);
+  c.set_cover.solve_period_frames = 1000;  // no solve: every frame stays held
+  Mapper mapper(c);
+  const Pose3d A = lookingPose({0.5, 0.2, 1.2}, 0.3, 0.2);
+  const Pose3d B = moved(A, {0.4, -0.3, 0.05}, 0.5);
+  const DepthImage depth = kScene.renderDepth(*K, A, 5.0);
+  mapper.addDepthFrame(7, 0.0, depth, K, A);
+  // The pruner's cells are those of the frame as the mapper stores it (depth quantized to
+  // depth_unit_m), seen from where the map holds it.
+  const DepthImage stored = EncodedFrame::fromDepth(depth, K, c.depth_unit_m).decodeDepth();
+  const auto cellsAt = [&](const Pose3d& T) {
+    return visibleCells(stored, *K, T, c.tsdf, c.integrator, c.set_cover.cell_size_vox);
+  };
+  REQUIRE(mapper.pruner() != nullptr);
+  CHECK(mapper.pruner()->cellsOf(7) == cellsAt(A));
+
+  REQUIRE(mapper.updatePoses({{7, B}}) == 1);
+  mapper.reintegrateAll(B.translation());
+  const CellSet fresh = cellsAt(B);
+  CHECK_FALSE(fresh == cellsAt(A));
+  CHECK(mapper.pruner()->cellsOf(7) == fresh);
+  // The frame moved to the block of its new position.
+  const auto block = mapper.pruner()->blockOf(B.translation());
+  const auto in_block = mapper.pruner()->framesInBlock(block);
+  CHECK(std::find(in_block.begin(), in_block.end(), FrameId(7)) != in_block.end());
 }
 
 TEST_CASE("the mapper reports the region it changed", "[mapper][dirty]") {

@@ -393,12 +393,16 @@ FramePruner::BlockKey FramePruner::blockOf(const Vec3d& p) const {
   return BlockKey(int(std::floor(p.x() * inv)), int(std::floor(p.y() * inv)), int(std::floor(p.z() * inv)));
 }
 
-void FramePruner::addFrame(FrameId id, const Vec3d& camera_position_W, CellSet cells) {
-  if (frames_.count(id)) throw std::invalid_argument("FramePruner::addFrame: frame " + std::to_string(id) + " is already held");
+void FramePruner::requirePosition(const char* what, FrameId id, const Vec3d& camera_position_W) const {
   if (!camera_position_W.allFinite() ||
       (camera_position_W.array().abs() / config_.block_size_m).maxCoeff() >= double(INT_MAX))
-    throw std::invalid_argument("FramePruner::addFrame: frame " + std::to_string(id) +
+    throw std::invalid_argument(std::string("FramePruner::") + what + ": frame " + std::to_string(id) +
                                 " has a non-finite or out-of-range camera position");
+}
+
+void FramePruner::addFrame(FrameId id, const Vec3d& camera_position_W, CellSet cells) {
+  if (frames_.count(id)) throw std::invalid_argument("FramePruner::addFrame: frame " + std::to_string(id) + " is already held");
+  requirePosition("addFrame", id, camera_position_W);
   const BlockKey key = blockOf(camera_position_W);
   Block& block = blocks_[key];
   block.frames.insert(std::upper_bound(block.frames.begin(), block.frames.end(), id), id);
@@ -414,6 +418,19 @@ void FramePruner::removeFrame(FrameId id) {
   ids.erase(std::lower_bound(ids.begin(), ids.end(), id));
   if (ids.empty()) blocks_.erase(b);
   frames_.erase(it);
+}
+
+void FramePruner::updateFrame(FrameId id, const Vec3d& camera_position_W, CellSet cells) {
+  if (!frames_.count(id)) throw std::invalid_argument("FramePruner::updateFrame: frame " + std::to_string(id) + " is not held");
+  requirePosition("updateFrame", id, camera_position_W);
+  removeFrame(id);
+  addFrame(id, camera_position_W, std::move(cells));
+}
+
+const CellSet& FramePruner::cellsOf(FrameId id) const {
+  const auto it = frames_.find(id);
+  if (it == frames_.end()) throw std::invalid_argument("FramePruner::cellsOf: frame " + std::to_string(id) + " is not held");
+  return it->second.cells;
 }
 
 std::size_t FramePruner::dirtyBlockCount() const {

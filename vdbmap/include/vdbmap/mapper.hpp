@@ -7,9 +7,11 @@
 //  - all:       keep every frame and re-integrate every frame whose pose changed (no pruning);
 //  - keyframes: ours: keep only the frames a greedy set cover selects (set_cover.hpp) and
 //               re-integrate those.
-// Re-integration is budgeted per cycle: frames nearest to the robot (by block, then distance) go
-// first, and a frame may be corrected any number of times; it is de-integrated at the pose the map
-// holds and integrated at its newest pose.
+// Background work is budgeted per cycle (one cycle per incoming frame): frames nearest to the robot
+// (by block, then distance) go first; a frame may be corrected any number of times (it is
+// de-integrated at the pose the map holds and integrated at its newest pose), and the frames set
+// cover drops wait in the same list to be de-integrated. Each mode is a policy
+// (src/internal/consistency_policy.hpp) holding only its own state.
 #pragma once
 
 #include "vdbmap/camera.hpp"
@@ -23,7 +25,6 @@
 #include <map>
 #include <memory>
 #include <optional>
-#include <set>
 #include <string>
 
 namespace vdbmap {
@@ -57,23 +58,31 @@ struct MapperConfig {
   void validate() const;
 };
 
-/// What one re-integration cycle did.
+/// What one background cycle did (re-integration of moved frames, de-integration of the frames
+/// set cover dropped).
 struct CycleReport {
-  std::size_t frames = 0;       ///< frames re-integrated in this cycle
-  double ms = 0.0;              ///< time spent
-  std::size_t queued_left = 0;  ///< frames still waiting
+  std::size_t frames = 0;               ///< frames re-integrated in this cycle
+  std::size_t frames_deintegrated = 0;  ///< dropped frames de-integrated and released in this cycle
+  double ms = 0.0;                      ///< time spent
+  std::size_t queued_left = 0;          ///< frames still waiting (both kinds)
 };
 
 struct MapperStats {
   std::size_t frames_total = 0;          ///< frames given to the mapper
-  std::size_t frames_dropped = 0;        ///< de-integrated and released by pruning
+  std::size_t frames_dropped = 0;        ///< dropped by pruning, then de-integrated and released
   std::size_t reintegrated_frames = 0;   ///< re-integrations done (a frame may count many times)
-  std::size_t reintegration_cycles = 0;  ///< cycles that re-integrated at least one frame
-  double reintegration_ms_total = 0.0;
+  std::size_t background_frames = 0;     ///< frames the background cycles processed (both kinds)
+  std::size_t reintegration_cycles = 0;  ///< background cycles that processed at least one frame
+  double reintegration_ms_total = 0.0;   ///< time in background cycles
   double reintegration_ms_max_cycle = 0.0;
   std::size_t pruning_solves = 0;
   std::size_t submaps = 0;
 };
+
+namespace internal {
+class ConsistencyPolicy;
+struct MapperLedger;
+}  // namespace internal
 
 class Mapper {
  public:
@@ -95,43 +104,39 @@ class Mapper {
   /// Returns how many frames (or anchors) changed.
   std::size_t updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id);
 
-  /// One budgeted re-integration cycle, nearest frames to `robot_W` first.
+  /// One budgeted background cycle, nearest frames to `robot_W` first: frames waiting for
+  /// re-integration and frames set cover dropped (de-integrated here, never in a burst) share
+  /// one waiting list and one budget (ReintegrationConfig). Call it once per incoming frame.
   CycleReport reintegrate(const Vec3d& robot_W);
-  /// Re-integrates every queued frame (end of a log); returns frames processed.
+  /// Works off every waiting frame and the last pruning solve (end of a log); returns frames
+  /// processed.
   std::size_t reintegrateAll(const Vec3d& robot_W);
-  std::size_t queuedFrames() const { return queue_.size(); }
+  /// Frames waiting for background work (re-integrations and drops).
+  std::size_t queuedFrames() const;
 
-  /// The map: in submap mode the fusion of all submaps (rebuilt when stale, approximate state).
+  /// The map: in submap mode the fusion of all submaps (rebuilt when a submap changed,
+  /// approximate state).
   const TsdfVolume& volume() const;
   /// Voxel box changed since the last call (integration, re-integration, pruning, anchors);
   /// empty when nothing changed. Planners refresh frontiers and distances there.
   openvdb::CoordBBox takeDirtyRegion();
 
-  const MapperStats& stats() const { return stats_; }
-  /// Frames whose data the mapper keeps (0 in none mode).
-  std::size_t keyframesKept() const { return store_.size(); }
-  std::size_t keyframeStoreBytes() const { return store_.bytes(); }
-  const KeyframeStore& keyframes() const { return store_; }
+  const MapperStats& stats() const;
+  /// Frames whose data the mapper keeps (0 in none and submap modes), those waiting to be
+  /// dropped included.
+  std::size_t keyframesKept() const { return keyframes().size(); }
+  std::size_t keyframeStoreBytes() const { return keyframes().bytes(); }
+  const KeyframeStore& keyframes() const;
+  /// The set-cover pruner in keyframes mode (each held frame's cells where the map now holds
+  /// it), else nullptr.
+  const FramePruner* pruner() const;
 
  private:
-  struct Submap;
   IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S);
-  void reintegrateFrame(Keyframe& kf);
-  void prune();
-  bool beyondGate(const Pose3d& a, const Pose3d& b) const;
-  void markDirty(const openvdb::CoordBBox& box);
 
   MapperConfig config_;
-  TsdfVolume volume_;                      ///< none, all, keyframes
-  KeyframeStore store_;
-  std::set<FrameId> queue_;                ///< frames awaiting re-integration
-  std::unique_ptr<FramePruner> pruner_;    ///< keyframes mode
-  std::size_t frames_since_solve_ = 0;
-  std::vector<std::unique_ptr<Submap>> submaps_;  ///< submap mode
-  mutable std::unique_ptr<TsdfVolume> fused_;     ///< submap mode: cached fusion
-  openvdb::CoordBBox dirty_;
-  MapperStats stats_;
-  double frame_ms_estimate_ = 0.0;  ///< recent re-integration time per frame (moving average)
+  std::unique_ptr<internal::MapperLedger> ledger_;
+  std::unique_ptr<internal::ConsistencyPolicy> policy_;
 };
 
 }  // namespace vdbmap

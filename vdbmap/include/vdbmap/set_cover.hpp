@@ -146,6 +146,10 @@ class FramePruner {
   void addFrame(FrameId id, const Vec3d& camera_position_W, const std::vector<openvdb::Coord>& cells) {
     addFrame(id, camera_position_W, CellSet::fromCoords(cells));
   }
+  /// Replaces a held frame's cells and camera position (the frame was re-integrated at a corrected
+  /// pose), so later solves see it where it now is. Its block, which may change with the position,
+  /// becomes dirty. Throws std::invalid_argument as addFrame() does, or when the id is not held.
+  void updateFrame(FrameId id, const Vec3d& camera_position_W, CellSet cells);
   /// Forgets a frame (e.g. the mapper dropped it for another reason). Throws std::invalid_argument
   /// when the id is not held.
   void removeFrame(FrameId id);
@@ -164,6 +168,8 @@ class FramePruner {
   std::size_t frameCount() const { return frames_.size(); }
   /// True while the frame is held: added, and neither dropped by a solve nor removed.
   bool isKept(FrameId id) const { return frames_.count(id) != 0; }
+  /// A held frame's cells; throws std::invalid_argument when the id is not held.
+  const CellSet& cellsOf(FrameId id) const;
   BlockKey blockOf(const Vec3d& camera_position_W) const;
   /// The frames held in a block, ascending (empty for an unknown block).
   std::vector<FrameId> framesInBlock(const BlockKey& block) const;
@@ -192,6 +198,8 @@ class FramePruner {
     std::vector<FrameId> frames;  // ascending
     bool dirty = false;
   };
+
+  void requirePosition(const char* what, FrameId id, const Vec3d& camera_position_W) const;
 
   SetCoverConfig config_;
   double voxel_size_m_;

@@ -1,5 +1,7 @@
 #include "vdbmap/io/log_replay.hpp"
 
+#include "vdbmap/timing.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <future>
@@ -58,6 +60,7 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
   std::vector<bool> integrated(source.size(), false);
 
   auto K = std::make_shared<const CameraIntrinsics>(source.sensor().intrinsics);
+  Stopwatch cycle;
   std::vector<double> frame_ms;
   frame_ms.reserve(indices.size());
   Vec3d robot_W = Vec3d::Zero();
@@ -76,6 +79,7 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
       ++result.frames_skipped;
     } else {
       const io::Frame& f = *loaded.frame;
+      cycle.restart();
       const auto t0 = Clock::now();
       const IntegrationStats stats =
           f.is_depth ? mapper.addDepthFrame(i, f.timestamp_s, f.depth, K, f.T_W_S)
@@ -98,16 +102,20 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
       mapper.updatePoses(poses);
       ++result.correction_events;
     }
-    mapper.reintegrate(robot_W);
+    const CycleReport background = mapper.reintegrate(robot_W);
+    if (!loaded.error) result.cycle_ms.push_back(cycle.ms());
+    result.background_frames += background.frames + background.frames_deintegrated;
     if (options.progress) options.progress(k + 1, indices.size());
   }
-  mapper.reintegrateAll(robot_W);
+  result.background_frames += mapper.reintegrateAll(robot_W);
+  result.pruned_frames_deintegrated = mapper.stats().frames_dropped;
 
   if (!frame_ms.empty()) {
-    std::vector<double> sorted = frame_ms;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    result.ms_per_frame_median = sorted[sorted.size() / 2];
-    result.ms_per_frame_max = *std::max_element(frame_ms.begin(), frame_ms.end());
+    result.ms_per_frame_median = percentile(frame_ms, 0.5);
+    result.integrate_ms_max = *std::max_element(frame_ms.begin(), frame_ms.end());
+    result.cycle_ms_median = percentile(result.cycle_ms, 0.5);
+    result.ms_per_frame_p99 = percentile(result.cycle_ms, 0.99);
+    result.ms_per_frame_max = *std::max_element(result.cycle_ms.begin(), result.cycle_ms.end());
   }
   result.wall_s = secondsSince(wall0);
   return result;

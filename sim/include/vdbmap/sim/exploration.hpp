@@ -116,6 +116,15 @@ struct ExplorationResult {
   double planner_ms_max = 0.0;
   double map_update_ms_median = 0.0;  ///< frontier and viewpoint refresh per frame
   double frame_wall_ms_median = 0.0;  ///< everything per frame (render, map, planner, log)
+  double frame_wall_ms_p99 = 0.0;
+  double frame_wall_ms_max = 0.0;
+  /// The mapper's whole cycle per frame: integration, corrections, and the background cycle
+  /// (re-integrations and de-integrations of dropped frames).
+  double mapper_ms_median = 0.0;
+  double mapper_ms_p99 = 0.0;
+  double mapper_ms_max = 0.0;
+  std::size_t background_frames = 0;          ///< frames the mapper's background cycles processed
+  std::size_t pruned_frames_deintegrated = 0;  ///< frames set cover dropped, de-integrated
   planner::ExplorationCounters planner_counters;
   /// Active loop closure (zeros when config.planner.alc_enabled is false): detours started, time
   /// spent on them (from the decision to the loop closure or the give-up), give-ups, and detours

@@ -43,9 +43,16 @@ struct ReplayResult {
   std::vector<BadFrame> bad_frames;
   std::size_t correction_events = 0;   ///< events applied
   std::size_t points_invalid = 0;
-  double integrate_s = 0.0;            ///< integration only (I/O and re-integration excluded)
+  double integrate_s = 0.0;            ///< integration only (I/O and background work excluded)
   double ms_per_frame_median = 0.0;    ///< integration only
+  double integrate_ms_max = 0.0;       ///< integration only
+  /// Whole cycles (integration, corrections and the background cycle after each frame):
+  double cycle_ms_median = 0.0;
+  double ms_per_frame_p99 = 0.0;
   double ms_per_frame_max = 0.0;
+  std::vector<double> cycle_ms;        ///< every frame's whole cycle, in order
+  std::size_t background_frames = 0;   ///< frames the background cycles processed (both kinds)
+  std::size_t pruned_frames_deintegrated = 0;
   double load_s = 0.0;                 ///< reading and decoding frame files (overlaps integration)
   double wall_s = 0.0;
 };
