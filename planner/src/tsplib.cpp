@@ -22,23 +22,57 @@ std::string upper(std::string s) {
   return s;
 }
 
+// File content for an error message: shortened to 40 bytes, control bytes (below 0x20, and 0x7f)
+// written as \xNN so that a hostile file cannot drive the terminal.
+std::string shown(const std::string& s) {
+  constexpr std::size_t kMaxShown = 40;
+  static const char* const kHex = "0123456789abcdef";
+  std::string out;
+  for (std::size_t i = 0; i < s.size() && i < kMaxShown; ++i) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c < 0x20 || c == 0x7f) {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xf];
+    } else {
+      out += s[i];
+    }
+  }
+  if (s.size() > kMaxShown) out += "...";
+  return out;
+}
+
+// Bytes from the stream's position to its end, or -1 when the stream cannot seek (a pipe).
+std::streamoff bytesLeft(std::istream& in) {
+  const std::streampos here = in.tellg();
+  if (here == std::streampos(-1)) return -1;
+  in.seekg(0, std::ios::end);
+  const std::streampos end = in.tellg();
+  in.clear();
+  in.seekg(here);
+  if (end == std::streampos(-1) || !in) return -1;
+  return std::streamoff(end - here);
+}
+
 class Parser {
  public:
   Parser(std::istream& in, std::string source) : in_(in), source_(std::move(source)) {}
 
   TsplibInstance parse() {
     readHeader();
+    checkDimensionFits();
     readWeights();
     return std::move(instance_);
   }
 
  private:
-  [[noreturn]] void fail(const std::string& what) const {
-    throw std::runtime_error(source_ + ":" + std::to_string(line_number_) + ": " + what);
+  [[noreturn]] void fail(const std::string& what) const { failAt(line_number_, what); }
+  [[noreturn]] void failAt(std::size_t line, const std::string& what) const {
+    throw std::runtime_error(source_ + ":" + std::to_string(line) + ": " + what);
   }
 
   bool nextLine(std::string& line) {
-    if (!std::getline(in_, line)) return false;
+    if (!std::getline(*weights_in_, line)) return false;
     ++line_number_;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
@@ -57,30 +91,31 @@ class Parser {
         return;
       }
       if (key == "EOF") fail("EOF before EDGE_WEIGHT_SECTION");
-      if (colon == std::string::npos) fail("expected 'KEY: value' in the header, got '" + text + "'");
+      if (colon == std::string::npos) fail("expected 'KEY: value' in the header, got '" + shown(text) + "'");
       if (key == "NAME") {
         instance_.name = value;
       } else if (key == "TYPE") {
         instance_.type = value;
         if (upper(value) != "ATSP" && upper(value) != "TSP")
-          fail("TYPE '" + value + "' is not supported (ATSP or TSP)");
+          fail("TYPE '" + shown(value) + "' is not supported (ATSP or TSP)");
       } else if (key == "COMMENT") {
         instance_.comment += (instance_.comment.empty() ? "" : "; ") + value;
       } else if (key == "DIMENSION") {
         long long n = 0;
         const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), n);
         if (ec != std::errc() || end != value.data() + value.size() || n < 1 || std::size_t(n) > kMaxAtspNodes)
-          fail("DIMENSION '" + value + "' is not an integer in [1, 65536]");
+          fail("DIMENSION '" + shown(value) + "' is not an integer in [1, " + std::to_string(kMaxAtspNodes) + "]");
         dimension_ = std::size_t(n);
+        dimension_line_ = line_number_;
       } else if (key == "EDGE_WEIGHT_TYPE") {
-        if (upper(value) != "EXPLICIT") fail("EDGE_WEIGHT_TYPE '" + value + "' is not supported (EXPLICIT only)");
+        if (upper(value) != "EXPLICIT") fail("EDGE_WEIGHT_TYPE '" + shown(value) + "' is not supported (EXPLICIT only)");
         explicit_weights_ = true;
       } else if (key == "EDGE_WEIGHT_FORMAT") {
         if (upper(value) != "FULL_MATRIX")
-          fail("EDGE_WEIGHT_FORMAT '" + value + "' is not supported (FULL_MATRIX only)");
+          fail("EDGE_WEIGHT_FORMAT '" + shown(value) + "' is not supported (FULL_MATRIX only)");
         full_matrix_ = true;
       } else if (key.size() > 8 && key.compare(key.size() - 8, 8, "_SECTION") == 0) {
-        fail("section " + key + " is not supported (EDGE_WEIGHT_SECTION only)");
+        fail("section " + shown(key) + " is not supported (EDGE_WEIGHT_SECTION only)");
       }  // other keys (CAPACITY, ...) carry nothing a full matrix needs
     }
     fail("no EDGE_WEIGHT_SECTION");
@@ -92,6 +127,25 @@ class Parser {
     if (!full_matrix_) fail("EDGE_WEIGHT_SECTION without 'EDGE_WEIGHT_FORMAT: FULL_MATRIX'");
   }
 
+  // DIMENSION^2 weights of at least one digit and a separator each (the last needs none) must fit
+  // in what follows EDGE_WEIGHT_SECTION: checked before the matrix (8 * DIMENSION^2 bytes) is
+  // allocated, so a short file declaring DIMENSION 20000 fails at once instead of taking 3 GB.
+  // A stream that cannot seek (a pipe) is read into memory first so that its length is known.
+  void checkDimensionFits() {
+    std::streamoff left = bytesLeft(in_);
+    if (left < 0) {
+      buffered_ << in_.rdbuf();
+      in_.setstate(std::ios::eofbit);
+      weights_in_ = &buffered_;
+      left = bytesLeft(buffered_);
+    }
+    const std::size_t n = dimension_;
+    if (left >= 0 && n * n > (std::size_t(left) + 1) / 2)
+      failAt(dimension_line_, "DIMENSION " + std::to_string(n) + " needs " + std::to_string(n * n) +
+                                  " weights (at least " + std::to_string(2 * n * n - 1) + " bytes), but only " +
+                                  std::to_string(left) + " bytes follow EDGE_WEIGHT_SECTION");
+  }
+
   void readWeights() {
     const std::size_t n = dimension_;
     instance_.costs = CostMatrix(n);
@@ -101,13 +155,13 @@ class Parser {
     while (nextLine(line)) {
       std::istringstream tokens(line);
       while (tokens >> token) {
-        if (at_eof) fail("unexpected '" + token + "' after EOF");
+        if (at_eof) fail("unexpected '" + shown(token) + "' after EOF");
         if (count == n * n) {
           if (upper(token) == "EOF") {
             at_eof = true;
             continue;
           }
-          fail("more than DIMENSION^2 = " + std::to_string(n * n) + " weights (extra token '" + token + "')");
+          fail("more than DIMENSION^2 = " + std::to_string(n * n) + " weights (extra token '" + shown(token) + "')");
         }
         if (upper(token) == "EOF")
           fail("EOF after " + std::to_string(count) + " of DIMENSION^2 = " + std::to_string(n * n) + " weights");
@@ -115,7 +169,7 @@ class Parser {
         const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
         if (ec != std::errc() || end != token.data() + token.size())
           fail("weight " + std::to_string(count) + " (row " + std::to_string(count / n) + ", column " +
-               std::to_string(count % n) + ") '" + token + "' is not an integer");
+               std::to_string(count % n) + ") '" + shown(token) + "' is not an integer");
         instance_.costs(count / n, count % n) = value;
         ++count;
       }
@@ -125,9 +179,11 @@ class Parser {
   }
 
   std::istream& in_;
+  std::istream* weights_in_ = &in_;  ///< in_, or buffered_ when in_ cannot seek
+  std::stringstream buffered_;
   std::string source_;
   std::size_t line_number_ = 0;
-  std::size_t dimension_ = 0;
+  std::size_t dimension_ = 0, dimension_line_ = 0;
   bool explicit_weights_ = false, full_matrix_ = false;
   TsplibInstance instance_;
 };

@@ -92,3 +92,21 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 9,9,1 -o " + (dir / "x").string(), out) != 0);
   fs::remove_all(dir);
 }
+
+TEST_CASE("vdbmap explore without --world flies the embedded house, whatever the shared data", "[cli][explore][default-world]") {
+  const fs::path dir = fs::temp_directory_path() / "vdbmap_cli_explore_default";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path runs = dir / "run", out = dir / "out.txt";
+  // The shared data folder is not needed: the default world is embedded in data/worlds.
+  REQUIRE(run("explore --drift s1 --max-time-s 0.5 -o " + runs.string(), out) == 0);
+  INFO(slurp(out));
+  const auto s = nlohmann::json::parse(slurp(runs / "summary.json"));
+  CHECK(s.at("description").get<std::string>().find("data/worlds/small_house/small_house_visual_mesh.ply") !=
+        std::string::npos);
+  CHECK(s.at("frames_total").get<int>() >= 1);
+  // The house's exploration box: 19 x 11.4 m.
+  CHECK(s.at("box").at("max")[0].get<double>() == Approx(9.5));
+  CHECK(s.at("box").at("min")[1].get<double>() == Approx(-5.7));
+  fs::remove_all(dir);
+}

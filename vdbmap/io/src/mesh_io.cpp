@@ -116,6 +116,19 @@ TriangleMesh readOff(const std::filesystem::path& path) {
   std::int64_t nv = 0, nf = 0;
   if (counts.size() < 2 || !detail::parseInt64(counts[0], nv) || !detail::parseInt64(counts[1], nf) || nv < 0 || nf < 0)
     failAt(path, lines.lineNumber(), "expected '<vertices> <faces> <edges>'");
+  // The counts must fit in the bytes after them before anything is reserved: a vertex line holds at
+  // least 3 values, a face line at least 4, each value a character and a separator (the last value
+  // of the file needs none).
+  const std::size_t avail = text.size() - lines.offset() + 1;
+  if (std::uint64_t(nv) > avail / 6)
+    failAt(path, lines.lineNumber(), "truncated or corrupt: the header declares " + std::to_string(nv) +
+                                         " vertices (at least 6 bytes each), more than the " +
+                                         std::to_string(avail - 1) + " bytes after it can hold");
+  if (std::uint64_t(nf) > (avail - std::size_t(nv) * 6) / 8)
+    failAt(path, lines.lineNumber(), "truncated or corrupt: the header declares " + std::to_string(nv) +
+                                         " vertices and " + std::to_string(nf) +
+                                         " faces (at least 8 bytes each), more than the " +
+                                         std::to_string(avail - 1) + " bytes after it can hold");
   TriangleMesh mesh;
   mesh.vertices.reserve(std::size_t(nv));
   mesh.triangles.reserve(std::size_t(nf));

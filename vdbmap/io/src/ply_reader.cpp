@@ -87,6 +87,27 @@ void fan(const std::vector<std::int64_t>& poly, std::vector<Eigen::Vector3i>& ou
     out.emplace_back(int(poly[0]), int(poly[i]), int(poly[i + 1]));
 }
 
+// Refuses, naming the file, the element and its declared count, element counts that the bytes
+// after the header cannot hold, before anything is reserved (a 200-byte header claiming 1e12
+// vertices must not allocate). Lower bounds per instance: binary, its fixed-size properties plus
+// the count of each list (lists may be empty); ascii, one character and a separator per value (a
+// list at least its count). The binary reader still checks each instance as it goes.
+void checkCounts(const std::filesystem::path& path, const std::vector<PlyElement>& elements, bool ascii,
+                 std::size_t bytes_left) {
+  const std::size_t avail = ascii ? bytes_left + 1 : bytes_left;  // the last ascii value needs no separator
+  std::size_t need = 0;
+  for (const PlyElement& e : elements) {
+    std::size_t per = 0;
+    for (const PlyProperty& p : e.properties) per += ascii ? 2 : typeSize(p.is_list ? p.count_type : p.type);
+    if (per == 0 || e.count == 0) continue;
+    if (e.count > (avail - need) / per)
+      fail(path, "truncated or corrupt: element '" + e.name + "' declares count " + std::to_string(e.count) +
+                     " (at least " + std::to_string(per) + " bytes each" + (ascii ? " as ascii" : "") +
+                     "), more than the " + std::to_string(bytes_left) + " bytes after the header can hold");
+    need += e.count * per;
+  }
+}
+
 }  // namespace
 
 PlyContent readPly(const std::filesystem::path& path, bool read_faces) {
@@ -141,6 +162,7 @@ PlyContent readPly(const std::filesystem::path& path, bool read_faces) {
   }
   if (!ended) fail(path, "PLY header has no 'end_header' line (truncated file?)");
   if (!have_format) fail(path, "PLY header has no 'format' line");
+  checkCounts(path, elements, format == PlyFormat::Ascii, data.size() - lines.offset());
 
   PlyContent content;
   const PlyElement* vertex_el = nullptr;
@@ -238,6 +260,10 @@ PlyContent readPly(const std::filesystem::path& path, bool read_faces) {
   const std::size_t size = data.size();
   for (const PlyElement& e : elements) {
     const bool is_vertex = &e == vertex_el;
+    if (e.properties.empty()) {  // instances of no bytes: nothing to read, however many are declared
+      if (e.name == "face") content.face_count += e.count;
+      continue;
+    }
     for (std::size_t k = 0; k < e.count; ++k) {
       Vec3f xyz(0.f, 0.f, 0.f);
       auto truncated = [&]() {

@@ -21,7 +21,8 @@ struct PlyContent {
 };
 
 /// Throws std::runtime_error naming the file and the line (ascii) or element and instance
-/// (binary) on malformed or truncated input, and when a face refers to a missing vertex.
+/// (binary) on malformed or truncated input, and when a face refers to a missing vertex. Element
+/// counts are checked against the bytes after the header before anything is allocated.
 PlyContent readPly(const std::filesystem::path& path, bool read_faces);
 
 }  // namespace vdbmap::io::detail

@@ -34,6 +34,12 @@ bool hostIsLittleEndian() {
   return c == 1;
 }
 
+// Largest COUNT of one PCD field (PCL's widest descriptors hold a few hundred values); keeps the
+// record size far from overflowing.
+constexpr std::int64_t kMaxPcdFieldCount = std::int64_t{1} << 20;
+// Largest output of LZF per input byte: a 3-byte back-reference copies at most 264 bytes.
+constexpr std::size_t kLzfMaxRatio = 88;
+
 struct PcdField {
   std::string name;
   std::size_t size = 4;
@@ -160,7 +166,8 @@ PointCloud readPcd(const std::filesystem::path& path) {
     if (!detail::parseInt64(sizes[i], s) || (s != 1 && s != 2 && s != 4 && s != 8)) failAt(path, sizes_line, "bad SIZE " + quoteToken(sizes[i]));
     if (types[i].size() != 1 || std::string_view("FIU").find(types[i][0]) == std::string_view::npos)
       failAt(path, types_line, "bad TYPE " + quoteToken(types[i]));
-    if (!counts.empty() && (!detail::parseInt64(counts[i], c) || c < 1)) failAt(path, counts_line, "bad COUNT " + quoteToken(counts[i]));
+    if (!counts.empty() && (!detail::parseInt64(counts[i], c) || c < 1 || c > kMaxPcdFieldCount))
+      failAt(path, counts_line, "bad COUNT " + quoteToken(counts[i]) + " (1 to " + std::to_string(kMaxPcdFieldCount) + ")");
     f.size = std::size_t(s);
     f.type = types[i][0];
     if (f.type == 'F' && f.size != 4 && f.size != 8) failAt(path, types_line, "float field '" + f.name + "' must have SIZE 4 or 8");
@@ -174,18 +181,31 @@ PointCloud readPcd(const std::filesystem::path& path) {
     if (f.name == "z") iz = int(i);
   }
   if (ix < 0 || iy < 0 || iz < 0) fail(path, "PCD has no x, y and z fields");
+  std::string points_field = "POINTS";
   if (points < 0) {
     if (width < 0) fail(path, "PCD header has neither POINTS nor WIDTH");
+    if (height > 0 && width > std::numeric_limits<std::int64_t>::max() / height)
+      fail(path, "WIDTH " + std::to_string(width) + " x HEIGHT " + std::to_string(height) + " overflows");
     points = width * height;
+    points_field = "WIDTH x HEIGHT";
   }
   const std::size_t n = std::size_t(points);
-  PointCloud cloud;
-  cloud.reserve(n);
   const PcdField& fx = fields[std::size_t(ix)];
   const PcdField& fy = fields[std::size_t(iy)];
   const PcdField& fz = fields[std::size_t(iz)];
+  const std::size_t body_size = data.size() - lines.offset();
+  // Every count is checked against the bytes after the header before the cloud is reserved.
+  const auto tooMany = [&](const std::string& per_point) {
+    fail(path, "truncated or corrupt: " + points_field + " declares " + std::to_string(n) + " points (" + per_point +
+                   "), more than the " + std::to_string(body_size) + " bytes after the header can hold");
+  };
+  PointCloud cloud;
 
   if (data_kind == "ascii") {
+    // At least one character and a separator per value; the last value needs no separator.
+    if (n > (body_size + 1) / (2 * columns))
+      tooMany(std::to_string(columns) + " ascii values, at least " + std::to_string(2 * columns) + " bytes each");
+    cloud.reserve(n);
     for (std::size_t k = 0; k < n; ++k) {
       bool got = false;
       while (lines.next(line)) {
@@ -207,11 +227,9 @@ PointCloud readPcd(const std::filesystem::path& path) {
   }
 
   const auto* body = reinterpret_cast<const unsigned char*>(data.data()) + lines.offset();
-  const std::size_t body_size = data.size() - lines.offset();
   if (data_kind == "binary") {
-    if (body_size < n * record)
-      fail(path, "truncated: " + std::to_string(n) + " points of " + std::to_string(record) + " bytes need " +
-                     std::to_string(n * record) + " bytes of data, the file has " + std::to_string(body_size));
+    if (n > body_size / record) tooMany(std::to_string(record) + " bytes each");
+    cloud.reserve(n);
     for (std::size_t k = 0; k < n; ++k) {
       const unsigned char* p = body + k * record;
       cloud.emplace_back(float(decodePcd(p + fx.offset, fx)), float(decodePcd(p + fy.offset, fy)),
@@ -227,10 +245,14 @@ PointCloud readPcd(const std::filesystem::path& path) {
   std::memcpy(&usize, body + 4, 4);
   if (std::size_t(csize) + 8 > body_size)
     fail(path, "truncated: compressed data of " + std::to_string(csize) + " bytes, the file has " + std::to_string(body_size - 8));
-  if (std::size_t(usize) != n * record)
-    fail(path, "binary_compressed size " + std::to_string(usize) + " does not match " + std::to_string(n) + " points of " +
-                   std::to_string(record) + " bytes");
+  if (n > std::size_t(usize) / record || std::size_t(usize) != n * record)
+    fail(path, "binary_compressed size " + std::to_string(usize) + " does not match " + points_field + " = " +
+                   std::to_string(n) + " points of " + std::to_string(record) + " bytes");
+  if (std::size_t(usize) > kLzfMaxRatio * std::size_t(csize))
+    fail(path, "corrupt: binary_compressed data of " + std::to_string(csize) + " bytes cannot expand to " +
+                   std::to_string(usize) + " bytes (LZF expands at most " + std::to_string(kLzfMaxRatio) + "x)");
   std::vector<unsigned char> raw(usize);
+  cloud.reserve(n);
   if (usize > 0 && !lzfDecompress(body + 8, csize, raw.data(), usize)) fail(path, "corrupt LZF data in binary_compressed PCD");
   auto soa = [&](const PcdField& f, std::size_t k) {
     return decodePcd(raw.data() + f.offset * n + k * f.size * f.count, f);

@@ -26,11 +26,11 @@ std::string readWholeFile(const std::filesystem::path& path) {
 }
 
 void failAt(const std::filesystem::path& path, std::size_t line, const std::string& what) {
-  throw FileError(path.string() + ":" + std::to_string(line) + ": " + what);
+  throw FileError(escapeControl(path.string()) + ":" + std::to_string(line) + ": " + escapeControl(what));
 }
 
 void fail(const std::filesystem::path& path, const std::string& what) {
-  throw FileError(path.string() + ": " + what);
+  throw FileError(escapeControl(path.string()) + ": " + escapeControl(what));
 }
 
 bool LineReader::next(std::string_view& line) {
@@ -98,10 +98,28 @@ bool parseInt64(std::string_view token, std::int64_t& value) {
   return ec == std::errc() && ptr == last;
 }
 
+std::string escapeControl(std::string_view text) {
+  static const char* const kHex = "0123456789abcdef";
+  std::string out;
+  out.reserve(text.size());
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 0x20 || c == 0x7f) {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xf];
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
+
 std::string quoteToken(std::string_view token) {
   constexpr std::size_t kMaxShown = 40;
   std::string s = "'";
-  s += token.size() > kMaxShown ? std::string(token.substr(0, kMaxShown)) + "..." : std::string(token);
+  s += escapeControl(token.substr(0, kMaxShown));
+  if (token.size() > kMaxShown) s += "...";
   s += "'";
   return s;
 }

@@ -15,9 +15,10 @@ namespace vdbmap::io::detail {
 /// The whole content of a file; throws FileError naming the file when it cannot be read.
 std::string readWholeFile(const std::filesystem::path& path);
 
-/// "<file>:<line>: <what>" as a FileError.
+/// "<file>:<line>: <what>" as a FileError. Control bytes in the file name and in `what` (which
+/// may quote file content) are escaped with escapeControl().
 [[noreturn]] void failAt(const std::filesystem::path& path, std::size_t line, const std::string& what);
-/// "<file>: <what>" as a FileError.
+/// "<file>: <what>" as a FileError, escaped like failAt().
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& what);
 
 /// Iterates over the lines of a text held in memory, counting from 1; strips a trailing '\r'.
@@ -44,7 +45,11 @@ void splitOn(std::string_view s, char sep, std::vector<std::string_view>& out);
 bool parseDouble(std::string_view token, double& value);
 bool parseInt64(std::string_view token, std::int64_t& value);
 
-/// Shortens a token for error messages.
+/// `text` with every control byte (below 0x20, and 0x7f) written as \xNN, so that file content
+/// quoted in an error message cannot move the terminal's cursor, change its colours or hide text.
+std::string escapeControl(std::string_view text);
+
+/// A token for error messages: quoted, shortened to 40 bytes, control bytes escaped.
 std::string quoteToken(std::string_view token);
 
 }  // namespace vdbmap::io::detail
