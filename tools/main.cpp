@@ -7,6 +7,8 @@
 #include <exception>
 #include <iostream>
 #include <map>
+#include <new>
+#include <string>
 
 namespace vdbmap::cli {
 namespace {
@@ -39,6 +41,38 @@ std::vector<std::pair<std::string, CommandSetup>> registeredCommands(const std::
 }
 }  // namespace vdbmap::cli
 
+namespace {
+
+// "vdbmap integrate", or "vdbmap bench drift" for a member of a group: the command that was running.
+std::string runningCommand(const CLI::App& app) {
+  std::string name = "vdbmap";
+  for (const CLI::App* sub = &app; !sub->get_subcommands().empty();) {
+    sub = sub->get_subcommands().front();
+    name += " " + sub->get_name();
+  }
+  return name;
+}
+
+// An error message for the terminal: control bytes (below 0x20 except newline and tab, and 0x7f)
+// become \xNN, so that file content quoted in a message cannot drive the terminal.
+std::string printable(const std::string& message) {
+  static const char* const kHex = "0123456789abcdef";
+  std::string out;
+  for (const char ch : message) {
+    const auto c = static_cast<unsigned char>(ch);
+    if ((c < 0x20 && c != '\n' && c != '\t') || c == 0x7f) {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xf];
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{"vdbmap: globally consistent TSDF mapping on OpenVDB, with re-integration, "
                "frame pruning and exploration planning"};
@@ -49,8 +83,14 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const std::bad_alloc&) {
+    // The readers check declared sizes against the file before allocating, so this is a real
+    // shortage (or an input that passes those checks and is still too large for this machine).
+    std::cerr << "vdbmap: error: out of memory (in '" << runningCommand(app)
+              << "': the input or the requested map is too large for this machine's memory)\n";
+    return 1;
   } catch (const std::exception& e) {
-    std::cerr << "vdbmap: error: " << e.what() << "\n";
+    std::cerr << "vdbmap: error: " << printable(e.what()) << "\n";
     return 1;
   }
   return 0;

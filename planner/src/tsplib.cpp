@@ -60,7 +60,6 @@ class Parser {
 
   TsplibInstance parse() {
     readHeader();
-    checkDimensionFits();
     readWeights();
     return std::move(instance_);
   }
@@ -128,27 +127,25 @@ class Parser {
   }
 
   // DIMENSION^2 weights of at least one digit and a separator each (the last needs none) must fit
-  // in what follows EDGE_WEIGHT_SECTION: checked before the matrix (8 * DIMENSION^2 bytes) is
-  // allocated, so a short file declaring DIMENSION 20000 fails at once instead of taking 3 GB.
-  // A stream that cannot seek (a pipe) is read into memory first so that its length is known.
-  void checkDimensionFits() {
+  // in what follows EDGE_WEIGHT_SECTION. When they cannot, the matrix (8 * DIMENSION^2 bytes) is
+  // not allocated: the weights are still read, to report the first bad token or where the file
+  // ends, so a short file declaring DIMENSION 20000 fails at once instead of taking 3 GB. A stream
+  // that cannot seek (a pipe) is read into memory first so that its length is known.
+  void readWeights() {
     std::streamoff left = bytesLeft(in_);
     if (left < 0) {
       buffered_ << in_.rdbuf();
-      in_.setstate(std::ios::eofbit);
+      buffered_.clear();  // an empty rest sets failbit
       weights_in_ = &buffered_;
       left = bytesLeft(buffered_);
     }
     const std::size_t n = dimension_;
-    if (left >= 0 && n * n > (std::size_t(left) + 1) / 2)
-      failAt(dimension_line_, "DIMENSION " + std::to_string(n) + " needs " + std::to_string(n * n) +
-                                  " weights (at least " + std::to_string(2 * n * n - 1) + " bytes), but only " +
-                                  std::to_string(left) + " bytes follow EDGE_WEIGHT_SECTION");
-  }
-
-  void readWeights() {
-    const std::size_t n = dimension_;
-    instance_.costs = CostMatrix(n);
+    const bool fits = left < 0 || n * n <= (std::size_t(left) + 1) / 2;
+    const std::string too_short =
+        fits ? std::string()
+             : " (DIMENSION " + std::to_string(n) + " on line " + std::to_string(dimension_line_) + " needs at least " +
+                   std::to_string(2 * n * n - 1) + " bytes of weights, the file has " + std::to_string(left) + ")";
+    if (fits) instance_.costs = CostMatrix(n);
     std::size_t count = 0;
     bool at_eof = false;
     std::string line, token;
@@ -164,18 +161,21 @@ class Parser {
           fail("more than DIMENSION^2 = " + std::to_string(n * n) + " weights (extra token '" + shown(token) + "')");
         }
         if (upper(token) == "EOF")
-          fail("EOF after " + std::to_string(count) + " of DIMENSION^2 = " + std::to_string(n * n) + " weights");
+          fail("EOF after " + std::to_string(count) + " of DIMENSION^2 = " + std::to_string(n * n) + " weights" +
+               too_short);
         std::int64_t value = 0;
         const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
         if (ec != std::errc() || end != token.data() + token.size())
           fail("weight " + std::to_string(count) + " (row " + std::to_string(count / n) + ", column " +
                std::to_string(count % n) + ") '" + shown(token) + "' is not an integer");
-        instance_.costs(count / n, count % n) = value;
+        if (fits) instance_.costs(count / n, count % n) = value;
         ++count;
       }
     }
     if (count < n * n)
-      fail("file ends after " + std::to_string(count) + " of DIMENSION^2 = " + std::to_string(n * n) + " weights");
+      fail("file ends after " + std::to_string(count) + " of DIMENSION^2 = " + std::to_string(n * n) + " weights" +
+           too_short);
+    if (!fits) failAt(dimension_line_, "DIMENSION " + std::to_string(n) + ": the weights do not fit the file" + too_short);
   }
 
   std::istream& in_;

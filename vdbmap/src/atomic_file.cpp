@@ -17,12 +17,26 @@ std::filesystem::path temporaryPathFor(const std::filesystem::path& path) {
   return tmp;
 }
 
+namespace {
+
+const char* const kIsFolder = "it is a folder (give a file name)";
+
+}  // namespace
+
 void commitTemporary(const std::filesystem::path& tmp, const std::filesystem::path& path) {
   std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw FileError("cannot write " + path.string() + ": rename failed: " + ec.message());
+  std::string reason;
+  if (std::filesystem::is_directory(path, ec)) {
+    reason = kIsFolder;
+  } else {
+    std::filesystem::rename(tmp, path, ec);
+    // The reason is taken before remove() below resets the error (it once read "Success").
+    if (ec) reason = "rename from " + tmp.filename().string() + " failed: " + ec.message();
+  }
+  if (!reason.empty()) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw FileError("cannot write " + path.string() + ": " + reason);
   }
 }
 
@@ -30,6 +44,9 @@ void writeFileAtomically(const std::filesystem::path& path, const std::function<
   if (path.has_parent_path() && !std::filesystem::is_directory(path.parent_path()))
     throw FileError("cannot write " + path.string() + ": folder " + path.parent_path().string() +
                     " does not exist");
+  // Writing over a folder would fail only at the rename, after all the work: refused up front.
+  if (std::error_code ec; std::filesystem::is_directory(path, ec))
+    throw FileError("cannot write " + path.string() + ": " + kIsFolder);
   const std::filesystem::path tmp = temporaryPathFor(path);
   try {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);

@@ -7,7 +7,14 @@
 
 namespace vdbmap {
 
+namespace detail {
+/// Throws FileError naming the file and both versions when `meta` holds a vdbmap_format_version
+/// newer than this build writes (defined in tsdf_volume_io.cpp beside the version constant).
+void checkMapFormatVersion(const openvdb::MetaMap& meta, const std::filesystem::path& path);
+}  // namespace detail
+
 namespace {
+// Opens a map and refuses one of a newer format than this build reads.
 openvdb::io::File openFile(const std::filesystem::path& path) {
   initializeOpenVdb();
   if (!std::filesystem::is_regular_file(path)) throw vdbmap::FileError("cannot open map " + path.string() + ": no such file");
@@ -17,6 +24,7 @@ openvdb::io::File openFile(const std::filesystem::path& path) {
   } catch (const openvdb::Exception& e) {
     throw vdbmap::FileError("cannot read map " + path.string() + ": " + e.what());
   }
+  detail::checkMapFormatVersion(*file.getMetadata(), path);
   return file;
 }
 }  // namespace

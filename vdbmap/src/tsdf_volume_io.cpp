@@ -60,6 +60,24 @@ void writeGrids(const std::filesystem::path& path, const openvdb::GridPtrVec& gr
 
 }  // namespace
 
+namespace detail {
+
+// Declared where it is used (map_file.cpp) too; defined here beside kFormatVersion, its one source.
+void checkMapFormatVersion(const openvdb::MetaMap& meta, const std::filesystem::path& path) {
+  const openvdb::Metadata::ConstPtr any = meta["vdbmap_format_version"];
+  if (!any) return;  // foreign OpenVDB files: the callers check the grids and fields they need
+  const auto version = meta.getMetadata<openvdb::Int32Metadata>("vdbmap_format_version");
+  if (!version)
+    throw vdbmap::FileError(path.string() + ": metadata 'vdbmap_format_version' is a " + any->typeName() +
+                            ", expected an int32");
+  if (version->value() > kFormatVersion)
+    throw vdbmap::FileError(path.string() + ": metadata 'vdbmap_format_version' is " +
+                            std::to_string(version->value()) + ", newer than this build reads (newest supported: " +
+                            std::to_string(kFormatVersion) + "); written by a newer vdbmap?");
+}
+
+}  // namespace detail
+
 std::filesystem::path TsdfVolume::exactStatePath(const std::filesystem::path& path) {
   std::filesystem::path p = path;
   p.replace_extension();
@@ -71,6 +89,9 @@ void TsdfVolume::save(const std::filesystem::path& path) const {
   if (path.has_parent_path() && !std::filesystem::is_directory(path.parent_path()))
     throw vdbmap::FileError("cannot write " + path.string() + ": folder " + path.parent_path().string() +
                         " does not exist");
+  // Refused before the companion is written, which would otherwise be left without its map.
+  if (std::error_code ec; std::filesystem::is_directory(path, ec))
+    throw vdbmap::FileError("cannot write " + path.string() + ": it is a folder (give a file name)");
   const openvdb::MetaMap meta = configMetadata(config_, integrator_, frames_.size());
 
   // The exact state and the frame registry go first: a map file never points at a stale companion.
@@ -122,6 +143,7 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
     openvdb::io::File file(path.string());
     file.open();
     const openvdb::MetaMap::Ptr meta = file.getMetadata();
+    detail::checkMapFormatVersion(*meta, path);
     TsdfConfig c;
     IntegratorConfig in;
     c.voxel_size_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "voxel_size_m", path);
@@ -141,10 +163,10 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
       const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
       const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(*emeta, "vdbmap_format_version", exact);
       if (version < kOldestReadableVersion || version > kFormatVersion)
-        throw std::runtime_error(exact.string() + ": exact state of format version " + std::to_string(version) +
-                                 ", this build reads versions " + std::to_string(kOldestReadableVersion) + " to " +
-                                 std::to_string(kFormatVersion) +
-                                 " (remove the .exact.vdb file to load the map approximately)");
+        throw vdbmap::FileError(exact.string() + ": exact state of format version " + std::to_string(version) +
+                                ", this build reads versions " + std::to_string(kOldestReadableVersion) + " to " +
+                                std::to_string(kFormatVersion) +
+                                " (remove the .exact.vdb file to load the map approximately)");
       if (requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "weight_scale", exact) != kWeightScale ||
           requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "sdf_scale", exact) != kSdfScale)
         throw vdbmap::FileError(exact.string() + ": fixed-point scales differ from this build's");

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <new>
 #include <sstream>
 #include <stdexcept>
 
@@ -51,12 +52,9 @@ Frame FrameSource::load(std::size_t i) const {
     if (ext == ".png") {
       if (c_.sensor.kind != SensorKind::Depth) throw FileError(r.file.string() + ": a depth PNG, but the sensor is a point sensor");
       f.is_depth = true;
-      f.depth = readDepthPng(r.file, c_.sensor.depth_scale, c_.sensor.invalid_depth_raw);
+      // The camera's size is checked against the PNG header before anything is decoded.
       const CameraIntrinsics& K = c_.sensor.intrinsics;
-      if (f.depth.width != K.width || f.depth.height != K.height)
-        throw FileError(r.file.string() + ": depth image is " + std::to_string(f.depth.width) + "x" +
-                        std::to_string(f.depth.height) + " but the camera is " + std::to_string(K.width) + "x" +
-                        std::to_string(K.height));
+      f.depth = readDepthPng(r.file, c_.sensor.depth_scale, c_.sensor.invalid_depth_raw, K.width, K.height);
     } else if (ext == ".ply" || ext == ".pcd" || ext == ".bin") {
       f.is_depth = false;
       f.points_S = readPointCloud(r.file);
@@ -67,6 +65,10 @@ Frame FrameSource::load(std::size_t i) const {
     throw;
   } catch (const std::runtime_error& e) {
     throw BadFrameError(i, who + ": " + e.what());
+  } catch (const std::bad_alloc&) {
+    // The readers bound what they allocate by the file's size, so this is a frame too large for
+    // the memory left: a bad frame too, which `--on-bad-frame skip` can skip.
+    throw BadFrameError(i, who + ": out of memory reading " + r.file.string());
   }
   return f;
 }

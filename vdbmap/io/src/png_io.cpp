@@ -48,6 +48,10 @@ struct FileCloser {
   }
 };
 
+// Largest output of deflate per compressed byte (zlib: "the maximum compression factor is
+// 1032:1"): a PNG's pixel data cannot exceed 1032 times the file's size.
+constexpr std::uint64_t kDeflateMaxRatio = 1032;
+
 std::FILE* openForReading(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw FileError(path.string() + ": no such file");
@@ -60,6 +64,62 @@ std::FILE* openForReading(const std::filesystem::path& path) {
     throw FileError(path.string() + ": not a PNG file (bad signature" + (n != 8 ? ", file too short)" : ")"));
   }
   return f;
+}
+
+struct Header {
+  std::uint32_t width = 0;
+  std::uint32_t height = 0;
+  int bit_depth = 0;
+  int color_type = 0;
+};
+
+int channelsOf(int color_type) {
+  switch (color_type) {
+    case 0: return 1;  // gray
+    case 2: return 3;  // RGB
+    case 3: return 1;  // palette
+    case 4: return 2;  // gray+alpha
+    case 6: return 4;  // RGBA
+    default: return 0;
+  }
+}
+
+// Reads the IHDR chunk that follows the signature of `f` (opened by openForReading) and leaves `f`
+// just after the signature again, for libpng. Refuses, naming the file, an image wider or taller
+// than kMaxPngSide and one that declares more pixel data than the file could hold compressed,
+// before anything is allocated: a 69-byte file claiming 100000 x 100000 pixels costs nothing.
+Header readCheckedHeader(std::FILE* f, const std::filesystem::path& path) {
+  // length (4), "IHDR" (4), width (4), height (4), bit depth (1), colour type (1), ... big endian.
+  unsigned char b[18];
+  if (std::fread(b, 1, sizeof(b), f) != sizeof(b) || std::memcmp(b + 4, "IHDR", 4) != 0)
+    throw FileError(path.string() + ": corrupt or truncated PNG: no IHDR chunk");
+  if (std::fseek(f, 8, SEEK_SET) != 0) throw FileError(path.string() + ": cannot seek: " + std::strerror(errno));
+  auto be32 = [](const unsigned char* p) {
+    return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3];
+  };
+  Header h;
+  h.width = be32(b + 8);
+  h.height = be32(b + 12);
+  h.bit_depth = b[16];
+  h.color_type = b[17];
+  const std::string size = std::to_string(h.width) + "x" + std::to_string(h.height);
+  if (h.width == 0 || h.height == 0) throw FileError(path.string() + ": corrupt PNG: image size " + size);
+  if (h.width > std::uint32_t(kMaxPngSide) || h.height > std::uint32_t(kMaxPngSide))
+    throw FileError(path.string() + ": PNG image size " + size + " exceeds the limit of " + std::to_string(kMaxPngSide) +
+                    "x" + std::to_string(kMaxPngSide));
+  const int channels = channelsOf(h.color_type);
+  if (channels == 0 || (h.bit_depth != 1 && h.bit_depth != 2 && h.bit_depth != 4 && h.bit_depth != 8 && h.bit_depth != 16))
+    throw FileError(path.string() + ": corrupt PNG: colour type " + std::to_string(h.color_type) + " with bit depth " +
+                    std::to_string(h.bit_depth));
+  // The pixel bits are a lower bound of the decompressed data (rows add a filter byte each).
+  const std::uint64_t pixel_bytes = std::uint64_t(h.width) * h.height * std::uint64_t(channels * h.bit_depth) / 8;
+  std::error_code ec;
+  const std::uintmax_t file_bytes = std::filesystem::file_size(path, ec);
+  if (!ec && pixel_bytes > kDeflateMaxRatio * std::uint64_t(file_bytes))
+    throw FileError(path.string() + ": corrupt PNG: its header declares " + size + " pixels (" +
+                    std::to_string(pixel_bytes) + " bytes of pixel data), more than a " + std::to_string(file_bytes) +
+                    "-byte file can hold compressed");
+  return h;
 }
 
 // What the decoder hands back; buffers are owned by the caller so that the jump frees nothing.
@@ -96,8 +156,8 @@ bool decode(std::FILE* f, Mode mode, PngErrorState& st, Decoded& d, std::vector<
   }
   png_init_io(png, f);
   png_set_sig_bytes(png, 8);
-  // Depth images are large; allow any size libpng itself accepts.
-  png_set_user_limits(png, 0x7fffffffL, 0x7fffffffL);
+  // The same bound readCheckedHeader() applied, so libpng never allocates for a larger image.
+  png_set_user_limits(png, png_uint_32(kMaxPngSide), png_uint_32(kMaxPngSide));
   png_read_info(png, info);
   d.width = png_get_image_width(png, info);
   d.height = png_get_image_height(png, info);
@@ -212,20 +272,14 @@ void writeRowsAtomically(const std::filesystem::path& path, png_uint_32 width, p
 
 void readPngSize(const std::filesystem::path& path, int& width, int& height) {
   FileCloser file{openForReading(path)};
-  // The IHDR chunk follows the 8-byte signature: length (4), "IHDR" (4), width (4), height (4), big endian.
-  unsigned char b[16];
-  if (std::fread(b, 1, 16, file.f) != 16 || std::memcmp(b + 4, "IHDR", 4) != 0)
-    throw FileError(path.string() + ": corrupt or truncated PNG: no IHDR chunk");
-  auto be32 = [](const unsigned char* p) { return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3]; };
-  const std::uint32_t w = be32(b + 8), h = be32(b + 12);
-  if (w == 0 || h == 0 || w > 0x7fffffffu || h > 0x7fffffffu)
-    throw FileError(path.string() + ": corrupt PNG: image size " + std::to_string(w) + "x" + std::to_string(h));
-  width = int(w);
-  height = int(h);
+  const Header h = readCheckedHeader(file.f, path);
+  width = int(h.width);
+  height = int(h.height);
 }
 
 PngImage readPng(const std::filesystem::path& path) {
   FileCloser file{openForReading(path)};
+  readCheckedHeader(file.f, path);
   PngErrorState st;
   Decoded d;
   std::vector<std::uint8_t> buf8;
@@ -251,10 +305,18 @@ PngImage readPng(const std::filesystem::path& path) {
   return img;
 }
 
-DepthImage readDepthPng(const std::filesystem::path& path, double depth_scale, std::uint16_t invalid_raw) {
+namespace {
+
+// readDepthPng, with the header's size checked against `expected` (width, height) when given.
+DepthImage readDepth(const std::filesystem::path& path, double depth_scale, std::uint16_t invalid_raw,
+                     const int* expected) {
   if (!(depth_scale > 0.0) || !std::isfinite(depth_scale))
     throw std::invalid_argument("readDepthPng: depth_scale must be finite and > 0, got " + std::to_string(depth_scale));
   FileCloser file{openForReading(path)};
+  const Header h = readCheckedHeader(file.f, path);
+  if (expected && (std::int64_t(h.width) != expected[0] || std::int64_t(h.height) != expected[1]))
+    throw FileError(path.string() + ": depth image is " + std::to_string(h.width) + "x" + std::to_string(h.height) +
+                    " but the camera is " + std::to_string(expected[0]) + "x" + std::to_string(expected[1]));
   PngErrorState st;
   Decoded d;
   std::vector<std::uint8_t> buf8;
@@ -270,13 +332,25 @@ DepthImage readDepthPng(const std::filesystem::path& path, double depth_scale, s
   return depthFromRaw(int(d.width), int(d.height), raw.data(), depth_scale, invalid_raw);
 }
 
+}  // namespace
+
+DepthImage readDepthPng(const std::filesystem::path& path, double depth_scale, std::uint16_t invalid_raw) {
+  return readDepth(path, depth_scale, invalid_raw, nullptr);
+}
+
+DepthImage readDepthPng(const std::filesystem::path& path, double depth_scale, std::uint16_t invalid_raw,
+                        int expected_width, int expected_height) {
+  const int expected[2] = {expected_width, expected_height};
+  return readDepth(path, depth_scale, invalid_raw, expected);
+}
+
 void writePng(const std::filesystem::path& path, const PngImage& image) {
   const int color_type = colorTypeFor(image.channels);
   if (color_type < 0) throw std::invalid_argument("writePng: channels must be 1..4, got " + std::to_string(image.channels));
   if (image.bit_depth != 8 && image.bit_depth != 16)
     throw std::invalid_argument("writePng: bit_depth must be 8 or 16, got " + std::to_string(image.bit_depth));
-  if (image.width <= 0 || image.height <= 0)
-    throw std::invalid_argument("writePng: width and height must be > 0");
+  if (image.width <= 0 || image.height <= 0 || image.width > kMaxPngSide || image.height > kMaxPngSide)
+    throw std::invalid_argument("writePng: width and height must be in [1, " + std::to_string(kMaxPngSide) + "]");
   const std::size_t row_samples = std::size_t(image.width) * std::size_t(image.channels);
   if (image.samples.size() != row_samples * std::size_t(image.height))
     throw std::invalid_argument("writePng: samples.size() must be width * height * channels");
@@ -303,6 +377,8 @@ void writeDepthPng(const std::filesystem::path& path, const DepthImage& depth, d
     throw std::invalid_argument("writeDepthPng: depth_scale must be finite and > 0, got " + std::to_string(depth_scale));
   if (depth.width <= 0 || depth.height <= 0 || depth.depth_m.size() != std::size_t(depth.width) * std::size_t(depth.height))
     throw std::invalid_argument("writeDepthPng: depth image size is inconsistent");
+  if (depth.width > kMaxPngSide || depth.height > kMaxPngSide)
+    throw std::invalid_argument("writeDepthPng: width and height must be at most " + std::to_string(kMaxPngSide));
   std::vector<std::uint16_t> raw(depth.depth_m.size());
   std::size_t clipped = 0;
   const double inv = 1.0 / depth_scale;
