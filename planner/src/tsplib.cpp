@@ -107,7 +107,8 @@ class Parser {
         dimension_ = std::size_t(n);
         dimension_line_ = line_number_;
       } else if (key == "EDGE_WEIGHT_TYPE") {
-        if (upper(value) != "EXPLICIT") fail("EDGE_WEIGHT_TYPE '" + shown(value) + "' is not supported (EXPLICIT only)");
+        if (upper(value) != "EXPLICIT")
+          fail("EDGE_WEIGHT_TYPE '" + shown(value) + "' is not supported (EXPLICIT only)");
         explicit_weights_ = true;
       } else if (key == "EDGE_WEIGHT_FORMAT") {
         if (upper(value) != "FULL_MATRIX")
@@ -175,7 +176,8 @@ class Parser {
     if (count < n * n)
       fail("file ends after " + std::to_string(count) + " of DIMENSION^2 = " + std::to_string(n * n) + " weights" +
            too_short);
-    if (!fits) failAt(dimension_line_, "DIMENSION " + std::to_string(n) + ": the weights do not fit the file" + too_short);
+    if (!fits)  // unreachable while the bound holds; kept so that a short file can never pass
+      failAt(dimension_line_, "DIMENSION " + std::to_string(n) + ": the weights do not fit the file" + too_short);
   }
 
   std::istream& in_;

@@ -87,7 +87,7 @@ int channelsOf(int color_type) {
 // Reads the IHDR chunk that follows the signature of `f` (opened by openForReading) and leaves `f`
 // just after the signature again, for libpng. Refuses, naming the file, an image wider or taller
 // than kMaxPngSide and one that declares more pixel data than the file could hold compressed,
-// before anything is allocated: a 69-byte file claiming 100000 x 100000 pixels costs nothing.
+// before anything is allocated: a 45-byte file claiming 100000 x 100000 pixels costs nothing.
 Header readCheckedHeader(std::FILE* f, const std::filesystem::path& path) {
   // length (4), "IHDR" (4), width (4), height (4), bit depth (1), colour type (1), ... big endian.
   unsigned char b[18];
@@ -105,10 +105,11 @@ Header readCheckedHeader(std::FILE* f, const std::filesystem::path& path) {
   const std::string size = std::to_string(h.width) + "x" + std::to_string(h.height);
   if (h.width == 0 || h.height == 0) throw FileError(path.string() + ": corrupt PNG: image size " + size);
   if (h.width > std::uint32_t(kMaxPngSide) || h.height > std::uint32_t(kMaxPngSide))
-    throw FileError(path.string() + ": PNG image size " + size + " exceeds the limit of " + std::to_string(kMaxPngSide) +
-                    "x" + std::to_string(kMaxPngSide));
+    throw FileError(path.string() + ": PNG image size " + size + " exceeds the limit of " +
+                    std::to_string(kMaxPngSide) + "x" + std::to_string(kMaxPngSide));
   const int channels = channelsOf(h.color_type);
-  if (channels == 0 || (h.bit_depth != 1 && h.bit_depth != 2 && h.bit_depth != 4 && h.bit_depth != 8 && h.bit_depth != 16))
+  const int bits = h.bit_depth;
+  if (channels == 0 || (bits != 1 && bits != 2 && bits != 4 && bits != 8 && bits != 16))
     throw FileError(path.string() + ": corrupt PNG: colour type " + std::to_string(h.color_type) + " with bit depth " +
                     std::to_string(h.bit_depth));
   // The pixel bits are a lower bound of the decompressed data (rows add a filter byte each).

@@ -167,7 +167,8 @@ PointCloud readPcd(const std::filesystem::path& path) {
     if (types[i].size() != 1 || std::string_view("FIU").find(types[i][0]) == std::string_view::npos)
       failAt(path, types_line, "bad TYPE " + quoteToken(types[i]));
     if (!counts.empty() && (!detail::parseInt64(counts[i], c) || c < 1 || c > kMaxPcdFieldCount))
-      failAt(path, counts_line, "bad COUNT " + quoteToken(counts[i]) + " (1 to " + std::to_string(kMaxPcdFieldCount) + ")");
+      failAt(path, counts_line,
+             "bad COUNT " + quoteToken(counts[i]) + " (1 to " + std::to_string(kMaxPcdFieldCount) + ")");
     f.size = std::size_t(s);
     f.type = types[i][0];
     if (f.type == 'F' && f.size != 4 && f.size != 8) failAt(path, types_line, "float field '" + f.name + "' must have SIZE 4 or 8");

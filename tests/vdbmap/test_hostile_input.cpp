@@ -1,0 +1,304 @@
+// Hostile input: files whose headers declare sizes they do not hold (a 45-byte PNG claiming
+// 100000 x 100000 pixels, a PLY or PCD claiming 1e12 points, an OFF claiming 1e12 vertices) are
+// refused before anything is allocated, with the file, the element or field and the declared
+// count named; control bytes quoted from a file are escaped; a map of a newer format is refused;
+// writing over a folder says so. Every hostile file is a few bytes written here.
+#include "test_io_helpers.hpp"
+
+#include "vdbmap/atomic_file.hpp"
+#include "vdbmap/camera.hpp"
+#include "vdbmap/file_error.hpp"
+#include "vdbmap/io/errors.hpp"
+#include "vdbmap/io/frame_source.hpp"
+#include "vdbmap/io/mesh_io.hpp"
+#include "vdbmap/io/png_io.hpp"
+#include "vdbmap/io/point_cloud_io.hpp"
+#include "vdbmap/map_file.hpp"
+#include "vdbmap/openvdb.hpp"
+#include "vdbmap/tsdf_volume.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <initializer_list>
+#include <ostream>
+#include <stdexcept>
+#include <string>
+
+using namespace vdbmap;
+using vdbmap::test::TempDir;
+using vdbmap::test::writeText;
+
+namespace {
+
+std::string be32(std::uint32_t v) {
+  return {char(v >> 24), char((v >> 16) & 0xff), char((v >> 8) & 0xff), char(v & 0xff)};
+}
+
+std::string le32(std::uint32_t v) {
+  return {char(v & 0xff), char((v >> 8) & 0xff), char((v >> 16) & 0xff), char(v >> 24)};
+}
+
+std::uint32_t crc32(const std::string& bytes) {
+  std::uint32_t c = 0xffffffffu;
+  for (const char ch : bytes) {
+    c ^= std::uint8_t(ch);
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+  }
+  return c ^ 0xffffffffu;
+}
+
+std::string pngChunk(const std::string& type, const std::string& data) {
+  return be32(std::uint32_t(data.size())) + type + data + be32(crc32(type + data));
+}
+
+/// A well-formed PNG header (signature, IHDR with a valid CRC, IEND) declaring `width` x `height`
+/// pixels and holding none: 45 bytes.
+std::string hostilePng(std::uint32_t width, std::uint32_t height, int bit_depth = 16, int color_type = 0) {
+  const std::string ihdr = be32(width) + be32(height) + std::string{char(bit_depth), char(color_type), 0, 0, 0};
+  return std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) + pngChunk("IEND", "");
+}
+
+/// Requires `fn` to throw vdbmap::FileError whose message holds every fragment.
+template <typename Fn>
+void requireFileErrorMentioning(Fn&& fn, std::initializer_list<std::string> fragments) {
+  bool thrown = false;
+  try {
+    fn();
+  } catch (const FileError& e) {
+    thrown = true;
+    const std::string msg = e.what();
+    INFO("message: " << msg);
+    for (const std::string& f : fragments) CHECK(msg.find(f) != std::string::npos);
+  }
+  CHECK(thrown);
+}
+
+/// Rewrites the metadata `vdbmap_format_version` of the map `from` into `to`.
+void copyWithFormatVersion(const std::filesystem::path& from, const std::filesystem::path& to, int version) {
+  initializeOpenVdb();
+  openvdb::GridPtrVec grids;
+  openvdb::MetaMap::Ptr meta;
+  {
+    openvdb::io::File file(from.string());
+    file.open();
+    meta = file.getMetadata();
+    const openvdb::GridPtrVecPtr all = file.getGrids();
+    for (const openvdb::GridBase::Ptr& g : *all) grids.push_back(g->deepCopyGrid());
+  }
+  meta->removeMeta("vdbmap_format_version");
+  meta->insertMeta("vdbmap_format_version", openvdb::Int32Metadata(version));
+  openvdb::io::File(to.string()).write(grids, *meta);
+}
+
+}  // namespace
+
+TEST_CASE("a PNG header beyond 16384 pixels a side is refused before decoding, naming the file and size",
+          "[io][png][hostile]") {
+  TempDir dir;
+  writeText(dir / "huge.png", hostilePng(100000, 100000));
+  requireFileErrorMentioning([&] { io::readDepthPng(dir / "huge.png", 0.001); },
+                             {"huge.png", "100000x100000", "16384"});
+  requireFileErrorMentioning([&] { io::readPng(dir / "huge.png"); }, {"huge.png", "100000x100000", "16384"});
+  int w = 0, h = 0;
+  requireFileErrorMentioning([&] { io::readPngSize(dir / "huge.png", w, h); }, {"huge.png", "100000x100000"});
+}
+
+TEST_CASE("a PNG header declaring more pixel data than the file can hold compressed is refused",
+          "[io][png][hostile]") {
+  TempDir dir;
+  // Within the side limit, but 512 MiB of 16-bit pixels (or 32 MiB of 1-bit ones) from 45 bytes.
+  writeText(dir / "big16.png", hostilePng(16384, 16384));
+  requireFileErrorMentioning([&] { io::readDepthPng(dir / "big16.png", 0.001); },
+                             {"big16.png", "16384x16384", "536870912 bytes of pixel data", "45-byte file"});
+  writeText(dir / "big1.png", hostilePng(16384, 16384, 1, 0));
+  requireFileErrorMentioning([&] { io::readPng(dir / "big1.png"); }, {"big1.png", "16384x16384"});
+}
+
+TEST_CASE("an image at the side limit is written and read back", "[io][png][hostile]") {
+  TempDir dir;
+  io::writeDepthPng(dir / "wide.png", DepthImage(io::kMaxPngSide, 1, 1.0f), 0.001);
+  const DepthImage back = io::readDepthPng(dir / "wide.png", 0.001);
+  CHECK(back.width == io::kMaxPngSide);
+  CHECK(back.height == 1);
+  CHECK_THROWS_AS(io::writeDepthPng(dir / "wider.png", DepthImage(io::kMaxPngSide + 1, 1, 1.0f), 0.001),
+                  std::invalid_argument);
+}
+
+TEST_CASE("a depth PNG of another size than the camera is refused from its header, naming both sizes",
+          "[io][png][hostile]") {
+  TempDir dir;
+  io::writeDepthPng(dir / "d.png", DepthImage(40, 30, 1.0f), 0.001);
+  requireFileErrorMentioning([&] { io::readDepthPng(dir / "d.png", 0.001, 0, 64, 48); },
+                             {"d.png", "depth image is 40x30", "the camera is 64x48"});
+  CHECK(io::readDepthPng(dir / "d.png", 0.001, 0, 40, 30).width == 40);
+
+  // In a log, a hostile frame is a bad frame (so `--on-bad-frame skip` can skip it).
+  writeText(dir / "log" / "sensor.json", R"({"kind": "depth", "width": 4, "height": 3, "fx": 5, "fy": 5, "cx": 2,)"
+                                         R"( "cy": 1.5, "depth_scale": 0.001})");
+  writeText(dir / "log" / "frames.csv", "timestamp,file,tx,ty,tz,qx,qy,qz,qw\n0.5,depth/huge.png,0,0,0,0,0,0,1\n");
+  writeText(dir / "log" / "depth" / "huge.png", hostilePng(100000, 100000));
+  const auto source = io::openDataset(dir / "log");
+  CHECK_THROWS_AS(source->load(0), io::BadFrameError);
+  requireFileErrorMentioning([&] { source->load(0); }, {"frame 0", "huge.png", "100000x100000"});
+}
+
+TEST_CASE("a PLY element count beyond the bytes after the header is refused, naming file, element and count",
+          "[io][ply][hostile]") {
+  TempDir dir;
+  const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
+  SECTION("binary vertices") {
+    writeText(dir / "huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\n" + xyz +
+                                    "end_header\n" + std::string(12, '\0'));
+    requireFileErrorMentioning([&] { io::readPointCloud(dir / "huge.ply"); },
+                               {"huge.ply", "element 'vertex'", "count 1000000000000", "12 bytes"});
+    requireFileErrorMentioning([&] { io::readTriangleMesh(dir / "huge.ply"); },
+                               {"huge.ply", "'vertex'", "1000000000000"});
+  }
+  SECTION("ascii vertices") {
+    writeText(dir / "huge.ply", "ply\nformat ascii 1.0\nelement vertex 1000000000000\n" + xyz + "end_header\n0 0 0\n");
+    requireFileErrorMentioning([&] { io::readPointCloud(dir / "huge.ply"); },
+                               {"huge.ply", "element 'vertex'", "count 1000000000000", "ascii"});
+  }
+  SECTION("binary faces") {
+    writeText(dir / "huge.ply", "ply\nformat binary_big_endian 1.0\nelement vertex 3\n" + xyz +
+                                    "element face 1000000000000\nproperty list uchar int vertex_indices\nend_header\n" +
+                                    std::string(36, '\0') + "\x03" + std::string(12, '\0'));
+    requireFileErrorMentioning([&] { io::readTriangleMesh(dir / "huge.ply"); },
+                               {"huge.ply", "element 'face'", "count 1000000000000"});
+  }
+  SECTION("an element without properties costs no bytes and no time, however many are declared") {
+    writeText(dir / "empty.ply", "ply\nformat binary_little_endian 1.0\nelement junk 1000000000000\n"
+                                 "element vertex 1\n" + xyz + "end_header\n" + std::string(12, '\0'));
+    CHECK(io::readPointCloud(dir / "empty.ply").size() == 1);
+  }
+}
+
+TEST_CASE("a PCD point count beyond the bytes after the header is refused, naming file, field and count",
+          "[io][pcd][hostile]") {
+  TempDir dir;
+  const std::string head = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
+  SECTION("binary") {
+    writeText(dir / "huge.pcd", head + "WIDTH 1000000000000\nHEIGHT 1\nPOINTS 1000000000000\nDATA binary\n" +
+                                    std::string(12, '\0'));
+    requireFileErrorMentioning([&] { io::readPointCloud(dir / "huge.pcd"); },
+                               {"huge.pcd", "POINTS declares 1000000000000 points", "12 bytes"});
+  }
+  SECTION("ascii, the count from WIDTH x HEIGHT") {
+    writeText(dir / "huge.pcd", head + "WIDTH 1000000\nHEIGHT 1000000\nDATA ascii\n1 2 3\n");
+    requireFileErrorMentioning([&] { io::readPointCloud(dir / "huge.pcd"); },
+                               {"huge.pcd", "WIDTH x HEIGHT declares 1000000000000 points"});
+  }
+  SECTION("WIDTH x HEIGHT overflowing") {
+    writeText(dir / "huge.pcd", head + "WIDTH 4611686018427387904\nHEIGHT 4\nDATA ascii\n1 2 3\n");
+    requireFileErrorMentioning([&] { io::readPointCloud(dir / "huge.pcd"); },
+                               {"huge.pcd", "WIDTH", "HEIGHT", "overflows"});
+  }
+  SECTION("a huge field COUNT") {
+    writeText(dir / "huge.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 4611686018427387904\nPOINTS 1\n"
+                                "DATA ascii\n1 2 3\n");
+    requireFileErrorMentioning([&] { io::readPointCloud(dir / "huge.pcd"); }, {"huge.pcd:4:", "bad COUNT"});
+  }
+  SECTION("binary_compressed claiming more than LZF can expand to") {
+    // 1e8 points of 12 bytes = 1.2 GB of uncompressed data from 4 bytes of LZF.
+    writeText(dir / "lzf.pcd", head + "WIDTH 100000000\nHEIGHT 1\nPOINTS 100000000\nDATA binary_compressed\n" +
+                                   le32(4) + le32(1200000000u) + std::string(4, '\0'));
+    requireFileErrorMentioning([&] { io::readPointCloud(dir / "lzf.pcd"); },
+                               {"lzf.pcd", "binary_compressed", "1200000000 bytes", "LZF"});
+  }
+}
+
+TEST_CASE("OFF vertex and face counts beyond the bytes after them are refused, naming file, line and count",
+          "[io][off][hostile]") {
+  TempDir dir;
+  writeText(dir / "v.off", "OFF\n1000000000000 1 0\n0 0 0\n");
+  requireFileErrorMentioning([&] { io::readTriangleMesh(dir / "v.off"); }, {"v.off:2:", "1000000000000 vertices"});
+  writeText(dir / "f.off", "OFF 3 1000000000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  requireFileErrorMentioning([&] { io::readTriangleMesh(dir / "f.off"); }, {"f.off:1:", "1000000000000 faces"});
+}
+
+TEST_CASE("control bytes quoted from a file are escaped as \\xNN in error messages", "[io][hostile]") {
+  TempDir dir;
+  const auto requireEscaped = [](const std::function<void()>& fn, const std::string& file, const std::string& shown) {
+    bool thrown = false;
+    try {
+      fn();
+    } catch (const FileError& e) {
+      thrown = true;
+      const std::string msg = e.what();
+      INFO("message: " << msg);
+      CHECK(msg.find(file) != std::string::npos);
+      CHECK(msg.find(shown) != std::string::npos);
+      const bool raw_control =
+          std::any_of(msg.begin(), msg.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; });
+      CHECK_FALSE(raw_control);
+    }
+    CHECK(thrown);
+  };
+  writeText(dir / "esc.ply", "ply\nformat ascii 1.0\n\x1b[2Jevil\x7f 1\nend_header\n");
+  requireEscaped([&] { io::readPointCloud(dir / "esc.ply"); }, "esc.ply:3:", "'\\x1b[2Jevil\\x7f'");
+  writeText(dir / "esc.obj", "v 1 \x07\x08 2\n");
+  requireEscaped([&] { io::readTriangleMesh(dir / "esc.obj"); }, "esc.obj:1:", "'\\x07\\x08'");
+  writeText(dir / "esc.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 1\nDATA \x1b]0;title\x07\n");
+  requireEscaped([&] { io::readPointCloud(dir / "esc.pcd"); }, "esc.pcd:5:", "\\x1b]0;title\\x07");
+}
+
+TEST_CASE("a map of a newer format version is refused, naming the file and both versions", "[tsdf][io][hostile]") {
+  TempDir dir;
+  TsdfVolume().save(dir / "saved.vdb");
+  REQUIRE(std::filesystem::exists(TsdfVolume::exactStatePath(dir / "saved.vdb")));
+  SECTION("the map") {
+    copyWithFormatVersion(dir / "saved.vdb", dir / "map.vdb", 99);
+    for (const auto& read : std::initializer_list<std::function<void()>>{
+             [&] { TsdfVolume::load(dir / "map.vdb"); }, [&] { readTsdfGrid(dir / "map.vdb"); },
+             [&] { inspectMapFile(dir / "map.vdb"); }})
+      requireFileErrorMentioning(read, {"map.vdb", "vdbmap_format_version", "99", "newest supported"});
+  }
+  SECTION("its exact companion") {
+    const auto exact = TsdfVolume::exactStatePath(dir / "saved.vdb");
+    copyWithFormatVersion(exact, dir / "newer.vdb", 99);
+    std::filesystem::rename(dir / "newer.vdb", exact);
+    requireFileErrorMentioning([&] { TsdfVolume::load(dir / "saved.vdb"); },
+                               {"saved.exact.vdb", "format version 99", "this build reads versions"});
+  }
+  SECTION("the version this build writes still loads") {
+    CHECK_NOTHROW(TsdfVolume::load(dir / "saved.vdb"));
+    CHECK_NOTHROW(readTsdfGrid(dir / "saved.vdb"));
+    CHECK_NOTHROW(inspectMapFile(dir / "saved.vdb"));
+  }
+}
+
+TEST_CASE("writing over a folder says it is a folder and leaves nothing behind", "[io][atomic][hostile]") {
+  TempDir dir;
+  std::filesystem::create_directories(dir / "out.vdb");
+  std::filesystem::create_directories(dir / "cloud.ply");
+  requireFileErrorMentioning([&] { TsdfVolume().save(dir / "out.vdb"); }, {"out.vdb", "is a folder"});
+  CHECK_FALSE(std::filesystem::exists(TsdfVolume::exactStatePath(dir / "out.vdb")));
+  requireFileErrorMentioning([&] { io::writePointCloud(dir / "cloud.ply", {Vec3f(1.f, 2.f, 3.f)}); },
+                             {"cloud.ply", "is a folder"});
+  requireFileErrorMentioning([&] { writeFileAtomically(dir / "out.vdb", [](std::ostream& out) { out << "x"; }); },
+                             {"out.vdb", "is a folder"});
+
+  // The commit step too, and a failed rename gives its real reason, never "Success".
+  const auto tmp = temporaryPathFor(dir / "out.vdb");
+  writeText(tmp, "x");
+  requireFileErrorMentioning([&] { commitTemporary(tmp, dir / "out.vdb"); }, {"out.vdb", "is a folder"});
+  CHECK_FALSE(std::filesystem::exists(tmp));
+  bool thrown = false;
+  try {
+    commitTemporary(dir / "no_such_tmp", dir / "target.bin");
+  } catch (const FileError& e) {
+    thrown = true;
+    const std::string msg = e.what();
+    INFO("message: " << msg);
+    CHECK(msg.find("target.bin") != std::string::npos);
+    CHECK(msg.find("No such file") != std::string::npos);
+    CHECK(msg.find("Success") == std::string::npos);
+  }
+  CHECK(thrown);
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
+    CHECK(entry.path().filename().string().find(".tmp.") == std::string::npos);
+}
