@@ -6,6 +6,7 @@
 #include "cli_util.hpp"
 #include "command.hpp"
 
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/frame_source.hpp"
 #include "vdbmap/io/log_replay.hpp"
 #include "vdbmap/timing.hpp"
