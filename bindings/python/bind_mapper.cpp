@@ -114,7 +114,8 @@ void bindMapperClass(py::module_& m) {
             py::gil_scoped_release nogil;
             return self.reintegrate(r);
           },
-          py::arg("robot_W"), "One budgeted re-integration cycle, frames nearest to robot_W (3,) first.")
+          py::arg("robot_W"), "One budgeted background cycle (re-integrations and de-integrations of dropped frames), frames "
+          "nearest to robot_W (3,) first.")
       .def(
           "reintegrate_all",
           [](Mapper& self, py::handle robot_W) {
@@ -122,8 +123,11 @@ void bindMapperClass(py::module_& m) {
             py::gil_scoped_release nogil;
             return self.reintegrateAll(r);
           },
-          py::arg("robot_W"), "Re-integrates every queued frame; returns how many.")
-      .def_property_readonly("queued_frames", &Mapper::queuedFrames, "frames awaiting re-integration");
+          py::arg("robot_W"),
+          "Works off every waiting frame (re-integrations, dropped frames) and the last pruning solve; returns how "
+          "many frames.")
+      .def_property_readonly("queued_frames", &Mapper::queuedFrames,
+                             "frames awaiting background work (re-integration or de-integration)");
 
   c.def(
        "volume",

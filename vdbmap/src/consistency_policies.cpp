@@ -110,8 +110,7 @@ class SubmapPolicy final : public ConsistencyPolicy {
   SubmapPolicy(const MapperConfig& config, MapperLedger& ledger) : config_(config), ledger_(ledger) {}
 
   IntegrationStats addFrame(FrameId id, double, EncodedFrame data, const Pose3d& T_W_S) override {
-    if (!ids_.insert(id).second) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
-    ++ledger_.stats.frames_total;
+    if (ids_.count(id)) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
     if (submaps_.empty() || submaps_.back().frames >= config_.submap_frames) {
       Submap s;
       s.anchor_id = id;
@@ -122,6 +121,8 @@ class SubmapPolicy final : public ConsistencyPolicy {
     }
     Submap& s = submaps_.back();
     const IntegrationStats stats = applyDecoded(*s.volume, id, decodeFrame(data), s.T_W_A_odom.inverse() * T_W_S, true);
+    ids_.insert(id);
+    ++ledger_.stats.frames_total;
     ++s.frames;
     s.stale = true;
     fused_stale_ = true;
@@ -282,7 +283,9 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     for (const auto& [block_dist, dist, id, drop] : order) {
       const double elapsed_ms = cycle.ms();
       const std::size_t done = report.frames + report.frames_deintegrated;
-      if (done > 0 && elapsed_ms + frame_ms_estimate_ > budget.budget_ms) break;
+      // A de-integration costs about half a re-integration: each kind has its own estimate.
+      double& estimate_ms = drop ? drop_ms_estimate_ : reintegrate_ms_estimate_;
+      if (done > 0 && elapsed_ms + estimate_ms > budget.budget_ms) break;
       if (drop) {
         deintegrateDropped(id);
         ++report.frames_deintegrated;
@@ -292,7 +295,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
         ++report.frames;
       }
       const double frame_ms = cycle.ms() - elapsed_ms;
-      frame_ms_estimate_ = frame_ms_estimate_ > 0.0 ? 0.8 * frame_ms_estimate_ + 0.2 * frame_ms : frame_ms;
+      estimate_ms = estimate_ms > 0.0 ? 0.8 * estimate_ms + 0.2 * frame_ms : frame_ms;
       if (budget.budget_frames > 0 && int(done + 1) >= budget.budget_frames) break;
     }
     report.ms = cycle.ms();
@@ -387,7 +390,8 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   std::set<FrameId> drops_;              ///< frames set cover dropped, awaiting de-integration
   std::unique_ptr<FramePruner> pruner_;  ///< keyframes mode
   std::size_t frames_since_solve_ = 0;
-  double frame_ms_estimate_ = 0.0;       ///< recent background time per frame (moving average)
+  double reintegrate_ms_estimate_ = 0.0;  ///< recent time per re-integration (moving average)
+  double drop_ms_estimate_ = 0.0;         ///< recent time per de-integration of a dropped frame
 };
 
 }  // namespace

@@ -107,6 +107,9 @@ class Mapper {
   /// One budgeted background cycle, nearest frames to `robot_W` first: frames waiting for
   /// re-integration and frames set cover dropped (de-integrated here, never in a burst) share
   /// one waiting list and one budget (ReintegrationConfig). Call it once per incoming frame.
+  /// In keyframes mode a re-integrated frame's cells are refreshed in the pruner, so the next
+  /// solves see it where it now is: with a time budget, which frames that are depends on the
+  /// machine (as on a robot); with a frame count alone (budget_ms large) runs repeat exactly.
   CycleReport reintegrate(const Vec3d& robot_W);
   /// Works off every waiting frame and the last pruning solve (end of a log); returns frames
   /// processed.

@@ -118,6 +118,7 @@ struct ExplorationResult {
   double frame_wall_ms_median = 0.0;  ///< everything per frame (render, map, planner, log)
   double frame_wall_ms_p99 = 0.0;
   double frame_wall_ms_max = 0.0;
+  double integrate_ms_median = 0.0;  ///< the mapper's integration of each frame
   /// The mapper's whole cycle per frame: integration, corrections, and the background cycle
   /// (re-integrations and de-integrations of dropped frames).
   double mapper_ms_median = 0.0;
