@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <vector>
 
 namespace vdbmap::internal {
@@ -38,11 +37,10 @@ inline int fastFloor(double x) {
   return i - int(x < double(i));
 }
 
-/// The counting itself, over `n` points given by point_at(i) (a sensor-frame point; non-finite for
-/// none): the same arithmetic whether the points come from a cloud or straight from an image.
-template <typename PointAt>
-void countHitsOf(std::size_t n, PointAt&& point_at, const Pose3d& T_W_S, const TsdfConfig& tsdf,
-                 const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
+}  // namespace
+
+void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
   const Eigen::Matrix3d R = T_W_S.linear();
   const Vec3d t = T_W_S.translation();
   const double min2 = integrator.min_range_m * integrator.min_range_m;
@@ -55,14 +53,14 @@ void countHitsOf(std::size_t n, PointAt&& point_at, const Pose3d& T_W_S, const T
     std::uint64_t key;
     std::int64_t count;
   };
-  const std::size_t chunks = (n + kPointChunk - 1) / kPointChunk;
+  const std::size_t chunks = (points_S.size() + kPointChunk - 1) / kPointChunk;
   std::vector<std::vector<Run>> chunk_runs(chunks);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks), [&](const auto& r) {
     for (std::size_t c = r.begin(); c != r.end(); ++c) {
       std::vector<Run>& runs = chunk_runs[c];
-      const std::size_t end = std::min(n, (c + 1) * kPointChunk);
+      const std::size_t end = std::min(points_S.size(), (c + 1) * kPointChunk);
       for (std::size_t i = c * kPointChunk; i < end; ++i) {
-        const Vec3d p = point_at(i).template cast<double>();
+        const Vec3d p = points_S[i].cast<double>();
         const double r2 = p.squaredNorm();
         if (!p.allFinite() || !(r2 > 0.0) || r2 < min2 || r2 > max2) continue;
         const Vec3d e = (R * p + t) * inv_voxel;  // voxel centres at integer coordinates
@@ -88,43 +86,16 @@ void countHitsOf(std::size_t n, PointAt&& point_at, const Pose3d& T_W_S, const T
     std::size_t j = i;
     for (; j < runs.size() && runs[j].key == runs[i].key; ++j) count += runs[j].count;
     const openvdb::Coord c = unpackVoxel(runs[i].key);
-    const std::int64_t total = acc.getValue(c) + sign * count;
-    if (total == 0) {
+    const std::int64_t n = acc.getValue(c) + sign * count;
+    if (n == 0) {
       acc.setValueOff(c, 0);
       removed = true;
     } else {
-      acc.setValueOn(c, total);
+      acc.setValueOn(c, n);
     }
     i = j;
   }
   if (removed) openvdb::tools::pruneInactive(hits.tree());
-}
-
-}  // namespace
-
-void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
-               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
-  countHitsOf(
-      points_S.size(), [&](std::size_t i) -> const Vec3f& { return points_S[i]; }, T_W_S, tsdf, integrator, hits,
-      sign);
-}
-
-void countHits(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
-               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
-  // Each pixel's point exactly as backProject() computes it (same float rounding), without
-  // building the cloud.
-  const std::size_t width = std::size_t(K.width);
-  const double inv_fx = 1.0 / K.fx, inv_fy = 1.0 / K.fy;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  countHitsOf(
-      width * std::size_t(K.height),
-      [&](std::size_t i) {
-        const int u = int(i % width), v = int(i / width);
-        const float z = depth_m.depth_m[i];
-        if (!(z > 0.0f) || !std::isfinite(z)) return Vec3f(nan, nan, nan);
-        return Vec3f(float((u - K.cx) * inv_fx * z), float((v - K.cy) * inv_fy * z), z);
-      },
-      T_W_S, tsdf, integrator, hits, sign);
 }
 
 }  // namespace vdbmap::internal

@@ -150,7 +150,7 @@ IntegrationStats TsdfVolume::apply(const DepthImage& depth_m, const CameraIntrin
   inArena(integrator_.threads, [&] {
     internal::integrateProjective(depth_m, K, {{T_W_S, sign}}, config_, integrator_, *weight_q_, *wsdf_q_, stats,
                                   footprint);
-    internal::countHits(depth_m, K, T_W_S, config_, integrator_, *hits_, sign);
+    internal::countHits(backProject(depth_m, K), T_W_S, config_, integrator_, *hits_, sign);
   });
   return stats;
 }
@@ -227,8 +227,9 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, 
     inArena(integrator_.threads, [&] {
       internal::integrateProjective(depth_m, K, {{T_W_S_old, -1}, {T_W_S_new, +1}}, config_, integrator_,
                                     *weight_q_, *wsdf_q_, stats, footprint);
-      internal::countHits(depth_m, K, T_W_S_old, config_, integrator_, *hits_, -1);
-      internal::countHits(depth_m, K, T_W_S_new, config_, integrator_, *hits_, +1);
+      const PointCloud points_S = backProject(depth_m, K);
+      internal::countHits(points_S, T_W_S_old, config_, integrator_, *hits_, -1);
+      internal::countHits(points_S, T_W_S_new, config_, integrator_, *hits_, +1);
     });
   } else {
     stats = apply(depth_m, K, T_W_S_old, -1);

@@ -6,7 +6,6 @@
 // of its integrated frames fell in it. Counts are integers, so de-integration is exact like the sums.
 #pragma once
 
-#include "vdbmap/camera.hpp"
 #include "vdbmap/config.hpp"
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/types.hpp"
@@ -17,10 +16,6 @@ namespace vdbmap::internal {
 /// T_W_S: points that are finite, at least min_range_m and at most max_range_m from the sensor (the
 /// points the integrators add as surface). Voxels whose count returns to 0 are removed.
 void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
-               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign);
-/// The same for the points of a depth image (metres) with intrinsics K, exactly as for
-/// countHits(backProject(depth_m, K), ...), without building the cloud. The image must be K's size.
-void countHits(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
                const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign);
 
 }  // namespace vdbmap::internal
