@@ -99,7 +99,7 @@ TEST_CASE("vdbmap explore without --world flies the embedded house, whatever the
   fs::create_directories(dir);
   const fs::path runs = dir / "run", out = dir / "out.txt";
   // The shared data folder is not needed: the default world is embedded in data/worlds.
-  REQUIRE(run("explore --drift s1 --max-time-s 0.5 -o " + runs.string(), out) == 0);
+  REQUIRE(run("explore --drift s1 --max-time-s 1 -o " + runs.string(), out) == 0);
   INFO(slurp(out));
   const auto s = nlohmann::json::parse(slurp(runs / "summary.json"));
   CHECK(s.at("description").get<std::string>().find("data/worlds/small_house/small_house_visual_mesh.ply") !=

@@ -203,17 +203,19 @@ PointCloud readPcd(const std::filesystem::path& path) {
   PointCloud cloud;
 
   if (data_kind == "ascii") {
-    // At least one character and a separator per value; the last value needs no separator.
-    if (n > (body_size + 1) / (2 * columns))
-      tooMany(std::to_string(columns) + " ascii values, at least " + std::to_string(2 * columns) + " bytes each");
-    cloud.reserve(n);
+    // At least one character and a separator per value (the last value needs no separator): a
+    // count the body cannot hold reserves nothing, and the parse below names the line where the
+    // values run out.
+    if (n <= (body_size + 1) / (2 * columns)) cloud.reserve(n);
     for (std::size_t k = 0; k < n; ++k) {
       bool got = false;
       while (lines.next(line)) {
         detail::splitWhitespace(line, tok);
         if (!tok.empty()) { got = true; break; }
       }
-      if (!got) fail(path, "truncated: POINTS says " + std::to_string(n) + " but the file ends after " + std::to_string(k));
+      if (!got)
+        fail(path, "truncated: " + points_field + " declares " + std::to_string(n) + " points but the file ends after " +
+                       std::to_string(k));
       const std::size_t ln = lines.lineNumber();
       if (tok.size() != columns)
         failAt(path, ln, "expected " + std::to_string(columns) + " values, found " + std::to_string(tok.size()));
