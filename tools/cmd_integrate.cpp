@@ -7,6 +7,8 @@
 #include "vdbmap/mesh.hpp"
 
 #include <cstdio>
+#include <filesystem>
+#include <stdexcept>
 
 namespace vdbmap::cli {
 namespace {
@@ -33,7 +35,22 @@ struct IntegrateOptions {
   int submap_frames = MapperConfig{}.submap_frames;
 };
 
-void runIntegrate(const IntegrateOptions& o) {
+/// Outputs are checked before any work: each one's folder must exist, none may be a folder.
+void checkOutput(const std::filesystem::path& path, const char* what) {
+  if (path.empty()) return;
+  const std::filesystem::path folder = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
+  if (!std::filesystem::is_directory(folder))
+    throw std::runtime_error(std::string(what) + " " + path.string() + ": folder " + folder.string() + " does not exist");
+  if (std::filesystem::is_directory(path))
+    throw std::runtime_error(std::string(what) + " " + path.string() + " is a folder (give a file name)");
+}
+
+void runIntegrate(IntegrateOptions o) {
+  // `-o map` means map.vdb, so that its companions (map.exact.vdb) are never another map's.
+  if (o.output.extension() != ".vdb") o.output += ".vdb";
+  checkOutput(o.output, "map");
+  checkOutput(o.mesh, "--mesh");
+  checkOutput(o.json, "--json");
   const auto source = io::openDataset(o.log, io::parseDatasetFormat(o.format));
   MapperConfig config;
   config.mode = parseConsistencyMode(o.mode);
@@ -59,6 +76,9 @@ void runIntegrate(const IntegrateOptions& o) {
   std::fprintf(stderr, "%s: %zu frames (%s)\n", o.log.c_str(), source->size(), source->format().c_str());
   const ReplayResult r = replayLog(*source, mapper, replay);
   progress.finish();
+  if (r.frames_integrated == 0)  // an empty map must not replace a good one
+    throw std::runtime_error(o.log.string() + ": no frame was integrated (" + std::to_string(r.frames_total) +
+                             " listed, " + std::to_string(r.frames_skipped) + " skipped); nothing written");
 
   const TsdfVolume& volume = mapper.volume();
   volume.save(o.output);
@@ -120,7 +140,8 @@ const Registration registration("integrate", [](CLI::App& app) {
   sub->option_defaults()->always_capture_default();
   sub->add_option("log", o->log, "Log folder (sensor.json + frames.csv) or a dataset folder (7-Scenes, ICL-NUIM, "
                                  "Redwood/TUM, Replica, 3DMatch)")->required()->check(CLI::ExistingDirectory);
-  sub->add_option("-o,--output", o->output, "Map to write (.vdb; the exact state goes beside it as .exact.vdb)")
+  sub->add_option("-o,--output", o->output,
+                  "Map to write (.vdb, appended when missing; the exact state goes beside it as .exact.vdb)")
       ->required();
   sub->add_option("--format", o->format, "Layout of LOG: auto, log, 7scenes, 3dmatch, iclnuim, redwood, tum, replica");
   sub->add_option("--mode", o->mode, "Consistency under corrections: none, submap, all, keyframes")

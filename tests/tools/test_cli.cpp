@@ -1,6 +1,8 @@
 // The vdbmap program end to end: integrate -> info -> mesh -> eval on the 4 Replica frames, and
 // bad input that must fail loudly without replacing good outputs.
 #include "common/shared_data.hpp"
+#include "vdbmap/camera.hpp"
+#include "vdbmap/io/png_io.hpp"
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
@@ -91,4 +93,40 @@ TEST_CASE("a failed run names the problem and leaves an existing map untouched",
   CHECK(run("info " + (dir / "log.txt").string(), log) != 0);
   CHECK(run("integrate " + bad.string() + " -o " + map.string() + " --mode sometimes", log) != 0);
   CHECK(slurp(log).find("sometimes") != std::string::npos);
+}
+
+TEST_CASE("integrate checks its outputs before working and never writes an empty map over a good one", "[cli][bad-input]") {
+  const fs::path dir = freshDir("vdbmap_cli_outputs");
+  const fs::path log = dir / "log", out = dir / "out.txt";
+  fs::create_directories(log);
+  std::ofstream(log / "sensor.json") << R"({"kind": "depth", "width": 16, "height": 12, "fx": 10.0, "fy": 10.0,
+    "cx": 7.5, "cy": 5.5, "depth_scale": 0.001, "min_range_m": 0.1, "max_range_m": 5.0})";
+  vdbmap::io::writeDepthPng(log / "d0.png", vdbmap::DepthImage(16, 12, 2.0f), 0.001);
+  std::ofstream(log / "frames.csv") << "timestamp,file,tx,ty,tz,qx,qy,qz,qw\n0.0,d0.png,0,0,0,0,0,0,1\n";
+
+  SECTION("-o without .vdb writes MAP.vdb and its companion beside it") {
+    REQUIRE(run("integrate " + log.string() + " -o " + (dir / "map").string(), out) == 0);
+    CHECK(fs::exists(dir / "map.vdb"));
+    CHECK(fs::exists(dir / "map.exact.vdb"));
+    CHECK_FALSE(fs::exists(dir / "map"));
+  }
+  SECTION("a --json or --mesh in a missing folder fails before any map is written") {
+    CHECK(run("integrate " + log.string() + " -o " + (dir / "m.vdb").string() + " --json " +
+                  (dir / "nowhere" / "s.json").string(),
+              out) != 0);
+    CHECK(slurp(out).find("nowhere") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "m.vdb"));
+    CHECK(run("integrate " + log.string() + " -o " + (dir / "m.vdb").string() + " --mesh " + dir.string(), out) != 0);
+    CHECK(slurp(out).find("is a folder") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "m.vdb"));
+  }
+  SECTION("a log whose frames all fail leaves the good map as it was") {
+    REQUIRE(run("integrate " + log.string() + " -o " + (dir / "good.vdb").string(), out) == 0);
+    const std::string before = slurp(dir / "good.vdb");
+    std::ofstream(log / "frames.csv") << "timestamp,file,tx,ty,tz,qx,qy,qz,qw\n0.0,missing.png,0,0,0,0,0,0,1\n";
+    CHECK(run("integrate " + log.string() + " -o " + (dir / "good.vdb").string() + " --on-bad-frame skip", out) != 0);
+    CHECK(slurp(out).find("no frame was integrated") != std::string::npos);
+    CHECK(slurp(dir / "good.vdb") == before);
+  }
+  fs::remove_all(dir);
 }

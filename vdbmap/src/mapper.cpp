@@ -76,9 +76,13 @@ IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame dat
 }
 
 std::size_t Mapper::updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) {
-  for (const auto& [id, T] : T_W_S_by_id)
+  for (const auto& [id, T] : T_W_S_by_id) {
     if (!isValidRigidTransform(T))
       throw FrameError("pose update for frame " + std::to_string(id) + " is not a rigid transform");
+    if (T.translation().cwiseAbs().maxCoeff() > kMaxAbsPosition_m)
+      throw FrameError("pose update for frame " + std::to_string(id) + ": translation beyond " +
+                       std::to_string(int(kMaxAbsPosition_m)) + " m");
+  }
   return policy_->updatePoses(T_W_S_by_id);
 }
 

@@ -155,10 +155,23 @@ IntegrationStats TsdfVolume::apply(const DepthImage& depth_m, const CameraIntrin
   return stats;
 }
 
+void TsdfVolume::checkPose(FrameId id, const Pose3d& T_W_S, const char* what) const {
+  if (!isValidRigidTransform(T_W_S))
+    throw FrameError("frame " + std::to_string(id) + ": " + what + " is not a rigid transform (NaN or non-orthonormal rotation)");
+  // Voxel coordinates are 32-bit: the sensor and everything within max range of it must stay far
+  // inside them, or a ray's walk overflows (and a huge translation would mean unbounded work).
+  const double reach_vox = (T_W_S.translation().cwiseAbs().maxCoeff() + integrator_.max_range_m) / config_.voxel_size_m;
+  if (T_W_S.translation().cwiseAbs().maxCoeff() > kMaxAbsPosition_m || reach_vox > double(1 << 30)) {
+    std::ostringstream msg;
+    msg << "frame " << id << ": " << what << " translation (" << T_W_S.translation().transpose()
+        << ") m is outside the map's range (|x|, |y|, |z| <= " << kMaxAbsPosition_m << " m, and within 2^30 voxels)";
+    throw FrameError(msg.str());
+  }
+}
+
 void TsdfVolume::checkNewFrame(FrameId id, const Pose3d& T_W_S) const {
   if (frames_.count(id)) throw FrameError("frame " + std::to_string(id) + " is already integrated");
-  if (!isValidRigidTransform(T_W_S))
-    throw FrameError("frame " + std::to_string(id) + ": T_W_S is not a rigid transform (NaN or non-orthonormal rotation)");
+  checkPose(id, T_W_S, "T_W_S");
 }
 
 std::map<FrameId, TsdfVolume::FrameRecord>::iterator TsdfVolume::checkKnownFrame(FrameId id, std::uint64_t fingerprint,
@@ -205,8 +218,7 @@ IntegrationStats TsdfVolume::deintegrate(FrameId id, const DepthImage& depth_m, 
 IntegrationStats TsdfVolume::reintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S_old,
                                          const Pose3d& T_W_S_new) {
   const auto it = checkKnownFrame(id, fingerprint(points_S, T_W_S_old), "points");
-  if (!isValidRigidTransform(T_W_S_new))
-    throw FrameError("frame " + std::to_string(id) + ": the new T_W_S is not a rigid transform");
+  checkPose(id, T_W_S_new, "the new T_W_S");
   IntegrationStats stats = apply(points_S, T_W_S_old, -1);
   const IntegrationStats in = apply(points_S, T_W_S_new, +1);
   stats.voxel_updates += in.voxel_updates;
@@ -219,8 +231,7 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, 
                                          const Pose3d& T_W_S_old, const Pose3d& T_W_S_new,
                                          VoxelFootprint* footprint) {
   const auto it = checkKnownFrame(id, fingerprint(depth_m, K, T_W_S_old), "depth image, intrinsics");
-  if (!isValidRigidTransform(T_W_S_new))
-    throw FrameError("frame " + std::to_string(id) + ": the new T_W_S is not a rigid transform");
+  checkPose(id, T_W_S_new, "the new T_W_S");
   IntegrationStats stats;
   if (footprint) footprint->clear();
   if (integrator_.ray_mode == RayMode::Projective) {

@@ -34,6 +34,10 @@ struct IntegrationStats {
   openvdb::CoordBBox touched_voxels;   ///< index-space box around every voxel the rays touched
 };
 
+/// The largest sensor position coordinate a frame may have, in metres (100 km): beyond it a pose
+/// is refused (FrameError) rather than integrated with overflowing voxel coordinates.
+inline constexpr double kMaxAbsPosition_m = 1e5;
+
 /// Why the map refuses a frame in integrate() / deintegrate(). Misuse, so an exception.
 class FrameError : public std::invalid_argument {
  public:
@@ -149,7 +153,9 @@ class TsdfVolume {
   IntegrationStats apply(const PointCloud& points_S, const Pose3d& T_W_S, std::int64_t sign);
   IntegrationStats apply(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, std::int64_t sign,
                          VoxelFootprint* footprint = nullptr);
-  /// Throws FrameError unless `id` is new and T_W_S a rigid transform.
+  /// Throws FrameError unless T_W_S is a rigid transform within the map's range.
+  void checkPose(FrameId id, const Pose3d& T_W_S, const char* what) const;
+  /// Throws FrameError unless `id` is new and T_W_S passes checkPose.
   void checkNewFrame(FrameId id, const Pose3d& T_W_S) const;
   /// Throws FrameError unless `id` is integrated with this fingerprint; returns its record.
   std::map<FrameId, FrameRecord>::iterator checkKnownFrame(FrameId id, std::uint64_t fingerprint, const char* what);
