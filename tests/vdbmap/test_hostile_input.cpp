@@ -62,19 +62,21 @@ std::string hostilePng(std::uint32_t width, std::uint32_t height, int bit_depth 
   return std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) + pngChunk("IEND", "");
 }
 
-/// Requires `fn` to throw vdbmap::FileError whose message holds every fragment.
+/// Requires `fn` to throw vdbmap::FileError whose message holds every fragment; returns the message.
 template <typename Fn>
-void requireFileErrorMentioning(Fn&& fn, std::initializer_list<std::string> fragments) {
+std::string requireFileErrorMentioning(Fn&& fn, std::initializer_list<std::string> fragments) {
+  std::string msg;
   bool thrown = false;
   try {
     fn();
   } catch (const FileError& e) {
     thrown = true;
-    const std::string msg = e.what();
+    msg = e.what();
     INFO("message: " << msg);
     for (const std::string& f : fragments) CHECK(msg.find(f) != std::string::npos);
   }
   CHECK(thrown);
+  return msg;
 }
 
 /// Rewrites the metadata `vdbmap_format_version` of the map `from` into `to`.
@@ -223,20 +225,9 @@ TEST_CASE("OFF vertex and face counts beyond the bytes after them are refused, n
 TEST_CASE("control bytes quoted from a file are escaped as \\xNN in error messages", "[io][hostile]") {
   TempDir dir;
   const auto requireEscaped = [](const std::function<void()>& fn, const std::string& file, const std::string& shown) {
-    bool thrown = false;
-    try {
-      fn();
-    } catch (const FileError& e) {
-      thrown = true;
-      const std::string msg = e.what();
-      INFO("message: " << msg);
-      CHECK(msg.find(file) != std::string::npos);
-      CHECK(msg.find(shown) != std::string::npos);
-      const bool raw_control =
-          std::any_of(msg.begin(), msg.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; });
-      CHECK_FALSE(raw_control);
-    }
-    CHECK(thrown);
+    const std::string msg = requireFileErrorMentioning(fn, {file, shown});
+    CHECK_FALSE(std::any_of(msg.begin(), msg.end(),
+                            [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }));
   };
   writeText(dir / "esc.ply", "ply\nformat ascii 1.0\n\x1b[2Jevil\x7f 1\nend_header\n");
   requireEscaped([&] { io::readPointCloud(dir / "esc.ply"); }, "esc.ply:3:", "'\\x1b[2Jevil\\x7f'");
