@@ -130,3 +130,15 @@ TEST_CASE("integrate checks its outputs before working and never writes an empty
   }
   fs::remove_all(dir);
 }
+
+TEST_CASE("drift-log refuses to replace a log without --overwrite", "[cli][bad-input]") {
+  const fs::path dir = freshDir("vdbmap_cli_drift_log_overwrite");
+  const fs::path existing = dir / "existing", out = dir / "out.txt";
+  fs::create_directories(existing);
+  const std::string listing = "timestamp,file,tx,ty,tz,qx,qy,qz,qw\n";
+  std::ofstream(existing / "frames.csv") << listing;
+  CHECK(run("drift-log " + dir.string() + " -o " + existing.string(), out) != 0);
+  CHECK(slurp(out).find("--overwrite") != std::string::npos);
+  CHECK(slurp(existing / "frames.csv") == listing);
+  fs::remove_all(dir);
+}
