@@ -1,6 +1,7 @@
 // `vdbmap`: the command-line front end. Parsing and printing only; the work is in the libraries.
 #include "command.hpp"
 
+#include "vdbmap/io/errors.hpp"
 #include "vdbmap/version.hpp"
 
 #include <algorithm>
@@ -53,24 +54,6 @@ std::string runningCommand(const CLI::App& app) {
   return name;
 }
 
-// An error message for the terminal: control bytes (below 0x20 except newline and tab, and 0x7f)
-// become \xNN, so that file content quoted in a message cannot drive the terminal.
-std::string printable(const std::string& message) {
-  static const char* const kHex = "0123456789abcdef";
-  std::string out;
-  for (const char ch : message) {
-    const auto c = static_cast<unsigned char>(ch);
-    if ((c < 0x20 && c != '\n' && c != '\t') || c == 0x7f) {
-      out += "\\x";
-      out += kHex[c >> 4];
-      out += kHex[c & 0xf];
-    } else {
-      out += ch;
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -90,7 +73,7 @@ int main(int argc, char** argv) {
               << "': the input or the requested map is too large for this machine's memory)\n";
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "vdbmap: error: " << printable(e.what()) << "\n";
+    std::cerr << "vdbmap: error: " << vdbmap::io::escapeControl(e.what(), /*keep_line_breaks=*/true) << "\n";
     return 1;
   }
   return 0;

@@ -8,7 +8,8 @@
 #include <fstream>
 #include <sstream>
 
-namespace vdbmap::io::detail {
+namespace vdbmap::io {
+namespace detail {
 
 std::string readWholeFile(const std::filesystem::path& path) {
   std::error_code ec;
@@ -98,13 +99,16 @@ bool parseInt64(std::string_view token, std::int64_t& value) {
   return ec == std::errc() && ptr == last;
 }
 
-std::string escapeControl(std::string_view text) {
+}  // namespace detail
+
+std::string escapeControl(std::string_view text, bool keep_line_breaks) {
   static const char* const kHex = "0123456789abcdef";
   std::string out;
   out.reserve(text.size());
   for (const char ch : text) {
     const auto c = static_cast<unsigned char>(ch);
-    if (c < 0x20 || c == 0x7f) {
+    const bool line_break = c == '\n' || c == '\t';
+    if ((c < 0x20 && !(keep_line_breaks && line_break)) || c == 0x7f) {
       out += "\\x";
       out += kHex[c >> 4];
       out += kHex[c & 0xf];
@@ -115,6 +119,8 @@ std::string escapeControl(std::string_view text) {
   return out;
 }
 
+namespace detail {
+
 std::string quoteToken(std::string_view token) {
   constexpr std::size_t kMaxShown = 40;
   std::string s = "'";
@@ -124,4 +130,5 @@ std::string quoteToken(std::string_view token) {
   return s;
 }
 
-}  // namespace vdbmap::io::detail
+}  // namespace detail
+}  // namespace vdbmap::io

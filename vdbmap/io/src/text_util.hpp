@@ -45,10 +45,6 @@ void splitOn(std::string_view s, char sep, std::vector<std::string_view>& out);
 bool parseDouble(std::string_view token, double& value);
 bool parseInt64(std::string_view token, std::int64_t& value);
 
-/// `text` with every control byte (below 0x20, and 0x7f) written as \xNN, so that file content
-/// quoted in an error message cannot move the terminal's cursor, change its colours or hide text.
-std::string escapeControl(std::string_view text);
-
 /// A token for error messages: quoted, shortened to 40 bytes, control bytes escaped.
 std::string quoteToken(std::string_view token);
 

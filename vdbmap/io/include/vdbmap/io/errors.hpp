@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <string>
+#include <string_view>
 
 namespace vdbmap::io {
 
@@ -20,5 +21,10 @@ class BadFrameError : public FileError {
  private:
   std::size_t frame_index_;
 };
+
+/// `text` with every control byte (below 0x20, and 0x7f) written as \xNN, so that file content
+/// quoted in an error message cannot move the terminal's cursor, change its colours or hide text;
+/// with `keep_line_breaks`, newlines and tabs stay (for whole messages printed to a terminal).
+std::string escapeControl(std::string_view text, bool keep_line_breaks = false);
 
 }  // namespace vdbmap::io
