@@ -13,7 +13,6 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -21,8 +20,6 @@
 namespace vdbmap::sim {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 /// The inverse of a flat pose (compose(inverse(a), a) = identity).
 FlatPose inverse(const FlatPose& a) { return relativePose(a, FlatPose{}); }
@@ -128,7 +125,7 @@ double estimateErrorRmse(const std::vector<io::StampedPose>& truth, const std::v
 
 ExplorationResult runExploration(const World& world, const ExplorationConfig& config, const ExplorationOptions& options) {
   config.validate();
-  const auto wall0 = Clock::now();
+  const Stopwatch wall;
   if (!world.isClear(config.start.p_W, config.vehicle_radius_m))
     throw std::invalid_argument("runExploration: the start position is within vehicle_radius_m of a surface");
 
@@ -149,7 +146,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   std::vector<double> map_ms, frame_ms, frame_times, mapper_ms, integrate_ms_all;
   ExplorationProgress progress;
   std::size_t collisions_seen = 0;
-  auto frame_start = Clock::now();
+  Stopwatch frame_watch;
   const auto onFrame = [&](SimFrame& frame) {
     if (recorder) recorder->record(frame);
     result.trajectory_true.push_back({frame.t_s, frame.T_W_S_true});
@@ -192,8 +189,8 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
 
     result.frames_total = frame.index + 1;
     result.exploration_time_s = frame.t_s;
-    frame_ms.push_back(msSince(frame_start));
-    frame_start = Clock::now();
+    frame_ms.push_back(frame_watch.ms());
+    frame_watch.restart();
     if (options.progress) {
       progress.t_s = frame.t_s;
       progress.frames = result.frames_total;
@@ -232,7 +229,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   result.keyframes_kept = mapper.keyframesKept();
   result.reintegrated_frames = mapper.stats().reintegrated_frames;
   if (recorder) result.flight = recorder->finish(config.simulator, options.description, result.exploration_time_s, result.path_length_m);
-  result.wall_s = msSince(wall0) / 1e3;
+  result.wall_s = wall.s();
   return result;
 }
 
@@ -399,7 +396,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   config.validate();
   if (!(options.completeness_threshold_vox > 0.0 && options.completeness_threshold_vox <= 100.0))
     throw std::invalid_argument("ExplorationRunOptions.completeness_threshold_vox must be in (0, 100]");
-  const auto wall0 = Clock::now();
+  const Stopwatch wall;
   const auto report = [&](const std::string& line) {
     if (options.report) options.report(line);
   };
@@ -460,7 +457,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   }
   io::writeTumTrajectory(run_dir / "trajectory_true.txt", r.trajectory_true);
   io::writeTumTrajectory(run_dir / "trajectory_odom.txt", r.trajectory_estimate);
-  s.wall_s = msSince(wall0) / 1e3;
+  s.wall_s = wall.s();
   const nlohmann::json j = summaryJson(s, r, config, options.description);
   vdbmap::writeFileAtomically(run_dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; });
   report("wrote " + run_dir.string());

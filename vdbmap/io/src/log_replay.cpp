@@ -3,7 +3,6 @@
 #include "vdbmap/timing.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <future>
 #include <optional>
 #include <stdexcept>
@@ -22,8 +21,6 @@ void ReplayOptions::validate() const {
 }
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 /// A loaded frame, or the bad-frame error it raised.
 struct Loaded {
@@ -34,20 +31,20 @@ struct Loaded {
 
 Loaded loadFrame(const io::FrameSource& source, std::size_t i) {
   Loaded out;
-  const auto t0 = Clock::now();
+  const Stopwatch load;
   try {
     out.frame = source.load(i);
   } catch (const io::BadFrameError& e) {
     out.error = e;
   }
-  out.load_s = secondsSince(t0);
+  out.load_s = load.s();
   return out;
 }
 }  // namespace
 
 ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const ReplayOptions& options) {
   options.validate();
-  const auto wall0 = Clock::now();
+  const Stopwatch wall;
   ReplayResult result;
   std::vector<std::size_t> indices;
   for (std::size_t i = 0; i < source.size(); i += std::size_t(options.frame_stride)) indices.push_back(i);
@@ -80,11 +77,11 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
     } else {
       const io::Frame& f = *loaded.frame;
       cycle.restart();
-      const auto t0 = Clock::now();
+      const Stopwatch integration;
       const IntegrationStats stats =
           f.is_depth ? mapper.addDepthFrame(i, f.timestamp_s, f.depth, K, f.T_W_S)
                      : mapper.addPointFrame(i, f.timestamp_s, f.points_S, f.T_W_S);
-      const double ms = 1e3 * secondsSince(t0);
+      const double ms = integration.ms();
       frame_ms.push_back(ms);
       result.integrate_s += ms / 1e3;
       result.points_invalid += stats.points_invalid;
@@ -117,7 +114,7 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
     result.ms_per_frame_p99 = percentile(result.cycle_ms, 0.99);
     result.ms_per_frame_max = *std::max_element(result.cycle_ms.begin(), result.cycle_ms.end());
   }
-  result.wall_s = secondsSince(wall0);
+  result.wall_s = wall.s();
   return result;
 }
 
