@@ -114,8 +114,8 @@ void bindFrames(py::module_& m) {
       .def_readonly("event_frame", &io::CorrectionEvent::event_frame, "index of the frame at the event")
       .def_property_readonly(
           "poses", [](const io::CorrectionEvent& e) { return trajectoryToArrays(e.poses); },
-          "(timestamps float64 (N,), T_W_S float64 (N, 4, 4))")
-      .def_readonly("pose_frames", &io::CorrectionEvent::pose_frames, "the frame index of each pose")
+          "(timestamps float64 (N,), T_W_S float64 (N, 4, 4)): corrected poses at any stamps up to the event; "
+          "every integrated frame moves, its correction interpolated between them")
       .def_readonly("file", &io::CorrectionEvent::file, "corrections/<event_timestamp>.txt")
       .def("__repr__", [](const io::CorrectionEvent& e) {
         return "CorrectionEvent(event_frame=" + std::to_string(e.event_frame) +

@@ -84,7 +84,8 @@ TEST_CASE("LogWriter then openDataset round trip (depth)", "[io][log]") {
   CHECK(ev.event_frame == 3);
   CHECK(ev.event_timestamp_s == Approx(10.3));
   REQUIRE(ev.poses.size() == 2);
-  CHECK(ev.pose_frames == std::vector<std::size_t>{0, 2});
+  CHECK(ev.poses[0].timestamp_s == src->record(0).timestamp_s);  // matched to the frames' stamps exactly
+  CHECK(ev.poses[1].timestamp_s == src->record(2).timestamp_s);
   CHECK((ev.poses[1].T_W_S.matrix() - poseAt(6).matrix()).cwiseAbs().maxCoeff() < kPoseTolerance);
   REQUIRE(src->groundTruth().size() == 4);
   CHECK((src->groundTruth()[3].T_W_S.matrix() - poseAt(4).matrix()).cwiseAbs().maxCoeff() < kPoseTolerance);
@@ -251,9 +252,13 @@ TEST_CASE("openDataset rejects bad logs naming the file and line", "[io][log][ba
     writeText(log / "corrections" / "11.000000.txt", "10.0 0 0 0 0 0 0 1\n");
     VDBMAP_REQUIRE_THROWS_MENTIONING(openDataset(log), "11.000000.txt", "names no frame");
   }
-  SECTION("a correction pose that names no frame") {
-    writeText(log / "corrections" / "10.100000.txt", "# optimised\n10.0 0 0 0 0 0 0 1\n10.05 0 0 0 0 0 0 1\n");
-    VDBMAP_REQUIRE_THROWS_MENTIONING(openDataset(log), "10.100000.txt:3:", "names no frame");
+  SECTION("a correction pose after its event, where the odometry is not known yet") {
+    writeText(log / "corrections" / "10.100000.txt", "# optimised\n10.05 0 0 0 0 0 0 1\n10.15 0 0 0 0 0 0 1\n");
+    VDBMAP_REQUIRE_THROWS_MENTIONING(openDataset(log), "10.100000.txt:3:", "outside the frames up to the event");
+  }
+  SECTION("a correction pose before the first frame") {
+    writeText(log / "corrections" / "10.100000.txt", "9.5 0 0 0 0 0 0 1\n");
+    VDBMAP_REQUIRE_THROWS_MENTIONING(openDataset(log), "10.100000.txt:1:", "outside the frames up to the event");
   }
   SECTION("a correction file with a bad name") {
     writeText(log / "corrections" / "loop.txt", "10.0 0 0 0 0 0 0 1\n");

@@ -4,6 +4,8 @@
 // Nothing depends on a folder's name.
 #include "importers.hpp"
 
+#include "vdbmap/io/pose_interpolation.hpp"
+
 #include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/png_io.hpp"
 
@@ -363,15 +365,6 @@ namespace {
 /// Maximum gap between a depth timestamp and the ground-truth poses it is interpolated from.
 constexpr double kTumMaxPoseGap_s = 0.05;
 
-Pose3d interpolate(const StampedPose& a, const StampedPose& b, double t) {
-  const double w = (t - a.timestamp_s) / (b.timestamp_s - a.timestamp_s);
-  const Eigen::Quaterniond qa(a.T_W_S.linear()), qb(b.T_W_S.linear());
-  Pose3d T = Pose3d::Identity();
-  T.linear() = qa.slerp(w, qb).normalized().toRotationMatrix();
-  T.translation() = (1.0 - w) * a.T_W_S.translation() + w * b.T_W_S.translation();
-  return T;
-}
-
 }  // namespace
 
 FrameSourceContents importTum(const fs::path& folder) {
@@ -424,7 +417,8 @@ FrameSourceContents importTum(const fs::path& folder) {
       r.problem = "no ground-truth poses within " + std::to_string(kTumMaxPoseGap_s) + " s on both sides of t = " +
                   formatTimestamp(r.timestamp_s);
     } else {
-      r.T_W_S = interpolate(*(it - 1), *it, r.timestamp_s);
+      r.T_W_S = interpolatePose((it - 1)->T_W_S, it->T_W_S,
+                                (r.timestamp_s - (it - 1)->timestamp_s) / (it->timestamp_s - (it - 1)->timestamp_s));
     }
     c.records.push_back(std::move(r));
   }

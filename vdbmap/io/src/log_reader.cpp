@@ -43,10 +43,19 @@ std::vector<CorrectionEvent> readCorrections(const std::filesystem::path& dir, c
     std::vector<std::size_t> lines;
     ev.poses = readTumTrajectory(file, /*require_increasing=*/true, &lines);
     if (ev.poses.empty()) fail(file, "correction lists no pose");
+    // Any subset of stamps (applyCorrection interpolates for the rest), within the frames up to
+    // the event, where the odometry is known; a stamp within the match tolerance of a frame's
+    // becomes that frame's, so that the frame gets the listed pose exactly.
+    const double first_s = frames.record(0).timestamp_s;
     for (std::size_t k = 0; k < ev.poses.size(); ++k) {
-      const std::optional<std::size_t> f = frames.findFrame(ev.poses[k].timestamp_s);
-      if (!f) failAt(file, lines[k], "timestamp " + formatTimestamp(ev.poses[k].timestamp_s) + " names no frame of frames.csv");
-      ev.pose_frames.push_back(*f);
+      double& t = ev.poses[k].timestamp_s;
+      if (const std::optional<std::size_t> f = frames.findFrame(t)) t = frames.record(*f).timestamp_s;
+      if (t < first_s || t > frames.record(ev.event_frame).timestamp_s)
+        failAt(file, lines[k], "timestamp " + formatTimestamp(t) + " is outside the frames up to the event (" +
+                                   formatTimestamp(first_s) + " to " + file.stem().string() +
+                                   "), where the odometry is unknown");
+      if (k > 0 && !(t > ev.poses[k - 1].timestamp_s))
+        failAt(file, lines[k], "timestamp " + formatTimestamp(t) + " is not after the previous pose's frame");
     }
     events.push_back(std::move(ev));
   }

@@ -1,5 +1,7 @@
 #include "vdbmap/io/log_replay.hpp"
 
+#include "vdbmap/io/pose_interpolation.hpp"
+
 #include "vdbmap/timing.hpp"
 
 #include <algorithm>
@@ -92,10 +94,21 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
     // Corrections that apply once frame i (or, with a stride, a frame up to i) is integrated.
     const std::size_t upto = k + 1 < indices.size() ? indices[k + 1] : source.size();
     for (auto it = events.lower_bound(i); it != events.end() && it->first < upto; ++it) {
-      std::map<FrameId, Pose3d> poses;
+      // Every integrated frame moves: its correction interpolated between the listed stamps,
+      // against the odometry of every usable frame up to the event.
       const io::CorrectionEvent& e = *it->second;
-      for (std::size_t p = 0; p < e.poses.size(); ++p)
-        if (integrated[e.pose_frames[p]]) poses[e.pose_frames[p]] = e.poses[p].T_W_S;
+      std::vector<io::StampedPose> odometry;
+      std::vector<std::size_t> frame_of;
+      for (std::size_t j = 0; j <= e.event_frame; ++j) {
+        const io::FrameRecord& r = source.record(j);
+        if (!r.problem.empty()) continue;
+        odometry.push_back({r.timestamp_s, r.T_W_S});
+        frame_of.push_back(j);
+      }
+      const std::vector<Pose3d> corrected = io::applyCorrection(odometry, e.poses);
+      std::map<FrameId, Pose3d> poses;
+      for (std::size_t k = 0; k < corrected.size(); ++k)
+        if (integrated[frame_of[k]]) poses[frame_of[k]] = corrected[k];
       mapper.updatePoses(poses);
       ++result.correction_events;
     }

@@ -103,9 +103,10 @@ void LogWriter::addCorrection(double event_timestamp_s, const std::vector<Stampe
                                 " is not the timestamp of a frame already added");
   if (poses.empty()) throw std::invalid_argument("LogWriter::addCorrection: no pose");
   for (std::size_t k = 0; k < poses.size(); ++k) {
-    if (!hasFrameAt(poses[k].timestamp_s))
+    const double t = std::stod(formatTimestamp(poses[k].timestamp_s));  // as the file will hold it
+    if (frames_.empty() || t < frames_.front().timestamp_s - 1e-7 || t > std::stod(formatTimestamp(event_timestamp_s)) + 1e-7)
       throw std::invalid_argument("LogWriter::addCorrection: pose " + std::to_string(k) + " at " + formatTimestamp(poses[k].timestamp_s) +
-                                  " is not at a frame's timestamp");
+                                  " is outside the frames up to the event (the odometry is unknown there)");
     if (!isValidRigidTransform(poses[k].T_W_S))
       throw std::invalid_argument("LogWriter::addCorrection: pose " + std::to_string(k) + " is not a valid rigid transform");
     if (k > 0 && !(poses[k].timestamp_s > poses[k - 1].timestamp_s))

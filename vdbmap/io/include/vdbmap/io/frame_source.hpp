@@ -47,12 +47,14 @@ struct Frame {
 };
 
 /// A loop-closure correction: optimised poses the SLAM back end published at event_timestamp_s;
-/// they apply once the frame with that timestamp has been integrated.
+/// they apply once the frame with that timestamp has been integrated, to every frame integrated
+/// by then (io/pose_interpolation.hpp: applyCorrection interpolates between the listed stamps).
 struct CorrectionEvent {
   double event_timestamp_s = 0.0;
   std::size_t event_frame = 0;              ///< index of the frame at event_timestamp_s
-  std::vector<StampedPose> poses;           ///< corrected T_W_S, each at a frame's timestamp
-  std::vector<std::size_t> pose_frames;     ///< index of the frame of each pose
+  /// Corrected T_W_S at any stamps (increasing) within the frames up to the event; a stamp that
+  /// matches a frame's is that frame's exactly.
+  std::vector<StampedPose> poses;
   std::filesystem::path file;               ///< corrections/<event_timestamp>.txt
 };
 
