@@ -65,6 +65,20 @@ const char* toString(ExplorationStatus s) {
   return "?";
 }
 
+const char* toString(ExplorationActivity a) {
+  switch (a) {
+    case ExplorationActivity::InitialTurn: return "initial_turn";
+    case ExplorationActivity::ToTarget: return "to_target";
+    case ExplorationActivity::FinalSweep: return "final_sweep";
+    case ExplorationActivity::LoopDetour: return "loop_detour";
+    case ExplorationActivity::Escaping: return "escaping";
+    case ExplorationActivity::Retreating: return "retreating";
+    case ExplorationActivity::Turning: return "turning";
+    case ExplorationActivity::Holding: return "holding";
+  }
+  return "?";
+}
+
 const char* toString(ReplanReason r) {
   switch (r) {
     case ReplanReason::None: return "none";
@@ -185,6 +199,16 @@ void ExplorationManager::startTrajectory(Trajectory trajectory, double t_s) {
   shift_ = Eigen::Isometry3d::Identity();
   was_moving_ = trajectory_.motionDuration() > 0.0;
   escape_end_t_ = -std::numeric_limits<double>::infinity();
+}
+
+ExplorationActivity ExplorationManager::activity(double t_s) const {
+  if (turning_) return ExplorationActivity::InitialTurn;
+  if (t_s <= escape_end_t_) return escape_is_retreat_ ? ExplorationActivity::Retreating : ExplorationActivity::Escaping;
+  const double t_rel = t_s - trajectory_t0_;
+  if (t_rel >= trajectory_.duration()) return ExplorationActivity::Holding;
+  if (t_rel >= trajectory_.motionDuration()) return ExplorationActivity::Turning;
+  if (on_detour_) return ExplorationActivity::LoopDetour;
+  return final_sweep_ ? ExplorationActivity::FinalSweep : ExplorationActivity::ToTarget;
 }
 
 void ExplorationManager::hold(const VehicleState& vehicle, double t_s) {
@@ -418,6 +442,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     // keeps the smaller size from now on).
     const FrontierUpdate u = frontiers_.setMinClusterSize(map, params_.final_min_cluster_size);
     counters_.final_sweep_clusters += u.added.size();
+    final_sweep_ = true;
     applyFrontierUpdate(u, map);
     targets = liveTargets(map);
   }
@@ -534,6 +559,7 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
     ++chained_backtracks_;
     ++counters_.retreats;
     escape_end_t_ = t_s + trajectory_.duration();
+    escape_is_retreat_ = true;
     clearTarget();
     return ExplorationStatus::Planned;
   }
@@ -611,8 +637,10 @@ bool ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicl
 bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle, double t_s) {
   if (retreat(map, vehicle, t_s)) {
     ++counters_.retreats;
+    escape_is_retreat_ = true;
   } else if (chained_escapes_ < kMaxChainedEscapes && escapeStraight(map, vehicle, t_s)) {
     ++chained_escapes_;
+    escape_is_retreat_ = false;
   } else {
     return false;
   }

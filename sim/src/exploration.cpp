@@ -9,6 +9,7 @@
 #include "vdbmap/timing.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
 #include "vdbmap/sim/pose_graph.hpp"
+#include "text_format.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -125,6 +126,8 @@ double estimateErrorRmse(const std::vector<io::StampedPose>& truth, const std::v
 
 ExplorationResult runExploration(const World& world, const ExplorationConfig& config, const ExplorationOptions& options) {
   config.validate();
+  if (!(options.coverage_period_s > 0.0 && options.coverage_period_s <= 1e4))
+    throw std::invalid_argument("ExplorationOptions.coverage_period_s must be in (0, 1e4]");
   const Stopwatch wall;
   if (!world.isClear(config.start.p_W, config.vehicle_radius_m))
     throw std::invalid_argument("runExploration: the start position is within vehicle_radius_m of a surface");
@@ -147,6 +150,21 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   ExplorationProgress progress;
   std::size_t collisions_seen = 0;
   Stopwatch frame_watch;
+  double next_coverage_t = 0.0, hold_start_t = -1.0, prev_t = 0.0;
+  auto prev_activity = planner::ExplorationActivity::InitialTurn;
+  const auto sampleCoverage = [&](double t_s, const TsdfVolume& volume, std::size_t clusters,
+                                  planner::ExplorationActivity activity) {
+    CoverageSample c;
+    c.t_s = t_s;
+    c.coverage = options.observable->coverage(planner::TsdfMapQuery(volume));
+    c.path_length_m = vehicle.pathLength();
+    c.clusters = clusters;
+    c.loop_closures = result.loop_closures;
+    c.estimate_error_m = (result.trajectory_true.back().T_W_S.translation() -
+                          result.trajectory_estimate.back().T_W_S.translation()).norm();
+    c.activity = activity;
+    result.coverage_timeline.push_back(c);
+  };
   const auto onFrame = [&](SimFrame& frame) {
     if (recorder) recorder->record(frame);
     result.trajectory_true.push_back({frame.t_s, frame.T_W_S_true});
@@ -184,13 +202,32 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     if (manager.alcStats().detours > detours_before) result.events.push_back({frame.t_s, "alc_detour"});
     if (step.alc_status == planner::AlcStatus::kGaveUp) result.events.push_back({frame.t_s, "alc_gave_up"});
     map_ms.push_back(step.map_update_ms);
-    if (step.reason != planner::ReplanReason::None) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);
+    const bool replanned = step.reason != planner::ReplanReason::None;
+    if (replanned) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);
     if (step.status == planner::ExplorationStatus::Finished && mapper.queuedFrames() == 0) result.finished = true;
+
+    // Time accounting: the interval since the previous frame counts for the activity its update left.
+    const planner::ExplorationActivity activity = manager.activity(frame.t_s);
+    result.activity_time_s[std::size_t(prev_activity)] += frame.t_s - prev_t;
+    if (activity == planner::ExplorationActivity::Holding) {
+      if (hold_start_t < 0.0) hold_start_t = frame.t_s;
+      result.longest_hold_s = std::max(result.longest_hold_s, frame.t_s - hold_start_t);
+    } else {
+      hold_start_t = -1.0;
+    }
+    prev_activity = activity;
+    prev_t = frame.t_s;
+    if (options.observable && frame.t_s >= next_coverage_t - 1e-9) {
+      sampleCoverage(frame.t_s, mapper.volume(), step.clusters, activity);
+      while (next_coverage_t <= frame.t_s + 1e-9) next_coverage_t += options.coverage_period_s;
+    }
 
     result.frames_total = frame.index + 1;
     result.exploration_time_s = frame.t_s;
     frame_ms.push_back(frame_watch.ms());
     frame_watch.restart();
+    result.cycles.push_back({frame.t_s, mapper_ms_this_frame, replanned ? step.map_update_ms + step.replan_ms : 0.0,
+                             frame_ms.back(), mapper.queuedFrames(), activity});
     if (options.progress) {
       progress.t_s = frame.t_s;
       progress.frames = result.frames_total;
@@ -209,6 +246,11 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     flyAlong(sim, truthAt, sim.nextFrameTime(), onFrame);
 
   mapper.reintegrateAll(sim.bodyEstimate().p_W);
+  if (options.observable && !result.trajectory_true.empty()) {  // the map as finally corrected
+    if (!result.coverage_timeline.empty() && result.coverage_timeline.back().t_s >= prev_t)
+      result.coverage_timeline.pop_back();
+    sampleCoverage(prev_t, mapper.volume(), manager.frontiers().clusters().size(), prev_activity);
+  }
   result.path_length_m = vehicle.pathLength();
   result.collisions = vehicle.collisions();
   result.min_clearance_m = vehicle.minClearance();
@@ -316,7 +358,7 @@ ExplorationConfig explorationConfigFor(const World& world, const std::string& dr
 
 namespace {
 nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult& r, const ExplorationConfig& c,
-                           const std::string& description) {
+                           const ExplorationRunOptions& options, const WorldConfig& world) {
   nlohmann::json j;
   j["exploration_time_s"] = s.exploration_time_s;
   j["path_length_m"] = s.path_length_m;
@@ -336,7 +378,10 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["alc_time_s"] = s.alc_time_s;
   j["alc_give_ups"] = s.alc_give_ups;
   j["alc_detour_loops"] = s.alc_detour_loops;
-  j["description"] = description;
+  j["description"] = options.description;
+  if (!options.world.empty()) j["world"] = options.world;
+  if (std::isfinite(world.ceiling_clip_z_m))  // how the world was cut, to load it again the same way
+    j["world_ceiling"] = {{"clip_z_m", world.ceiling_clip_z_m}, {"capped", world.cap_ceiling}};
   j["mode"] = toString(c.mapper.mode);
   j["voxel_size_m"] = c.mapper.tsdf.voxel_size_m;
   j["max_time_s"] = c.max_time_s;
@@ -383,11 +428,41 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
                              {"observable_samples", s.observable.observable},
                              {"observable_area_m2", s.observable.observable_area_m2},
                              {"reachable_cells", s.observable.reachable_cells}};
+  nlohmann::json to_coverage = nlohmann::json::object();
+  for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i)
+    to_coverage[format("%.2f", kCoverageMilestones[i])] =
+        s.time_to_coverage_s[i] >= 0.0 ? nlohmann::json(s.time_to_coverage_s[i]) : nlohmann::json(nullptr);
+  j["time_to_coverage_s"] = to_coverage;
+  j["mean_speed_mps"] = s.mean_speed_mps;
+  nlohmann::json activity = nlohmann::json::object();
+  for (int a = 0; a < planner::kExplorationActivities; ++a)
+    activity[toString(planner::ExplorationActivity(a))] = r.activity_time_s[std::size_t(a)];
+  j["activity_time_s"] = activity;
+  j["longest_hold_s"] = r.longest_hold_s;
   j["wall_s"] = s.wall_s;
   nlohmann::json events = nlohmann::json::array();
   for (const ExplorationEvent& e : r.events) events.push_back({{"t_s", e.t_s}, {"what", e.what}});
   j["events"] = events;
   return j;
+}
+
+void writeCoverageCsv(const std::filesystem::path& path, const std::vector<CoverageSample>& timeline) {
+  vdbmap::writeFileAtomically(path, [&](std::ostream& os) {
+    os << "t_s,coverage,path_length_m,clusters,loop_closures,estimate_error_m,activity\n";
+    for (const CoverageSample& c : timeline)
+      os << format("%.4f", c.t_s) << ',' << format("%.6f", c.coverage) << ',' << format("%.3f", c.path_length_m) << ','
+         << c.clusters << ',' << c.loop_closures << ',' << format("%.4f", c.estimate_error_m) << ','
+         << toString(c.activity) << '\n';
+  });
+}
+
+void writeCyclesCsv(const std::filesystem::path& path, const std::vector<CycleSample>& cycles) {
+  vdbmap::writeFileAtomically(path, [&](std::ostream& os) {
+    os << "t_s,mapper_ms,planner_ms,frame_wall_ms,queued_frames,activity\n";
+    for (const CycleSample& c : cycles)
+      os << format("%.4f", c.t_s) << ',' << format("%.3f", c.mapper_ms) << ',' << format("%.3f", c.planner_ms) << ','
+         << format("%.3f", c.frame_wall_ms) << ',' << c.queued_frames << ',' << toString(c.activity) << '\n';
+  });
 }
 }  // namespace
 
@@ -419,6 +494,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   eo.overwrite = options.overwrite;
   eo.description = options.description;
   eo.progress = options.progress;
+  eo.observable = &observable;
   ExplorationResult r = runExploration(world, config, eo);
   const TsdfVolume& volume = r.mapper->volume();
 
@@ -441,6 +517,14 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   s.alc_detour_loops = r.alc.loops_on_detour;
   s.estimate_error_rmse_m = estimateErrorRmse(r.trajectory_true, r.trajectory_estimate);
   s.observable = observable.stats();
+  s.time_to_coverage_s.fill(-1.0);
+  for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i)
+    for (const CoverageSample& c : r.coverage_timeline)
+      if (c.coverage >= kCoverageMilestones[i]) {
+        s.time_to_coverage_s[i] = c.t_s;
+        break;
+      }
+  s.mean_speed_mps = s.exploration_time_s > 0.0 ? s.path_length_m / s.exploration_time_s : 0.0;
 
   const TriangleMesh mesh = extractMesh(volume);
   if (options.write_map) {
@@ -457,8 +541,10 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   }
   io::writeTumTrajectory(run_dir / "trajectory_true.txt", r.trajectory_true);
   io::writeTumTrajectory(run_dir / "trajectory_odom.txt", r.trajectory_estimate);
+  writeCoverageCsv(run_dir / "coverage.csv", r.coverage_timeline);
+  writeCyclesCsv(run_dir / "cycles.csv", r.cycles);
   s.wall_s = wall.s();
-  const nlohmann::json j = summaryJson(s, r, config, options.description);
+  const nlohmann::json j = summaryJson(s, r, config, options, world.config());
   vdbmap::writeFileAtomically(run_dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; });
   report("wrote " + run_dir.string());
   return s;

@@ -192,6 +192,21 @@ enum class ReplanReason {
 };
 const char* toString(ReplanReason r);
 
+/// What the vehicle is doing at a moment: how a run's time is accounted (coverage.csv and
+/// summary.json's activity_time_s).
+enum class ExplorationActivity {
+  InitialTurn,  ///< the turn on the spot at take-off
+  ToTarget,     ///< flying to a frontier target's viewpoint
+  FinalSweep,   ///< flying to a target once the final sweep (final_min_cluster_size) began
+  LoopDetour,   ///< flying an active-loop-closure detour
+  Escaping,     ///< moving straight out of a start blocked by occupied voxels
+  Retreating,   ///< going back along the way flown
+  Turning,      ///< at the goal, turning on the spot
+  Holding,      ///< at rest, nothing left to fly (waiting for a replan, or finished)
+};
+inline constexpr int kExplorationActivities = 8;
+const char* toString(ExplorationActivity a);
+
 /// What one update() did.
 struct ExplorationStep {
   ExplorationStatus status = ExplorationStatus::Continue;
@@ -272,6 +287,8 @@ class ExplorationManager {
   ClusterId target() const { return target_; }
   /// True once the initial turn's last part has been flown (seen at the update after it).
   bool initialTurnDone() const { return !turning_; }
+  /// What the current trajectory makes the vehicle do at t_s (not before the last update).
+  ExplorationActivity activity(double t_s) const;
   const ExplorationCounters& counters() const { return counters_; }
 
  private:
@@ -339,6 +356,8 @@ class ExplorationManager {
   /// The end of the escape (or retreat) being flown: until then no replan but at its end or for a
   /// frame shift, and flown_W_ does not record
   double escape_end_t_ = -std::numeric_limits<double>::infinity();
+  bool escape_is_retreat_ = false;  ///< the escape being flown goes back along the way flown
+  bool final_sweep_ = false;        ///< the final sweep's small clusters became targets
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
   std::unique_ptr<PairCostTable> table_;

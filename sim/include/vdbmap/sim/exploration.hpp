@@ -41,6 +41,7 @@
 
 #include <Eigen/Geometry>
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -89,6 +90,11 @@ struct ExplorationProgress {
 struct ExplorationOptions {
   /// Record the flight as a log here (replayable by `vdbmap integrate`); empty: no log.
   std::filesystem::path log_dir;
+  /// Measure coverage of this surface during the run (ExplorationResult::coverage_timeline), at
+  /// the first frame, every coverage_period_s of simulated time, and once more after the final
+  /// re-integration; null: no timeline. Read during the call only.
+  const ObservableSurface* observable = nullptr;
+  double coverage_period_s = 1.0;  ///< (0, 1e4]
   bool overwrite = false;
   std::string description;  ///< stored in the log's simulation.json
   /// Called after every frame.
@@ -101,6 +107,27 @@ struct ExplorationOptions {
 struct ExplorationEvent {
   double t_s = 0.0;
   std::string what;
+};
+
+/// The run at one moment (coverage.csv).
+struct CoverageSample {
+  double t_s = 0.0;
+  double coverage = 0.0;          ///< of the observable surface, by the map as it is at t_s
+  double path_length_m = 0.0;     ///< TRUE path flown so far
+  std::size_t clusters = 0;       ///< live frontier clusters
+  std::size_t loop_closures = 0;  ///< so far
+  double estimate_error_m = 0.0;  ///< estimated vs true sensor position
+  planner::ExplorationActivity activity = planner::ExplorationActivity::Holding;
+};
+
+/// One camera frame's cycle (cycles.csv).
+struct CycleSample {
+  double t_s = 0.0;
+  double mapper_ms = 0.0;         ///< integration, correction and background cycle
+  double planner_ms = 0.0;        ///< frontier refresh and replan when the update replanned; 0 otherwise
+  double frame_wall_ms = 0.0;     ///< everything (render, map, planner, log)
+  std::size_t queued_frames = 0;  ///< re-integration work left after the cycle
+  planner::ExplorationActivity activity = planner::ExplorationActivity::Holding;
 };
 
 struct ExplorationResult {
@@ -132,6 +159,12 @@ struct ExplorationResult {
   /// that ended with a loop closure.
   planner::AlcStats alc;
   std::vector<ExplorationEvent> events;  ///< in time order
+  std::vector<CoverageSample> coverage_timeline;  ///< when ExplorationOptions::observable is set
+  std::vector<CycleSample> cycles;                ///< every frame
+  /// Simulated time per activity (indexed by ExplorationActivity): each frame interval counts for
+  /// the activity the manager's update at its start left.
+  std::array<double, planner::kExplorationActivities> activity_time_s{};
+  double longest_hold_s = 0.0;  ///< the longest stretch of Holding
   std::size_t keyframes_kept = 0;
   std::size_t reintegrated_frames = 0;
   /// Sensor poses T_W_S at every frame: true, and estimated (what the Mapper integrated with).
@@ -211,14 +244,22 @@ struct ExplorationSummary {
   double completeness = 0.0;     ///< of the WHOLE world mesh within 2 voxels (hidden surfaces included)
   bool finished = false;
   ObservableSurfaceStats observable;
+  /// Simulated time at which the timeline's coverage first reached each of kCoverageMilestones
+  /// (negative: never).
+  std::array<double, 5> time_to_coverage_s{};
+  double mean_speed_mps = 0.0;  ///< path_length_m / exploration_time_s
   double wall_s = 0.0;
 };
+
+/// The coverage fractions summary.json reports time_to_coverage_s for.
+inline constexpr std::array<double, 5> kCoverageMilestones = {0.5, 0.8, 0.9, 0.95, 0.99};
 
 struct ExplorationRunOptions {
   SurfaceCoverageConfig coverage;  ///< max_view_distance_m and the fov are set from the planner's camera
   double completeness_threshold_vox = 2.0;  ///< (0, 100]
   bool overwrite = false;                   ///< replace a run already in the folder
   std::string description;                  ///< e.g. the command line
+  std::string world;                        ///< the world mesh's path, recorded in summary.json
   std::function<void(const ExplorationProgress&)> progress;
   /// Write the flight's log (log/, replayable) and the map (map.vdb, mesh.ply). summary.json and
   /// the trajectories are always written. Benchmarks that only need the numbers turn these off.
@@ -230,7 +271,8 @@ struct ExplorationRunOptions {
 
 /// Runs the exploration and writes the run folder: log/ (replayable), map.vdb, mesh.ply (unless
 /// turned off in the options), trajectory_true.txt and trajectory_odom.txt (TUM, sensor poses per
-/// frame, true and estimated), and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
+/// frame, true and estimated), coverage.csv (CoverageSample every second), cycles.csv
+/// (CycleSample per frame) and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
 ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
                                    const std::filesystem::path& run_dir, const ExplorationRunOptions& options = {});
 
