@@ -9,6 +9,9 @@ VDBMAP_APT_PACKAGES=(
   libompl-dev libceres-dev libpng-dev libcli11-dev nlohmann-json3-dev libnanoflann-dev
   catch2 pybind11-dev python3-dev python3-numpy python3-pytest python3-openvdb
 )
+# And for the tests only: the report's browser test (headless Chromium, WebGL through SwiftShader;
+# Pillow reads its screenshots; a font for the page's text).
+VDBMAP_TEST_APT_PACKAGES=(chromium python3-pil fonts-dejavu-core)
 
 vdbmap_root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 vdbmap_build="${VDBMAP_BUILD_DIR:-$vdbmap_root/build}"
@@ -16,9 +19,10 @@ vdbmap_build="${VDBMAP_BUILD_DIR:-$vdbmap_root/build}"
 vdbmap_jobs="${VDBMAP_JOBS:-$(nproc 2>/dev/null || echo 2)}"
 [ "$vdbmap_jobs" -gt 4 ] && vdbmap_jobs=4
 
+# vdbmap_install_packages [extra package...]: installs what is missing of VDBMAP_APT_PACKAGES and the extras.
 vdbmap_install_packages() {
   local missing=()
-  for p in "${VDBMAP_APT_PACKAGES[@]}"; do
+  for p in "${VDBMAP_APT_PACKAGES[@]}" "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   [ ${#missing[@]} -eq 0 ] && return 0

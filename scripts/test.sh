@@ -5,7 +5,7 @@
 # See README.md.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
-vdbmap_install_packages
+vdbmap_install_packages "${VDBMAP_TEST_APT_PACKAGES[@]}"
 vdbmap_build_targets
 cd "$vdbmap_build"
 ctest --output-on-failure -j "$vdbmap_jobs" "$@"

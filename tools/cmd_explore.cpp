@@ -1,12 +1,14 @@
 // `vdbmap explore [--world W.ply] [--drift s1..s4] [--seed N] [--voxel-size M] [--max-time-s T]
 // [--mode keyframes|all|none|submap] [--start x,y,z] [--box ...] [--ceiling Z] [--alc on|off]
-// [--epsilon E] [--budgets counted|wall-clock] -o RUNDIR`: explores
+// [--epsilon E] [--budgets counted|wall-clock] [--report] -o RUNDIR`: explores
 // the world with the simulated vehicle, the mapper and the exploration planner in closed loop, and
 // writes the run folder (see sim/exploration.hpp).
 #include "cli_util.hpp"
 #include "command.hpp"
 
+#include "report/report.hpp"
 #include "vdbmap/sim/exploration.hpp"
+#include "vdbmap/timing.hpp"
 
 #include <unistd.h>
 
@@ -36,6 +38,7 @@ struct ExploreOptions {
   int final_min_cluster_size = planner::ExplorationParams{}.final_min_cluster_size;
   bool no_initial_turn = false;
   bool overwrite = false;
+  bool report = false;
 };
 
 /// A progress line on a terminal (rewritten in place), else a line every 10 s of simulated time.
@@ -98,6 +101,7 @@ void runExplore(const ExploreOptions& o) {
   sim::ExplorationRunOptions ro;
   ro.overwrite = o.overwrite;
   ro.description = description;
+  ro.world = std::filesystem::absolute(requireWorld(o.world)).lexically_normal().string();
   ExploreProgress progress;
   ro.progress = [&](const sim::ExplorationProgress& p) { progress.update(p); };
   ro.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
@@ -113,6 +117,13 @@ void runExplore(const ExploreOptions& o) {
               "completeness %.3f; %.0f s wall\n",
               s.planner_ms_median, s.planner_ms_max, s.frames_total, s.keyframes_kept, s.accuracy_rmse_m,
               s.completeness, s.wall_s);
+  if (o.report) {
+    const Stopwatch watch;
+    report::ReportConfig rc;
+    rc.command = description;
+    const report::ReportStats r = report::writeReport(o.output, o.output / "report.html", rc);
+    std::printf("report %s: %.1f MB in %.1f s\n", (o.output / "report.html").c_str(), double(r.bytes) / 1e6, watch.s());
+  }
 }
 
 const Registration registration("explore", [](CLI::App& app) {
@@ -164,6 +175,7 @@ const Registration registration("explore", [](CLI::App& app) {
       ->check(CLI::IsMember({"counted", "wall-clock"}));
   sub->add_flag("--no-initial-turn", o->no_initial_turn, "Skip the turn on the spot at take-off");
   sub->add_flag("--overwrite", o->overwrite, "Replace a run already in RUNDIR");
+  sub->add_flag("--report", o->report, "Also write RUNDIR/report.html (as `vdbmap report RUNDIR`)");
   sub->add_option("-o,--output", o->output, "Run folder to write")->required();
   sub->callback([o] { runExplore(*o); });
 });

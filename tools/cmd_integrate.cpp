@@ -106,6 +106,7 @@ void runIntegrate(IntegrateOptions o) {
       {"cycle_ms_median", r.cycle_ms_median},
       {"ms_per_frame_p99", r.ms_per_frame_p99},
       {"ms_per_frame_max", r.ms_per_frame_max},
+      {"cycle_ms", r.cycle_ms},
       {"background_frames", r.background_frames},
       {"pruned_frames_deintegrated", r.pruned_frames_deintegrated},
       {"load_s", r.load_s},

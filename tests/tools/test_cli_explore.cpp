@@ -60,6 +60,35 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(lineCount(runs / "trajectory_true.txt") == frames);
   CHECK(lineCount(runs / "trajectory_odom.txt") == frames);
 
+  // How the time went: coverage every second (and once more after the final correction, equal to
+  // the summary's), a row per frame, activities summing to the flight's time.
+  CHECK(lineCount(runs / "cycles.csv") == frames + 1);  // and the header
+  const double t_end = s.at("exploration_time_s");
+  CHECK(lineCount(runs / "coverage.csv") >= std::size_t(t_end) + 1);
+  {
+    std::ifstream in(runs / "coverage.csv");
+    std::string line, last;
+    while (std::getline(in, line)) last = line;
+    CHECK(std::stod(last.substr(last.find(',') + 1)) == Approx(s.at("coverage").get<double>()).margin(1e-6));
+  }
+  double activity_s = 0.0;
+  for (const auto& [name, t] : s.at("activity_time_s").items()) activity_s += t.get<double>();
+  CHECK(activity_s == Approx(t_end).margin(1e-6));
+  CHECK(s.at("mean_speed_mps").get<double>() == Approx(s.at("path_length_m").get<double>() / t_end));
+  const auto& ttc = s.at("time_to_coverage_s");
+  REQUIRE(ttc.contains("0.50"));
+  REQUIRE(!ttc.at("0.50").is_null());
+  CHECK(ttc.at("0.50").get<double>() <= t_end);
+  if (!ttc.at("0.80").is_null()) CHECK(ttc.at("0.50").get<double>() <= ttc.at("0.80").get<double>());
+
+  // The run's report: one page, and a path that is no run is named.
+  REQUIRE(run("report " + runs.string() + " -o " + (dir / "report.html").string(), out) == 0);
+  CHECK(fs::file_size(dir / "report.html") > 500000);  // three.js alone is 0.7 MB
+  CHECK(slurp(out).find("distance to the world") != std::string::npos);  // the recorded world colours the map
+  CHECK(run("report " + (dir / "nowhere").string() + " -o " + (dir / "r.html").string(), out) != 0);
+  CHECK(slurp(out).find("nowhere does not exist") != std::string::npos);
+  CHECK(!fs::exists(dir / "r.html"));
+
   // Counted budgets (the default) make the same command give the same run.
   CHECK(s.at("budgets").at("path_max_iterations").get<std::uint64_t>() > 0);
   CHECK(s.at("budgets").at("reintegration_budget_frames").get<int>() > 0);
