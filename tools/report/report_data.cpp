@@ -565,7 +565,7 @@ json driftBenchmark(const fs::path& dir, const ReportConfig& config, ReportStats
     scene["mesh"] = meshLayer(io::readTriangleMesh(mesh_file), 0.05, world ? &*world : nullptr, config, stats);
     scene["caption"] = "map of level " + levels.back() + ", mode " + shown_mode;
   } else {
-    stats.notes.push_back("no " + mesh_file.string() + ": no 3D view (bench drift writes meshes with --meshes)");
+    stats.notes.push_back("no " + mesh_file.string() + ": no 3D view (bench drift writes them unless --no-meshes)");
   }
   data["scene"] = scene;
   return data;
