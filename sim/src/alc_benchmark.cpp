@@ -1,5 +1,6 @@
 #include "vdbmap/sim/alc_benchmark.hpp"
 
+#include "internal/spread.hpp"
 #include "text_format.hpp"
 
 #include "vdbmap/atomic_file.hpp"
@@ -52,23 +53,8 @@ nlohmann::json toJson(const AlcBenchmarkRun& r) {
           {"wall_s", s.wall_s}};
 }
 
-/// Mean and sample standard deviation.
-struct Spread {
-  double mean = 0.0, sd = 0.0;
-  std::size_t n = 0;
-};
-Spread spread(const std::vector<double>& v) {
-  Spread s;
-  s.n = v.size();
-  if (v.empty()) return s;
-  for (double x : v) s.mean += x;
-  s.mean /= double(v.size());
-  if (v.size() > 1) {
-    for (double x : v) s.sd += (x - s.mean) * (x - s.mean);
-    s.sd = std::sqrt(s.sd / double(v.size() - 1));
-  }
-  return s;
-}
+using internal::Spread;
+using internal::spread;
 
 using Metric = std::function<double(const ExplorationSummary&)>;
 std::vector<double> values(const AlcBenchmarkResult& result, const std::string& arm, const Metric& metric) {

@@ -525,6 +525,8 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
         break;
       }
   s.mean_speed_mps = s.exploration_time_s > 0.0 ? s.path_length_m / s.exploration_time_s : 0.0;
+  s.activity_time_s = r.activity_time_s;
+  s.longest_hold_s = r.longest_hold_s;
 
   const TriangleMesh mesh = extractMesh(volume);
   if (options.write_map) {

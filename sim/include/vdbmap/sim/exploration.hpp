@@ -248,6 +248,8 @@ struct ExplorationSummary {
   /// (negative: never).
   std::array<double, 5> time_to_coverage_s{};
   double mean_speed_mps = 0.0;  ///< path_length_m / exploration_time_s
+  std::array<double, planner::kExplorationActivities> activity_time_s{};  ///< as ExplorationResult's
+  double longest_hold_s = 0.0;
   double wall_s = 0.0;
 };
 

@@ -1,0 +1,240 @@
+#include "vdbmap/sim/explore_benchmark.hpp"
+
+#include "internal/spread.hpp"
+#include "text_format.hpp"
+
+#include "vdbmap/atomic_file.hpp"
+#include "vdbmap/io/mesh_io.hpp"
+#include "vdbmap/timing.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+namespace vdbmap::sim {
+
+ExploreBenchmarkWorld parseExploreBenchmarkWorld(const std::string& spec, double ceiling_m) {
+  ExploreBenchmarkWorld w;
+  if (spec.rfind("office:", 0) == 0) {
+    OfficeWorldConfig office;
+    const std::string rest = spec.substr(7);
+    const std::size_t colon = rest.find(':');
+    const std::string seed = rest.substr(0, colon);
+    char* end = nullptr;
+    const unsigned long long s = std::strtoull(seed.c_str(), &end, 10);
+    if (seed.empty() || *end != '\0' || s == 0)
+      throw std::invalid_argument("world '" + spec + "': expected office:SEED or office:SEED:XxY with SEED >= 1");
+    office.seed = s;
+    if (colon != std::string::npos) {
+      const std::string size = rest.substr(colon + 1);
+      double x = 0.0, y = 0.0;
+      char sep = 0, tail = 0;
+      std::istringstream in(size);
+      if (!(in >> x >> sep >> y) || sep != 'x' || (in >> tail))
+        throw std::invalid_argument("world '" + spec + "': the size must read XxY in metres, e.g. 20x16");
+      office.size_x_m = x;
+      office.size_y_m = y;
+    }
+    office.validate();
+    w.office = office;
+    w.name = "office" + std::to_string(s) + (colon == std::string::npos ? "" : "_" + rest.substr(colon + 1));
+    return w;
+  }
+  w.mesh = spec;
+  w.name = w.mesh.stem().string();
+  if (ceiling_m > 0.0) {
+    w.world.ceiling_clip_z_m = ceiling_m;
+    w.world.cap_ceiling = true;
+  }
+  return w;
+}
+
+void ExploreBenchmarkConfig::validate() const {
+  const auto fail = [](const std::string& what) { throw std::invalid_argument("ExploreBenchmarkConfig." + what); };
+  if (worlds.empty()) fail("worlds must name at least one world");
+  std::map<std::string, int> names;
+  for (const ExploreBenchmarkWorld& w : worlds) {
+    if (w.office) w.office->validate();
+    else if (w.mesh.empty()) fail("worlds: " + w.name + " has neither a mesh nor an office");
+    w.world.validate();
+    if (++names[w.name] > 1) fail("worlds: " + w.name + " is listed twice");
+  }
+  DriftConfig::preset(drift_level);  // throws for an unknown level
+  if (seeds < 1 || seeds > 1000) fail("seeds must be in [1, 1000]");
+  if (!(voxel_size_m > 0.0 && voxel_size_m <= 10.0)) fail("voxel_size_m must be in (0, 10]");
+  if (!(max_time_s > 0.0 && max_time_s <= 1e5)) fail("max_time_s must be in (0, 1e5]");
+}
+
+namespace {
+
+using internal::Spread;
+using internal::spread;
+
+World loadWorld(const ExploreBenchmarkWorld& w) {
+  if (!w.office) return World::load(w.mesh, w.world);
+  WorldConfig wc;
+  wc.ceiling_clip_z_m = w.office->height_m;
+  wc.cap_ceiling = true;
+  return World(generateOffice(*w.office).mesh, wc);
+}
+
+double activity(const ExplorationSummary& s, planner::ExplorationActivity a) { return s.activity_time_s[std::size_t(a)]; }
+
+nlohmann::json toJson(const ExploreBenchmarkRun& r) {
+  const ExplorationSummary& s = r.summary;
+  nlohmann::json to_coverage = nlohmann::json::object();
+  for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i)
+    to_coverage[format("%.2f", kCoverageMilestones[i])] =
+        s.time_to_coverage_s[i] >= 0.0 ? nlohmann::json(s.time_to_coverage_s[i]) : nlohmann::json(nullptr);
+  nlohmann::json activities = nlohmann::json::object();
+  for (int a = 0; a < planner::kExplorationActivities; ++a)
+    activities[toString(planner::ExplorationActivity(a))] = s.activity_time_s[std::size_t(a)];
+  return {{"world", r.world},
+          {"seed", r.seed},
+          {"finished", s.finished},
+          {"exploration_time_s", s.exploration_time_s},
+          {"time_to_coverage_s", to_coverage},
+          {"coverage", s.coverage},
+          {"path_length_m", s.path_length_m},
+          {"mean_speed_mps", s.mean_speed_mps},
+          {"activity_time_s", activities},
+          {"longest_hold_s", s.longest_hold_s},
+          {"collisions", s.collisions},
+          {"loop_closures", s.loop_closures},
+          {"accuracy_rmse_m", s.accuracy_rmse_m},
+          {"planner_ms_median", s.planner_ms_median},
+          {"planner_ms_max", s.planner_ms_max},
+          {"wall_s", s.wall_s},
+          {"real_time_factor", s.wall_s > 0.0 ? s.exploration_time_s / s.wall_s : 0.0}};
+}
+
+void writeOutputs(const ExploreBenchmarkResult& result, const ExploreBenchmarkConfig& config,
+                  const std::filesystem::path& out_dir) {
+  nlohmann::json runs = nlohmann::json::array();
+  for (const ExploreBenchmarkRun& r : result.runs) runs.push_back(toJson(r));
+  vdbmap::writeFileAtomically(out_dir / "explore.json", [&](std::ostream& os) { os << runs.dump(2) << "\n"; });
+  const std::string md = exploreBenchmarkMarkdown(result, config);
+  vdbmap::writeFileAtomically(out_dir / "explore.md", [&](std::ostream& os) { os << md; });
+}
+
+/// "t" or "-" (never reached).
+std::string timeOrDash(double t_s) { return t_s >= 0.0 ? format("%.0f", t_s) : std::string("-"); }
+
+}  // namespace
+
+ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config, const std::filesystem::path& out_dir) {
+  config.validate();
+  const Stopwatch wall;
+  const auto report = [&](const std::string& line) {
+    if (config.report) config.report(line);
+  };
+  std::filesystem::create_directories(out_dir);
+  ExploreBenchmarkResult result;
+  for (const ExploreBenchmarkWorld& w : config.worlds) {
+    const World world = loadWorld(w);
+    // A generated world is written beside the runs, so that a report can colour a map by it.
+    std::filesystem::path world_file = w.mesh;
+    if (w.office) {
+      world_file = out_dir / "worlds" / (w.name + ".ply");
+      std::filesystem::create_directories(world_file.parent_path());
+      io::writePlyMesh(world_file, generateOffice(*w.office).mesh);
+    }
+    for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) {
+      ExplorationConfig ec = explorationConfigFor(world, config.drift_level, seed, config.voxel_size_m);
+      ec.max_time_s = config.max_time_s;
+      ec.planner.alc_enabled = config.alc;
+      ec.planner.alc.tour.seed = seed;
+      ExplorationRunOptions ro;
+      ro.overwrite = true;
+      ro.write_log = config.keep_runs;
+      ro.write_map = config.keep_runs;
+      ro.world = std::filesystem::absolute(world_file).lexically_normal().string();
+      ro.description = "vdbmap bench explore: world " + w.name + ", seed " + std::to_string(seed) + ", drift " +
+                       config.drift_level + (config.alc ? ", ALC on" : "");
+      const std::string name = w.name + "_seed" + std::to_string(seed);
+      const ExploreBenchmarkRun run{w.name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
+      const ExplorationSummary& s = run.summary;
+      report(name + ": " + (s.finished ? "finished" : "time limit") + " after " + format("%.1f s", s.exploration_time_s) +
+             ", coverage " + format("%.3f", s.coverage) + ", 0.95 at " + timeOrDash(s.time_to_coverage_s[3]) + " s, " +
+             format("%.2f m/s", s.mean_speed_mps) + ", " + std::to_string(s.collisions) + " collisions, " +
+             format("%.0f s wall", s.wall_s));
+      result.runs.push_back(run);
+      result.wall_s = wall.s();
+      writeOutputs(result, config, out_dir);
+    }
+  }
+  return result;
+}
+
+std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const ExploreBenchmarkConfig& config) {
+  std::ostringstream md;
+  md << "# Exploration speed\n\nDrift " << config.drift_level << ", seeds 1.." << config.seeds << ", voxel "
+     << config.voxel_size_m << " m, ALC " << (config.alc ? "on" : "off") << ", time limit " << config.max_time_s
+     << " s. Times are simulated seconds; `t95` is the time to 95 % coverage of the observable surface (`-`: never "
+        "reached); the final sweep is the time spent on the small clusters after the main ones were done; the "
+        "real-time factor is simulated over wall-clock time (this machine). Per world: mean ± sample standard "
+        "deviation over the seeds (a `-` in a run leaves it out of the mean).\n\n";
+  std::map<std::string, std::vector<const ExplorationSummary*>> by_world;
+  std::vector<std::string> order;
+  for (const ExploreBenchmarkRun& r : result.runs) {
+    if (!by_world.count(r.world)) order.push_back(r.world);
+    by_world[r.world].push_back(&r.summary);
+  }
+  const auto cell = [](const std::vector<double>& v, const char* fmt) {
+    const Spread s = spread(v);
+    if (s.n == 0) return std::string("-");
+    return format(fmt, s.mean) + (s.n > 1 ? " ± " + format(fmt, s.sd) : std::string());
+  };
+  md << "## Per world\n\n| world | runs | finished | t50 | t80 | t90 | t95 | t99 | time (s) | coverage | speed (m/s) | "
+        "final sweep (s) | longest hold (s) | collisions | planner p50 / max (ms) | real-time factor |\n"
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const std::string& world : order) {
+    const std::vector<const ExplorationSummary*>& runs = by_world[world];
+    const auto values = [&](const auto& f) {
+      std::vector<double> v;
+      for (const ExplorationSummary* s : runs) {
+        const double x = f(*s);
+        if (x >= 0.0) v.push_back(x);
+      }
+      return v;
+    };
+    std::size_t finished = 0;
+    for (const ExplorationSummary* s : runs) finished += s->finished ? 1 : 0;
+    md << "| " << world << " | " << runs.size() << " | " << finished << " |";
+    for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i)
+      md << " " << cell(values([i](const ExplorationSummary& s) { return s.time_to_coverage_s[i]; }), "%.0f") << " |";
+    md << " " << cell(values([](const ExplorationSummary& s) { return s.exploration_time_s; }), "%.0f") << " | "
+       << cell(values([](const ExplorationSummary& s) { return s.coverage; }), "%.3f") << " | "
+       << cell(values([](const ExplorationSummary& s) { return s.mean_speed_mps; }), "%.2f") << " | "
+       << cell(values([](const ExplorationSummary& s) { return activity(s, planner::ExplorationActivity::FinalSweep); }), "%.0f")
+       << " | " << cell(values([](const ExplorationSummary& s) { return s.longest_hold_s; }), "%.1f") << " | "
+       << cell(values([](const ExplorationSummary& s) { return double(s.collisions); }), "%.1f") << " | "
+       << cell(values([](const ExplorationSummary& s) { return s.planner_ms_median; }), "%.0f") << " / "
+       << cell(values([](const ExplorationSummary& s) { return s.planner_ms_max; }), "%.0f") << " | "
+       << cell(values([](const ExplorationSummary& s) { return s.wall_s > 0 ? s.exploration_time_s / s.wall_s : 0.0; }), "%.2f")
+       << " |\n";
+  }
+  md << "\n## Runs\n\n| world | seed | finished | t50 | t80 | t90 | t95 | t99 | time (s) | coverage | path (m) | speed "
+        "(m/s) | to target / final sweep / turning / holding / initial turn / other (s) | longest hold (s) | collisions | "
+        "wall (s) |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|\n";
+  for (const ExploreBenchmarkRun& r : result.runs) {
+    const ExplorationSummary& s = r.summary;
+    using A = planner::ExplorationActivity;
+    const double other = activity(s, A::LoopDetour) + activity(s, A::Escaping) + activity(s, A::Retreating);
+    md << "| " << r.world << " | " << r.seed << " | " << (s.finished ? "yes" : "no") << " |";
+    for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i) md << " " << timeOrDash(s.time_to_coverage_s[i]) << " |";
+    md << " " << format("%.1f", s.exploration_time_s) << " | " << format("%.3f", s.coverage) << " | "
+       << format("%.0f", s.path_length_m) << " | " << format("%.2f", s.mean_speed_mps) << " | "
+       << format("%.0f", activity(s, A::ToTarget)) << " / " << format("%.0f", activity(s, A::FinalSweep)) << " / "
+       << format("%.0f", activity(s, A::Turning)) << " / " << format("%.0f", activity(s, A::Holding)) << " / "
+       << format("%.0f", activity(s, A::InitialTurn)) << " / " << format("%.0f", other) << " | "
+       << format("%.1f", s.longest_hold_s) << " | " << s.collisions << " | " << format("%.0f", s.wall_s) << " |\n";
+  }
+  return md.str();
+}
+
+}  // namespace vdbmap::sim
