@@ -81,7 +81,7 @@ void runIntegrate(IntegrateOptions o) {
                              " listed, " + std::to_string(r.frames_skipped) + " skipped); nothing written");
 
   const TsdfVolume& volume = mapper.volume();
-  volume.save(o.output);
+  mapper.save(o.output);  // and, in all and keyframes modes, MAP.keyframes (for `vdbmap reintegrate`)
   std::size_t triangles = 0;
   if (!o.mesh.empty()) {
     const TriangleMesh mesh = extractMesh(volume);
@@ -122,6 +122,9 @@ void runIntegrate(IntegrateOptions o) {
       {"map_bytes", volume.memoryBytes()},
       {"mesh_triangles", triangles},
       {"map", o.output.string()},
+      {"keyframes_file", config.mode == ConsistencyMode::All || config.mode == ConsistencyMode::Keyframes
+                             ? Mapper::keyframesPath(o.output).string()
+                             : std::string()},
   };
   if (!o.json.empty()) writeJson(o.json, summary);
   std::printf("integrated %zu of %zu frames (%zu skipped) in %.2f s: %.1f ms/frame median (integration only); "
@@ -132,7 +135,9 @@ void runIntegrate(IntegrateOptions o) {
               "cycles (%.0f ms, max cycle %.1f ms), %zu correction events\n",
               toString(config.mode), mapper.keyframesKept(), s.reintegrated_frames, s.frames_dropped,
               s.reintegration_ms_total, s.reintegration_ms_max_cycle, r.correction_events);
-  std::printf("wrote %s%s%s\n", o.output.c_str(), o.mesh.empty() ? "" : " and ", o.mesh.c_str());
+  const bool store = config.mode == ConsistencyMode::All || config.mode == ConsistencyMode::Keyframes;
+  std::printf("wrote %s%s%s%s%s\n", o.output.c_str(), store ? ", " : "", store ? Mapper::keyframesPath(o.output).c_str() : "",
+              o.mesh.empty() ? "" : " and ", o.mesh.c_str());
 }
 
 const Registration registration("integrate", [](CLI::App& app) {
@@ -142,7 +147,8 @@ const Registration registration("integrate", [](CLI::App& app) {
   sub->add_option("log", o->log, "Log folder (sensor.json + frames.csv) or a dataset folder (7-Scenes, ICL-NUIM, "
                                  "Redwood/TUM, Replica, 3DMatch)")->required()->check(CLI::ExistingDirectory);
   sub->add_option("-o,--output", o->output,
-                  "Map to write (.vdb, appended when missing; the exact state goes beside it as .exact.vdb)")
+                  "Map to write (.vdb, appended when missing; the exact state goes beside it as .exact.vdb and, in all "
+                  "and keyframes modes, the keyframe store as .keyframes, for `vdbmap reintegrate`)")
       ->required();
   sub->add_option("--format", o->format, "Layout of LOG: auto, log, 7scenes, 3dmatch, iclnuim, redwood, tum, replica");
   sub->add_option("--mode", o->mode, "Consistency under corrections: none, submap, all, keyframes")

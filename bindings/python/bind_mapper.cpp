@@ -155,7 +155,28 @@ void bindMapperClass(py::module_& m) {
           "Ids of the stored keyframes, ascending.")
       .def(
           "keyframe", [](const Mapper& self, FrameId id) { return Keyframe(self.keyframes().at(id)); },
-          py::arg("frame_id"), "A copy of a stored keyframe; IndexError when it is not stored (e.g. pruned).");
+          py::arg("frame_id"), "A copy of a stored keyframe; IndexError when it is not stored (e.g. pruned).")
+      .def(
+          "save",
+          [](const Mapper& self, const std::filesystem::path& path) {
+            py::gil_scoped_release nogil;
+            self.save(path);
+          },
+          py::arg("path"),
+          "Writes the map (path, .vdb, with its .exact.vdb) and in all and keyframes modes the keyframe store "
+          "(.keyframes) beside it: what Mapper.load needs to correct the map later. RuntimeError while background "
+          "work is queued (reintegrate_all first), OSError naming a file that cannot be written.")
+      .def_static(
+          "load",
+          [](const std::filesystem::path& path) {
+            py::gil_scoped_release nogil;
+            return Mapper::load(path);
+          },
+          py::arg("path"),
+          "A mapper in all mode holding a saved map and its keyframes: update_poses then reintegrate_all correct it "
+          "as if its frames had been integrated at the new poses. OSError naming the file when the exact state or "
+          "the keyframe store is missing, malformed or of another run.")
+      .def_static("keyframes_path", &Mapper::keyframesPath, py::arg("map_path"), "MAP.vdb -> MAP.keyframes");
 }
 
 void bindMapper(py::module_& m) {

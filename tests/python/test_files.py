@@ -137,6 +137,34 @@ def test_mapper_reintegration_equals_integrating_at_the_corrected_pose():
     assert by_hand.exactly_equals(fresh.volume())
 
 
+def test_a_saved_mapper_loads_and_corrects_exactly(tmp_path):
+    K = small_camera()
+    config = vdbmap.MapperConfig(mode="keyframes")
+    config.tsdf.voxel_size_m = 0.05
+    mapper = vdbmap.Mapper(config)
+    mapper.add_depth_frame(0, 0.0, wall_depth(2.0), K, pose())
+    mapper.add_depth_frame(1, 0.1, wall_depth(1.8), K, pose(0.1, yaw_deg=10.0))
+    mapper.reintegrate_all([0.0, 0.0, 0.0])
+    mapper.save(tmp_path / "map.vdb")
+    assert vdbmap.Mapper.keyframes_path(tmp_path / "map.vdb") == tmp_path / "map.keyframes"
+    assert (tmp_path / "map.keyframes").exists() and (tmp_path / "map.exact.vdb").exists()
+
+    loaded = vdbmap.Mapper.load(tmp_path / "map.vdb")
+    assert loaded.config.mode == vdbmap.ConsistencyMode.All
+    assert loaded.keyframe_ids() == mapper.keyframe_ids()
+    corrected = pose(0.2, 0.0, 0.1, yaw_deg=12.0)
+    assert loaded.update_poses({1: corrected}) == 1
+    loaded.reintegrate_all([0.0, 0.0, 0.0])
+    fresh = vdbmap.Mapper(vdbmap.MapperConfig(mode="none", tsdf=config.tsdf))
+    fresh.add_depth_frame(0, 0.0, mapper.keyframe(0).depth(), K, pose())
+    fresh.add_depth_frame(1, 0.1, mapper.keyframe(1).depth(), K, corrected)
+    assert loaded.volume().exactly_equals(fresh.volume())
+
+    (tmp_path / "map.keyframes").write_bytes(b"garbage")
+    with pytest.raises(OSError, match="map.keyframes"):
+        vdbmap.Mapper.load(tmp_path / "map.vdb")
+
+
 def test_volume_copies_are_deep_and_mapper_snapshots_are_independent():
     volume = two_wall_volume()
     shallow, deep = copy.copy(volume), copy.deepcopy(volume)

@@ -243,6 +243,13 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     return stats;
   }
 
+  void restore(TsdfVolume volume, KeyframeStore store) override {
+    if (store_.size() != 0 || pruner_)
+      throw std::logic_error("a saved map is taken over by a new all-mode mapper only");
+    volume_ = std::move(volume);
+    store_ = std::move(store);
+  }
+
   std::size_t updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) override {
     std::size_t changed = 0;
     for (const auto& [id, T] : T_W_S_by_id) {

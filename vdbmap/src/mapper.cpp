@@ -2,6 +2,8 @@
 
 #include "internal/consistency_policy.hpp"
 
+#include "vdbmap/file_error.hpp"
+
 #include <sstream>
 #include <stdexcept>
 
@@ -93,6 +95,55 @@ const TsdfVolume& Mapper::volume() const { return policy_->volume(); }
 const MapperStats& Mapper::stats() const { return ledger_->stats; }
 const KeyframeStore& Mapper::keyframes() const { return policy_->keyframes(); }
 const FramePruner* Mapper::pruner() const { return policy_->pruner(); }
+
+std::filesystem::path Mapper::keyframesPath(const std::filesystem::path& map_path) {
+  std::filesystem::path p = map_path;
+  return p.replace_extension(".keyframes");
+}
+
+void Mapper::save(const std::filesystem::path& map_path) const {
+  if (queuedFrames() != 0)
+    throw std::logic_error("Mapper::save: " + std::to_string(queuedFrames()) +
+                           " frames still wait for background work; call reintegrateAll first");
+  const bool keeps_frames = config_.mode == ConsistencyMode::All || config_.mode == ConsistencyMode::Keyframes;
+  // The store first: a map file never sits beside a store of another run.
+  if (keeps_frames) keyframes().save(keyframesPath(map_path));
+  volume().save(map_path);
+}
+
+Mapper Mapper::load(const std::filesystem::path& map_path, const ReintegrationConfig& reintegration) {
+  TsdfVolume volume = TsdfVolume::load(map_path);
+  if (!volume.hasExactState())
+    throw FileError(map_path.string() + ": no exact companion (" + TsdfVolume::exactStatePath(map_path).filename().string() +
+                    "), so the map cannot be corrected exactly");
+  const std::filesystem::path store_path = keyframesPath(map_path);
+  if (!std::filesystem::is_regular_file(store_path))
+    throw FileError(map_path.string() + ": no keyframe store " + store_path.string() +
+                    " (integrate in all or keyframes mode writes it)");
+  KeyframeStore store = KeyframeStore::load(store_path);
+  const std::map<FrameId, Pose3d> held = volume.integratedPoses();
+  std::size_t integrated = 0;
+  for (const auto& [id, kf] : store) {
+    if (!kf.integrated) continue;
+    ++integrated;
+    const auto it = held.find(id);
+    if (it == held.end())
+      throw FileError(store_path.string() + ": keyframe " + std::to_string(id) + " is not in the map " + map_path.string());
+    if (!(it->second.matrix() == kf.T_W_S_integrated.matrix()))
+      throw FileError(store_path.string() + ": keyframe " + std::to_string(id) + " is held by the map at another pose");
+  }
+  if (integrated != held.size())
+    throw FileError(map_path.string() + " holds " + std::to_string(held.size()) + " frames, its keyframe store " +
+                    std::to_string(integrated) + ": they are not of the same run");
+  MapperConfig config;
+  config.mode = ConsistencyMode::All;
+  config.tsdf = volume.config();
+  config.integrator = volume.integratorConfig();
+  config.reintegration = reintegration;
+  Mapper mapper(config);
+  mapper.policy_->restore(std::move(volume), std::move(store));
+  return mapper;
+}
 
 openvdb::CoordBBox Mapper::takeDirtyRegion() {
   openvdb::CoordBBox box = ledger_->dirty;

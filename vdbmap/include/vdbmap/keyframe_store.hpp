@@ -10,6 +10,7 @@
 #include "vdbmap/types.hpp"
 
 #include <cstdint>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <vector>
@@ -42,6 +43,7 @@ class EncodedFrame {
   bool empty() const { return payload_.empty(); }
 
  private:
+  friend struct KeyframeStoreFile;  // keyframe_store_io.cpp reads and writes the fields
   enum class Kind : std::uint8_t { Depth, Points };
   Kind kind_ = Kind::Points;
   std::shared_ptr<const CameraIntrinsics> intrinsics_;
@@ -79,6 +81,16 @@ class KeyframeStore {
   auto end() const { return frames_.end(); }
   auto begin() { return frames_.begin(); }
   auto end() { return frames_.end(); }
+
+  // ---- files (keyframe_store_io.cpp) ---------------------------------------------------------
+  /// Writes every keyframe (ids, stamps, both poses, whether integrated, the encoded data as
+  /// stored) to `path` (docs/formats.md, "MAP.keyframes"), atomically: a failure leaves an
+  /// existing file untouched. Throws FileError naming the file.
+  void save(const std::filesystem::path& path) const;
+  /// Reads a file save() wrote. Throws FileError naming the file, the keyframe and the field on
+  /// bad input (wrong magic, newer version, sizes beyond the file, invalid camera or pose), before
+  /// allocating for sizes the file cannot hold.
+  static KeyframeStore load(const std::filesystem::path& path);
 
  private:
   std::map<FrameId, Keyframe> frames_;

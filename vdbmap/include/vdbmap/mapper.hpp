@@ -134,6 +134,21 @@ class Mapper {
   /// it), else nullptr.
   const FramePruner* pruner() const;
 
+  // ---- files: correcting a saved map later -----------------------------------------------------
+  /// MAP.vdb -> MAP.keyframes.
+  static std::filesystem::path keyframesPath(const std::filesystem::path& map_path);
+  /// Writes the map (`map_path` with its exact companion, TsdfVolume::save) and, in all and
+  /// keyframes modes, the keyframe store beside it (keyframesPath): what load() needs to correct
+  /// the map later. Throws std::logic_error while background work is queued (reintegrateAll
+  /// first), FileError naming a file that cannot be written.
+  void save(const std::filesystem::path& map_path) const;
+  /// A mapper holding a saved map and its keyframe store, in all mode (its tsdf and integrator
+  /// from the map, `reintegration` for its cycles): updatePoses then reintegrateAll correct it
+  /// exactly, as if its frames had been integrated at the new poses. Throws FileError naming the
+  /// file when the map has no exact companion, the store is missing or malformed, or the two
+  /// disagree (a frame the map holds that the store lacks, or holds at another pose).
+  static Mapper load(const std::filesystem::path& map_path, const ReintegrationConfig& reintegration = {});
+
  private:
   IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S);
 

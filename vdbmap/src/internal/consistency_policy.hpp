@@ -15,6 +15,7 @@
 
 #include <map>
 #include <memory>
+#include <stdexcept>
 
 namespace vdbmap::internal {
 
@@ -48,6 +49,11 @@ class ConsistencyPolicy {
   virtual const KeyframeStore& keyframes() const = 0;
   /// The set-cover pruner (keyframes mode), else nullptr.
   virtual const FramePruner* pruner() const { return nullptr; }
+  /// Takes over a saved map and the keyframes it holds (Mapper::load); only the re-integrating
+  /// policies can, and only before any frame was added.
+  virtual void restore(TsdfVolume volume, KeyframeStore store) {
+    throw std::logic_error("only the all and keyframes modes can take over a saved map");
+  }
 };
 
 /// The policy of `config.mode` (it keeps a copy of `config`), reporting into `ledger`, which must

@@ -353,6 +353,13 @@ class Mapper:
     def keyframe_store_bytes(self) -> int: ...
     def keyframe_ids(self) -> list[int]: ...
     def keyframe(self, frame_id: int) -> Keyframe: ...
+    def save(self, path: Any) -> None:
+        """The map (.vdb, .exact.vdb) and, in all and keyframes modes, its keyframe store (.keyframes)."""
+    @staticmethod
+    def load(path: Any) -> Mapper:
+        """A mapper in all mode holding a saved map and its keyframes, ready to be corrected."""
+    @staticmethod
+    def keyframes_path(map_path: Any) -> Any: ...
 
 # ---- files, datasets, replay ----------------------------------------------------------------------
 
