@@ -26,6 +26,42 @@ endif()
 
 find_package(Ceres REQUIRED)            # Ceres::ceres, the simulator's 4-DOF pose graph (sim/pose_graph.hpp)
 
+# ROS1 bags without ROS (io/ros_bag.hpp): Debian's rosbag_storage and message headers. Their
+# CMake configs are catkin's and their pkg-config files name a missing package, so the headers
+# and libraries are found one by one and wrapped in an INTERFACE target. Without them the io
+# library is built without bag support and says so when asked to read a bag.
+set(_vdbmap_ros_paths rosbag/bag.h pluginlib/class_loader.hpp class_loader/class_loader.hpp
+    rcutils/logging_macros.h rcpputils/shared_library.hpp ament_index_cpp/get_package_prefix.hpp
+    sensor_msgs/Image.h nav_msgs/Path.h geometry_msgs/TransformStamped.h)
+set(VDBMAP_HAS_ROSBAG ON)
+set(_vdbmap_ros_includes "")
+foreach(_header IN LISTS _vdbmap_ros_paths)
+  string(MAKE_C_IDENTIFIER "VDBMAP_ROS_${_header}" _var)
+  get_filename_component(_dir "${_header}" DIRECTORY)
+  find_path(${_var} ${_header} PATH_SUFFIXES ${_dir})  # pluginlib/pluginlib/..., class_loader/class_loader/...
+  if(${_var})
+    list(APPEND _vdbmap_ros_includes ${${_var}})
+  else()
+    set(VDBMAP_HAS_ROSBAG OFF)
+  endif()
+endforeach()
+set(_vdbmap_ros_libraries "")
+foreach(_lib rosbag_storage roscpp_serialization rostime cpp_common console_bridge roslz4)
+  find_library(VDBMAP_ROS_LIB_${_lib} ${_lib})
+  if(VDBMAP_ROS_LIB_${_lib})
+    list(APPEND _vdbmap_ros_libraries ${VDBMAP_ROS_LIB_${_lib}})
+  else()
+    set(VDBMAP_HAS_ROSBAG OFF)
+  endif()
+endforeach()
+if(VDBMAP_HAS_ROSBAG AND NOT TARGET vdbmap_rosbag_deps)
+  list(REMOVE_DUPLICATES _vdbmap_ros_includes)
+  add_library(vdbmap_rosbag_deps INTERFACE)
+  target_include_directories(vdbmap_rosbag_deps SYSTEM INTERFACE ${_vdbmap_ros_includes})
+  target_link_libraries(vdbmap_rosbag_deps INTERFACE ${_vdbmap_ros_libraries})
+endif()
+message(STATUS "vdbmap: ROS bag support ${VDBMAP_HAS_ROSBAG}")
+
 if(VDBMAP_BUILD_TESTS)
   find_package(Catch2 2 REQUIRED)       # Catch2::Catch2WithMain
   include(CTest)

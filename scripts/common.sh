@@ -8,10 +8,13 @@ VDBMAP_APT_PACKAGES=(
   libboost-iostreams-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
   libompl-dev libceres-dev libpng-dev libcli11-dev nlohmann-json3-dev libnanoflann-dev
   catch2 pybind11-dev python3-dev python3-numpy python3-pytest python3-openvdb
+  librosbag-storage-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
 )
 # And for the tests only: the report's browser test (headless Chromium, WebGL through SwiftShader;
 # Pillow reads its screenshots; a font for the page's text).
-VDBMAP_TEST_APT_PACKAGES=(chromium python3-pil fonts-dejavu-core)
+# And test ROS bags written by ROS's own Python library.
+VDBMAP_TEST_APT_PACKAGES=(chromium python3-pil fonts-dejavu-core
+  python3-rosbag python3-sensor-msgs python3-nav-msgs python3-geometry-msgs)
 
 vdbmap_root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 vdbmap_build="${VDBMAP_BUILD_DIR:-$vdbmap_root/build}"

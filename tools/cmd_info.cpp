@@ -1,7 +1,9 @@
-// `vdbmap info MAP.vdb [--json]`: grids, voxel counts, bounds, metadata, memory.
+// `vdbmap info MAP.vdb|RUN.bag [--json]`: a map's grids, voxel counts, bounds, metadata, memory; or a
+// ROS bag's topics, types, message counts and time span.
 #include "cli_util.hpp"
 #include "command.hpp"
 
+#include "vdbmap/io/ros_bag.hpp"
 #include "vdbmap/map_file.hpp"
 
 #include <cstdio>
@@ -32,11 +34,32 @@ nlohmann::json toJson(const MapFileInfo& info) {
 const Registration registration("info", [](CLI::App& app) {
   auto map = std::make_shared<std::filesystem::path>();
   auto json = std::make_shared<std::string>();
-  CLI::App* sub = app.add_subcommand("info", "Describe a map (.vdb): grids, voxel counts, bounds, metadata, memory");
-  sub->add_option("map", *map, "Map file (.vdb)")->required()->check(CLI::ExistingFile);
+  CLI::App* sub = app.add_subcommand(
+      "info", "Describe a map (.vdb: grids, voxel counts, bounds, metadata, memory) or a ROS bag (.bag: topics, "
+              "types, message counts, time span)");
+  sub->add_option("map", *map, "Map file (.vdb) or ROS bag (.bag)")->required()->check(CLI::ExistingFile);
   sub->add_option("--json", *json, "Write the description as JSON to this file ('-' = standard output)")
       ->expected(0, 1)->default_str("-");
   sub->callback([map, json, sub] {
+    if (map->extension() == ".bag") {
+      const io::RosBagInfo bag = io::inspectRosBag(*map);
+      nlohmann::json topics = nlohmann::json::array();
+      for (const io::RosBagTopic& t : bag.topics)
+        topics.push_back({{"topic", t.name}, {"type", t.type}, {"messages", t.messages}, {"first_s", t.first_s}, {"last_s", t.last_s}});
+      const nlohmann::json j = {{"path", map->string()}, {"messages", bag.messages}, {"start_s", bag.start_s},
+                                {"end_s", bag.end_s}, {"topics", topics}};
+      if (sub->count("--json")) {
+        if (json->empty() || *json == "-") std::cout << j.dump(2) << "\n";
+        else writeJson(*json, j);
+        return;
+      }
+      std::printf("%s: %zu messages, %.3f s from %.3f to %.3f\n", map->c_str(), bag.messages, bag.end_s - bag.start_s,
+                  bag.start_s, bag.end_s);
+      for (const io::RosBagTopic& t : bag.topics)
+        std::printf("  %-32s %-32s %7zu messages, %.3f to %.3f\n", t.name.c_str(), t.type.c_str(), t.messages, t.first_s,
+                    t.last_s);
+      return;
+    }
     const MapFileInfo info = inspectMapFile(*map);
     if (sub->count("--json")) {
       const nlohmann::json j = toJson(info);

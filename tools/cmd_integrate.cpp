@@ -4,6 +4,7 @@
 
 #include "vdbmap/io/mesh_io.hpp"
 #include "vdbmap/io/log_replay.hpp"
+#include "vdbmap/io/ros_bag.hpp"
 #include "vdbmap/mesh.hpp"
 
 #include <cstdio>
@@ -33,6 +34,8 @@ struct IntegrateOptions {
   double budget_ms = ReintegrationConfig{}.budget_ms;
   int budget_frames = ReintegrationConfig{}.budget_frames;
   int submap_frames = MapperConfig{}.submap_frames;
+  io::RosBagOptions bag;          // a .bag LOG
+  std::vector<double> extrinsic;  // T_body_camera: x y z qx qy qz qw
 };
 
 /// Outputs are checked before any work: each one's folder must exist, none may be a folder.
@@ -51,7 +54,13 @@ void runIntegrate(IntegrateOptions o) {
   checkOutput(o.output, "map");
   checkOutput(o.mesh, "--mesh");
   checkOutput(o.json, "--json");
-  const auto source = io::openDataset(o.log, io::parseDatasetFormat(o.format));
+  if (!o.extrinsic.empty())
+    o.bag.T_B_S = poseFromTranslationQuaternion(Vec3d(o.extrinsic[0], o.extrinsic[1], o.extrinsic[2]), o.extrinsic[3],
+                                                o.extrinsic[4], o.extrinsic[5], o.extrinsic[6]);
+  const bool bag = o.log.extension() == ".bag";
+  if (bag && o.max_range_m > 0) o.bag.max_range_m = o.max_range_m;
+  const auto source = bag ? io::openRosBag(o.log, o.bag) : io::openDataset(o.log, io::parseDatasetFormat(o.format));
+  if (bag) std::fprintf(stderr, "%s\n", source->description().c_str());
   MapperConfig config;
   config.mode = parseConsistencyMode(o.mode);
   config.tsdf.voxel_size_m = o.voxel_size_m;
@@ -144,8 +153,20 @@ const Registration registration("integrate", [](CLI::App& app) {
   auto o = std::make_shared<IntegrateOptions>();
   CLI::App* sub = app.add_subcommand("integrate", "Integrate a log or dataset folder into a TSDF map (.vdb)");
   sub->option_defaults()->always_capture_default();
-  sub->add_option("log", o->log, "Log folder (sensor.json + frames.csv) or a dataset folder (7-Scenes, ICL-NUIM, "
-                                 "Redwood/TUM, Replica, 3DMatch)")->required()->check(CLI::ExistingDirectory);
+  sub->add_option("log", o->log, "Log folder (sensor.json + frames.csv), a dataset folder (7-Scenes, ICL-NUIM, "
+                                 "Redwood/TUM, Replica, 3DMatch) or a ROS bag (.bag)")->required()->check(CLI::ExistingPath);
+  sub->add_option("--depth-topic", o->bag.depth_topic,
+                  "Bag: sensor_msgs/Image depth topic, 16UC1 (mm) or 32FC1 (m) (default: the only Image topic)");
+  sub->add_option("--camera-info-topic", o->bag.camera_info_topic, "Bag: sensor_msgs/CameraInfo topic (default: the only one)");
+  sub->add_option("--pose-topic", o->bag.pose_topic,
+                  "Bag: body poses, nav_msgs/Odometry, geometry_msgs/PoseStamped or TransformStamped, interpolated at "
+                  "the depth stamps (default: the only such topic)");
+  sub->add_option("--corrections-topic", o->bag.corrections_topic,
+                  "Bag: nav_msgs/Path loop corrections, each message an event correcting a subset of stamps "
+                  "(default: the only Path topic, if any; '-' for none)");
+  sub->add_option("--extrinsic", o->extrinsic, "Bag: T_body_camera as x,y,z,qx,qy,qz,qw (camera = body x extrinsic)")
+      ->delimiter(',')
+      ->expected(7);
   sub->add_option("-o,--output", o->output,
                   "Map to write (.vdb, appended when missing; the exact state goes beside it as .exact.vdb and, in all "
                   "and keyframes modes, the keyframe store as .keyframes, for `vdbmap reintegrate`)")

@@ -1,5 +1,7 @@
 #include "vdbmap/io/frame_source.hpp"
 
+#include "vdbmap/io/ros_bag.hpp"
+
 #include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/png_io.hpp"
 #include "vdbmap/io/point_cloud_io.hpp"
@@ -109,6 +111,7 @@ std::unique_ptr<FrameSource> openDataset(const std::filesystem::path& path, Data
   if (!std::filesystem::exists(path, ec)) throw FileError(path.string() + ": no such folder");
   std::filesystem::path folder = path;
   if (!std::filesystem::is_directory(path, ec)) {
+    if (path.extension() == ".bag") return openRosBag(path);  // topics picked when unambiguous
     // A log's sensor.json or frames.csv names its folder.
     const std::string name = path.filename().string();
     if (name == "frames.csv" || name == "sensor.json") folder = path.parent_path();

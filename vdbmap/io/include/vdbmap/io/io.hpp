@@ -12,5 +12,6 @@
 #include "vdbmap/io/png_io.hpp"
 #include "vdbmap/io/point_cloud_io.hpp"
 #include "vdbmap/io/pose_interpolation.hpp"
+#include "vdbmap/io/ros_bag.hpp"
 #include "vdbmap/io/sensor_info.hpp"
 #include "vdbmap/io/tum_trajectory.hpp"

@@ -1,0 +1,402 @@
+// ROS1 bags through rosbag_storage (see ros_bag.hpp). Compiled without bag support when the
+// packages are missing: every entry point then says how to get it.
+#include "vdbmap/io/ros_bag.hpp"
+
+#include "vdbmap/io/errors.hpp"
+#include "vdbmap/io/pose_interpolation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#ifdef VDBMAP_HAS_ROSBAG
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#endif
+
+namespace vdbmap::io {
+
+void RosBagOptions::validate() const {
+  if (!isValidRigidTransform(T_B_S)) throw std::invalid_argument("RosBagOptions.T_B_S must be a rigid transform");
+  if (!(min_range_m >= 0.0 && min_range_m < max_range_m && max_range_m <= 1000.0))
+    throw std::invalid_argument("RosBagOptions: ranges must satisfy 0 <= min_range_m < max_range_m <= 1000");
+}
+
+#ifndef VDBMAP_HAS_ROSBAG
+
+bool rosBagSupport() { return false; }
+namespace {
+[[noreturn]] void unsupported(const std::filesystem::path& bag) {
+  throw FileError(bag.string() + ": this build reads no ROS bags (install librosbag-storage-dev, libsensor-msgs-dev, "
+                                 "libnav-msgs-dev and libgeometry-msgs-dev, then rebuild)");
+}
+}  // namespace
+RosBagInfo inspectRosBag(const std::filesystem::path& bag) { unsupported(bag); }
+std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& bag, const RosBagOptions&) { unsupported(bag); }
+
+#else
+
+bool rosBagSupport() { return true; }
+
+namespace {
+
+constexpr const char* kImage = "sensor_msgs/Image";
+constexpr const char* kCameraInfo = "sensor_msgs/CameraInfo";
+constexpr const char* kOdometry = "nav_msgs/Odometry";
+constexpr const char* kPoseStamped = "geometry_msgs/PoseStamped";
+constexpr const char* kTransformStamped = "geometry_msgs/TransformStamped";
+constexpr const char* kPath = "nav_msgs/Path";
+
+std::string stampText(double t) { return formatTimestamp(t); }
+
+[[noreturn]] void fail(const std::filesystem::path& bag, const std::string& what) { throw FileError(bag.string() + ": " + what); }
+
+/// Topic -> type of every connection.
+std::map<std::string, std::string> topicTypes(const rosbag::Bag& bag) {
+  std::map<std::string, std::string> types;
+  rosbag::View view(bag);
+  for (const rosbag::ConnectionInfo* c : view.getConnections()) types[c->topic] = c->datatype;
+  return types;
+}
+
+std::string listTopics(const std::map<std::string, std::string>& types) {
+  std::string out;
+  for (const auto& [topic, type] : types) out += (out.empty() ? "" : ", ") + topic + " (" + type + ")";
+  return out.empty() ? "none" : out;
+}
+
+/// The topic to read: `given` (checked to exist with one of `accepted` types), or the bag's only
+/// topic of those types. Empty when `optional` and there is none.
+std::string chooseTopic(const std::filesystem::path& bag, const std::map<std::string, std::string>& types,
+                        const std::string& given, const std::vector<std::string>& accepted, const char* option,
+                        bool optional = false) {
+  const auto acceptedType = [&](const std::string& t) { return std::find(accepted.begin(), accepted.end(), t) != accepted.end(); };
+  std::string kinds;
+  for (const std::string& a : accepted) kinds += (kinds.empty() ? "" : " or ") + a;
+  if (!given.empty()) {
+    const auto it = types.find(given);
+    if (it == types.end()) fail(bag, "no topic " + given + " (" + option + "); the bag has " + listTopics(types));
+    if (!acceptedType(it->second)) fail(bag, "topic " + given + " is " + it->second + ", " + option + " needs " + kinds);
+    return given;
+  }
+  std::vector<std::string> found;
+  for (const auto& [topic, type] : types)
+    if (acceptedType(type)) found.push_back(topic);
+  if (found.size() == 1) return found.front();
+  if (found.empty() && optional) return {};
+  if (found.empty()) fail(bag, "no " + kinds + " topic; the bag has " + listTopics(types));
+  std::string names;
+  for (const std::string& f : found) names += (names.empty() ? "" : ", ") + f;
+  fail(bag, std::string("several ") + kinds + " topics (" + names + "): choose one with " + option);
+}
+
+Pose3d toPose(const geometry_msgs::Point& p, const geometry_msgs::Quaternion& q, const std::filesystem::path& bag,
+              const std::string& topic, double t) {
+  const Eigen::Quaterniond quat(q.w, q.x, q.y, q.z);
+  const Vec3d position(p.x, p.y, p.z);
+  if (!position.allFinite() || !quat.coeffs().allFinite() || std::abs(quat.norm() - 1.0) > kQuaternionNormTolerance)
+    fail(bag, "topic " + topic + " at " + stampText(t) + ": not a valid pose (non-finite, or quaternion norm " +
+                  std::to_string(quat.norm()) + ")");
+  return poseFromTranslationQuaternion(position, q.x, q.y, q.z, q.w);  // as logs' poses are made
+}
+
+/// Every message of `topic` in bag order.
+std::vector<rosbag::MessageInstance> messages(const rosbag::Bag& bag, const std::string& topic) {
+  std::vector<rosbag::MessageInstance> out;
+  rosbag::View view(bag, rosbag::TopicQuery(topic));
+  for (const rosbag::MessageInstance& m : view) out.push_back(m);
+  return out;
+}
+
+/// The body poses of the pose topic, by header stamp.
+std::vector<StampedPose> readPoses(const std::filesystem::path& bag_path, const rosbag::Bag& bag, const std::string& topic,
+                                   const std::string& type) {
+  std::vector<StampedPose> poses;
+  for (const rosbag::MessageInstance& m : messages(bag, topic)) {
+    double t = 0.0;
+    Pose3d T;
+    if (type == kOdometry) {
+      const auto msg = m.instantiate<nav_msgs::Odometry>();
+      t = msg->header.stamp.toSec();
+      T = toPose(msg->pose.pose.position, msg->pose.pose.orientation, bag_path, topic, t);
+    } else if (type == kPoseStamped) {
+      const auto msg = m.instantiate<geometry_msgs::PoseStamped>();
+      t = msg->header.stamp.toSec();
+      T = toPose(msg->pose.position, msg->pose.orientation, bag_path, topic, t);
+    } else {
+      const auto msg = m.instantiate<geometry_msgs::TransformStamped>();
+      t = msg->header.stamp.toSec();
+      geometry_msgs::Point p;
+      p.x = msg->transform.translation.x;
+      p.y = msg->transform.translation.y;
+      p.z = msg->transform.translation.z;
+      T = toPose(p, msg->transform.rotation, bag_path, topic, t);
+    }
+    if (!poses.empty() && !(t > poses.back().timestamp_s))
+      fail(bag_path, "topic " + topic + ": stamp " + stampText(t) + " is not after the previous pose's " +
+                         stampText(poses.back().timestamp_s) + " (stamps must increase)");
+    poses.push_back({t, T});
+  }
+  if (poses.empty()) fail(bag_path, "topic " + topic + " holds no pose");
+  return poses;
+}
+
+CameraIntrinsics readCamera(const std::filesystem::path& bag_path, const rosbag::Bag& bag, const std::string& topic) {
+  const std::vector<rosbag::MessageInstance> all = messages(bag, topic);
+  if (all.empty()) fail(bag_path, "topic " + topic + " holds no CameraInfo message");
+  const auto info = all.front().instantiate<sensor_msgs::CameraInfo>();
+  const std::string model = info->distortion_model;
+  const bool zero = std::all_of(info->D.begin(), info->D.end(), [](double d) { return d == 0.0; });
+  if (!(model.empty() || model == "none" ||
+        ((model == "plumb_bob" || model == "rational_polynomial" || model == "equidistant") && zero)))
+    fail(bag_path, "topic " + topic + ": distortion model '" + model +
+                       "' with non-zero coefficients; rectified depth images are needed (distortion none, or all "
+                       "coefficients zero)");
+  CameraIntrinsics K;
+  K.width = int(info->width);
+  K.height = int(info->height);
+  K.fx = info->K[0];
+  K.fy = info->K[4];
+  K.cx = info->K[2];
+  K.cy = info->K[5];
+  try {
+    K.validate();
+  } catch (const std::invalid_argument& e) {
+    fail(bag_path, "topic " + topic + ": " + e.what());
+  }
+  return K;
+}
+
+DepthImage decodeDepth(const sensor_msgs::Image& img, const CameraIntrinsics& K, const std::filesystem::path& bag,
+                       const std::string& topic) {
+  const double t = img.header.stamp.toSec();
+  const auto where = [&] { return "topic " + topic + " at " + stampText(t) + ": "; };
+  if (int(img.width) != K.width || int(img.height) != K.height)
+    fail(bag, where() + "image is " + std::to_string(img.width) + "x" + std::to_string(img.height) + ", the camera " +
+                  std::to_string(K.width) + "x" + std::to_string(K.height));
+  const bool u16 = img.encoding == "16UC1" || img.encoding == "mono16";
+  const bool f32 = img.encoding == "32FC1";
+  if (!u16 && !f32) fail(bag, where() + "encoding '" + img.encoding + "' (16UC1 millimetres or 32FC1 metres are read)");
+  const std::size_t px = u16 ? 2 : 4;
+  if (img.step < img.width * px || img.data.size() < std::size_t(img.step) * img.height)
+    fail(bag, where() + "step " + std::to_string(img.step) + " and " + std::to_string(img.data.size()) +
+                  " bytes do not hold the image");
+  const bool swap = img.is_bigendian != 0;
+  const auto pixel = [&](int u, int v, std::uint8_t* b) {
+    std::memcpy(b, img.data.data() + std::size_t(v) * img.step + std::size_t(u) * px, px);
+    if (swap) std::reverse(b, b + px);
+  };
+  if (u16) {  // millimetres, converted as 16-bit PNGs are (depthFromRaw), so both give the same image
+    std::vector<std::uint16_t> raw(std::size_t(K.width) * K.height);
+    for (int v = 0; v < K.height; ++v)
+      for (int u = 0; u < K.width; ++u) {
+        std::uint8_t b[2];
+        pixel(u, v, b);
+        std::memcpy(&raw[std::size_t(v) * K.width + u], b, 2);
+      }
+    return depthFromRaw(K.width, K.height, raw.data(), 0.001);
+  }
+  DepthImage d(K.width, K.height);
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u) {
+      std::uint8_t b[4];
+      pixel(u, v, b);
+      float m;
+      std::memcpy(&m, b, 4);
+      d.at(u, v) = std::isfinite(m) && m > 0.0f ? m : 0.0f;
+    }
+  return d;
+}
+
+class RosBagSource final : public FrameSource {
+ public:
+  RosBagSource(FrameSourceContents contents, std::unique_ptr<rosbag::Bag> bag, std::vector<rosbag::MessageInstance> depth,
+               CameraIntrinsics K, std::string topic)
+      : FrameSource(std::move(contents)), bag_(std::move(bag)), depth_(std::move(depth)), K_(K), topic_(std::move(topic)) {}
+
+  Frame load(std::size_t i) const override {
+    const FrameRecord& r = record(i);  // std::out_of_range past the end
+    Frame f;
+    f.index = i;
+    f.timestamp_s = r.timestamp_s;
+    f.T_W_S = r.T_W_S;
+    f.is_depth = true;
+    const std::lock_guard<std::mutex> lock(mutex_);  // rosbag's reader is not thread-safe
+    try {
+      const auto img = depth_[i].instantiate<sensor_msgs::Image>();
+      f.depth = decodeDepth(*img, K_, root(), topic_);
+    } catch (const FileError& e) {
+      throw BadFrameError(i, e.what());
+    } catch (const std::exception& e) {
+      throw BadFrameError(i, root().string() + ": topic " + topic_ + " at " + stampText(r.timestamp_s) + ": " + e.what());
+    }
+    return f;
+  }
+
+ private:
+  std::unique_ptr<rosbag::Bag> bag_;
+  std::vector<rosbag::MessageInstance> depth_;
+  CameraIntrinsics K_;
+  std::string topic_;
+  mutable std::mutex mutex_;
+};
+
+std::unique_ptr<rosbag::Bag> openBag(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw FileError(path.string() + ": no such bag file");
+  auto bag = std::make_unique<rosbag::Bag>();
+  bag->open(path.string(), rosbag::bagmode::Read);
+  return bag;
+}
+
+}  // namespace
+
+RosBagInfo inspectRosBag(const std::filesystem::path& path) {
+  try {
+    const std::unique_ptr<rosbag::Bag> bag = openBag(path);
+    RosBagInfo info;
+    rosbag::View all(*bag);
+    info.messages = all.size();
+    if (info.messages > 0) {
+      info.start_s = all.getBeginTime().toSec();
+      info.end_s = all.getEndTime().toSec();
+    }
+    for (const auto& [topic, type] : topicTypes(*bag)) {
+      rosbag::View view(*bag, rosbag::TopicQuery(topic));
+      RosBagTopic t{topic, type, view.size(), 0.0, 0.0};
+      if (t.messages > 0) {
+        t.first_s = view.getBeginTime().toSec();
+        t.last_s = view.getEndTime().toSec();
+      }
+      info.topics.push_back(t);
+    }
+    return info;
+  } catch (const FileError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw FileError(path.string() + ": cannot read the bag (" + e.what() + ")");
+  }
+}
+
+std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& path, const RosBagOptions& options) {
+  options.validate();
+  try {
+    std::unique_ptr<rosbag::Bag> bag = openBag(path);
+    const std::map<std::string, std::string> types = topicTypes(*bag);
+    const std::string depth_topic = chooseTopic(path, types, options.depth_topic, {kImage}, "--depth-topic");
+    const std::string info_topic = chooseTopic(path, types, options.camera_info_topic, {kCameraInfo}, "--camera-info-topic");
+    const std::string pose_topic =
+        chooseTopic(path, types, options.pose_topic, {kOdometry, kPoseStamped, kTransformStamped}, "--pose-topic");
+    const std::string corrections_topic =
+        options.corrections_topic == "-" ? std::string()
+                                         : chooseTopic(path, types, options.corrections_topic, {kPath}, "--corrections-topic", true);
+
+    const CameraIntrinsics K = readCamera(path, *bag, info_topic);
+    const std::vector<StampedPose> body = readPoses(path, *bag, pose_topic, types.at(pose_topic));
+
+    FrameSourceContents c;
+    c.format = "rosbag";
+    c.root = path;
+    c.sensor.kind = SensorKind::Depth;
+    c.sensor.intrinsics = K;
+    c.sensor.depth_scale = 0.001;
+    c.sensor.min_range_m = options.min_range_m;
+    c.sensor.max_range_m = options.max_range_m;
+    std::vector<rosbag::MessageInstance> depth;
+    std::size_t outside = 0;
+    std::string encoding;
+    for (const rosbag::MessageInstance& m : messages(*bag, depth_topic)) {
+      const auto img = m.instantiate<sensor_msgs::Image>();
+      const double t = img->header.stamp.toSec();
+      if (encoding.empty()) encoding = img->encoding;
+      if (img->encoding != "16UC1" && img->encoding != "mono16" && img->encoding != "32FC1")
+        fail(path, "topic " + depth_topic + " at " + stampText(t) + ": encoding '" + img->encoding +
+                       "' (16UC1 millimetres or 32FC1 metres are read)");
+      if (!c.records.empty() && !(t > c.records.back().timestamp_s))
+        fail(path, "topic " + depth_topic + ": stamp " + stampText(t) + " is not after the previous image's " +
+                       stampText(c.records.back().timestamp_s) + " (stamps must increase)");
+      const std::optional<Pose3d> T_W_B = poseAt(body, t);
+      if (!T_W_B) {
+        ++outside;
+        continue;
+      }
+      FrameRecord r;
+      r.index = c.records.size();
+      r.timestamp_s = t;
+      r.file = path;
+      r.T_W_S = *T_W_B * options.T_B_S;
+      r.source = depth_topic + "@" + stampText(t);
+      c.records.push_back(std::move(r));
+      depth.push_back(m);
+    }
+    if (c.records.empty())
+      fail(path, "no image of " + depth_topic + " lies within the pose stream's span (" + pose_topic + ", " +
+                     stampText(body.front().timestamp_s) + " to " + stampText(body.back().timestamp_s) + ")");
+
+    // Corrections: each Path message an event after the last frame at or before its stamp.
+    std::size_t events_skipped = 0, poses_left_out = 0;
+    if (!corrections_topic.empty()) {
+      for (const rosbag::MessageInstance& m : messages(*bag, corrections_topic)) {
+        const auto path_msg = m.instantiate<nav_msgs::Path>();
+        const double t_event = path_msg->header.stamp.isZero() ? m.getTime().toSec() : path_msg->header.stamp.toSec();
+        const auto after = std::upper_bound(c.records.begin(), c.records.end(), t_event,
+                                            [](double t, const FrameRecord& r) { return t < r.timestamp_s; });
+        if (after == c.records.begin()) {
+          ++events_skipped;
+          continue;
+        }
+        CorrectionEvent ev;
+        ev.event_frame = std::size_t(after - c.records.begin()) - 1;
+        ev.event_timestamp_s = c.records[ev.event_frame].timestamp_s;
+        ev.file = path;
+        std::vector<StampedPose> poses;
+        for (const geometry_msgs::PoseStamped& p : path_msg->poses) {
+          double t = p.header.stamp.toSec();
+          const auto near = std::lower_bound(c.records.begin(), c.records.end(), t - kTimestampMatchTolerance_s,
+                                             [](const FrameRecord& r, double x) { return r.timestamp_s < x; });
+          if (near != c.records.end() && std::abs(near->timestamp_s - t) <= kTimestampMatchTolerance_s) t = near->timestamp_s;
+          if (t < c.records.front().timestamp_s || t > ev.event_timestamp_s) {
+            ++poses_left_out;
+            continue;
+          }
+          poses.push_back({t, toPose(p.pose.position, p.pose.orientation, path, corrections_topic, t) * options.T_B_S});
+        }
+        std::sort(poses.begin(), poses.end(), [](const StampedPose& a, const StampedPose& b) { return a.timestamp_s < b.timestamp_s; });
+        for (const StampedPose& p : poses)
+          if (ev.poses.empty() || p.timestamp_s > ev.poses.back().timestamp_s) ev.poses.push_back(p);
+        if (ev.poses.empty()) {
+          ++events_skipped;
+          continue;
+        }
+        c.corrections.push_back(std::move(ev));
+      }
+    }
+    std::ostringstream d;
+    d << "ROS bag: depth " << depth_topic << " (" << encoding << "), intrinsics from " << info_topic << ", body poses "
+      << pose_topic << " (" << types.at(pose_topic) << ") interpolated at the depth stamps";
+    if (!options.T_B_S.isApprox(Pose3d::Identity())) d << " times the extrinsic T_B_S";
+    d << "; " << outside << " images outside the pose stream skipped";
+    if (!corrections_topic.empty())
+      d << "; corrections from " << corrections_topic << ": " << c.corrections.size() << " events (" << events_skipped
+        << " before the first frame or empty skipped, " << poses_left_out << " poses outside the frames left out)";
+    c.description = d.str();
+    return std::make_unique<RosBagSource>(std::move(c), std::move(bag), std::move(depth), K, depth_topic);
+  } catch (const FileError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw FileError(path.string() + ": cannot read the bag (" + e.what() + ")");
+  }
+}
+
+#endif  // VDBMAP_HAS_ROSBAG
+
+}  // namespace vdbmap::io
