@@ -71,10 +71,11 @@ def main():
     p.add_argument('--no-camera-info', action='store_true')
     p.add_argument('--distorted', action='store_true', help='plumb_bob with non-zero coefficients')
     p.add_argument('--swap-stamps', action='store_true', help='frames 1 and 2 out of order')
+    p.add_argument('--stride', type=int, default=1, help='keep every k-th frame')
     a = p.parse_args()
 
     sensor = json.load(open(os.path.join(a.log, 'sensor.json')))
-    rows = list(csv.DictReader(open(os.path.join(a.log, 'frames.csv'))))
+    rows = list(csv.DictReader(open(os.path.join(a.log, 'frames.csv'))))[::a.stride]
     e = [float(v) for v in a.extrinsic.split(',')]
     E_inv = np.linalg.inv(pose_matrix(e[:3], e[3:]))
 
@@ -124,6 +125,8 @@ def main():
             bag.write('/camera/depth/camera_info', info, stamp(stamps[0]))
         for t, t_received, r in zip(stamps, received, rows):
             raw = np.array(PilImage.open(os.path.join(a.log, r['file'])), dtype=np.uint16)
+            if sensor.get('invalid_depth_raw', 0):  # e.g. 7-Scenes' 65535: 0 in a ROS depth image
+                raw[raw == sensor['invalid_depth_raw']] = 0
             img = Image()
             img.header.stamp = stamp(t)
             img.height, img.width = raw.shape
