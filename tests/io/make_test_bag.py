@@ -54,8 +54,11 @@ def pose_matrix(t, q):
     return T
 
 
+OFFSET = [0.0]
+
+
 def stamp(t):
-    return rospy.Time.from_sec(t)
+    return rospy.Time.from_sec(t + OFFSET[0])
 
 
 def main():
@@ -72,7 +75,10 @@ def main():
     p.add_argument('--distorted', action='store_true', help='plumb_bob with non-zero coefficients')
     p.add_argument('--swap-stamps', action='store_true', help='frames 1 and 2 out of order')
     p.add_argument('--stride', type=int, default=1, help='keep every k-th frame')
+    p.add_argument('--time-offset', type=float, default=0.0,
+                   help='added to every stamp (ROS bags cannot hold time 0, which logs start at)')
     a = p.parse_args()
+    OFFSET[0] = a.time_offset
 
     sensor = json.load(open(os.path.join(a.log, 'sensor.json')))
     rows = list(csv.DictReader(open(os.path.join(a.log, 'frames.csv'))))[::a.stride]
@@ -125,8 +131,9 @@ def main():
             bag.write('/camera/depth/camera_info', info, stamp(stamps[0]))
         for t, t_received, r in zip(stamps, received, rows):
             raw = np.array(PilImage.open(os.path.join(a.log, r['file'])), dtype=np.uint16)
-            if sensor.get('invalid_depth_raw', 0):  # e.g. 7-Scenes' 65535: 0 in a ROS depth image
-                raw[raw == sensor['invalid_depth_raw']] = 0
+            invalid = sensor.get('depth_invalid_value', 0)  # e.g. 7-Scenes' 65535: 0 in a ROS depth image
+            if invalid:
+                raw[raw == invalid] = 0
             img = Image()
             img.header.stamp = stamp(t)
             img.height, img.width = raw.shape
