@@ -9,6 +9,7 @@
 //
 //   cmake --build build --target vdbmap_bench_planner && build/bin/vdbmap_bench_planner [repeats]
 #include "vdbmap/camera.hpp"
+#include "vdbmap/timing.hpp"
 #include "vdbmap/planner/assume_free_map.hpp"
 #include "vdbmap/planner/frontier.hpp"
 #include "vdbmap/planner/local_refinement.hpp"
@@ -22,7 +23,6 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cstdlib>
 #include <functional>
 #include <iostream>
@@ -43,17 +43,13 @@ testing::AnalyticScene benchRoom() {
   return s;
 }
 
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 /// Median wall time of `repeats` runs of f, in ms.
 double timeMedian(int repeats, const std::function<void()>& f) {
   std::vector<double> ms;
   for (int i = 0; i < repeats; ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     f();
-    ms.push_back(msSince(t0));
+    ms.push_back(watch.ms());
   }
   std::sort(ms.begin(), ms.end());
   return ms[ms.size() / 2];
@@ -134,26 +130,26 @@ int main(int argc, char** argv) {
   PathResult path;
   for (int r = 0; r < repeats; ++r) {
     PairCostTable table(CostParams{}, cost_path);
-    auto t0 = std::chrono::steady_clock::now();
+    Stopwatch watch;
     pairs = table.update(map, targets);
-    pairs_ms += msSince(t0) / repeats;
-    t0 = std::chrono::steady_clock::now();
+    pairs_ms += watch.ms() / repeats;
+    watch.restart();
     global = planGlobalTour(map, vehicle, targets, table);  // table already filled: legs + solve
-    tour_ms += msSince(t0) / repeats;
-    t0 = std::chrono::steady_clock::now();
+    tour_ms += watch.ms() / repeats;
+    watch.restart();
     std::vector<std::vector<Viewpoint>> in_order;
     for (const std::size_t i : global.tour.order) in_order.push_back(*target_views[i]);
     const auto layers = refinementLayers(vehicle, in_order);
     refined_edges = 0;
     for (std::size_t l = 0; l < layers.size(); ++l) refined_edges += layers[l].size() * (l ? layers[l - 1].size() : 1);
     refined = refineLocalTour(map, vehicle, layers, CostParams{}, cost_path);
-    refine_ms += msSince(t0) / repeats;
-    t0 = std::chrono::steady_clock::now();
+    refine_ms += watch.ms() / repeats;
+    watch.restart();
     const Viewpoint& next = layers[0][refined.choice[0]];
     PathPlanner planner(map);
     path = planner.plan(vehicle.position_W, next.position_W);
     if (path.ok()) traj = planTrajectory(path.waypoints, vehicle, next.yaw_rad, map);
-    traj_ms += msSince(t0) / repeats;
+    traj_ms += watch.ms() / repeats;
   }
   std::cout << nlohmann::json{{"stage", "pair_costs"}, {"ms_mean", pairs_ms}, {"pairs", pairs}}.dump() << std::endl;
   std::cout << nlohmann::json{{"stage", "vehicle_legs_and_tour"},
@@ -187,17 +183,17 @@ int main(int argc, char** argv) {
     const openvdb::CoordBBox box =
         volume.integrate(FrameId(100 + i), backProject(scene.renderDepth(K, T, 30.0), K), T).touched_voxels;
     dirty.expand(box);
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     const FrontierUpdate u = frontiers.update(map, box);
-    update_ms.push_back(msSince(t0));
+    update_ms.push_back(watch.ms());
     added += u.added.size();
     removed += u.removed.size();
   }
   std::sort(update_ms.begin(), update_ms.end());
   FrontierMap scratch(fp);
-  const auto t1 = std::chrono::steady_clock::now();
+  const Stopwatch scratch_watch;
   scratch.rebuild(map);
-  const double scratch_ms = msSince(t1);
+  const double scratch_ms = scratch_watch.ms();
   std::vector<TourTarget> next_targets;
   for (const FrontierCluster& c : frontiers.clusters()) {
     const auto kept = std::find_if(targets.begin(), targets.end(), [&](const TourTarget& t) { return t.cluster == c.id; });
@@ -208,9 +204,9 @@ int main(int argc, char** argv) {
     const std::vector<Viewpoint> v = computeViewpoints(c, map);
     if (!v.empty()) next_targets.push_back({c.id, {v.front().position_W, v.front().yaw_rad}});
   }
-  const auto t2 = std::chrono::steady_clock::now();
+  const Stopwatch pairs_watch;
   const std::size_t new_pairs = table.update(map, next_targets);
-  const double new_pairs_ms = msSince(t2);
+  const double new_pairs_ms = pairs_watch.ms();
   std::cout << nlohmann::json{{"stage", "incremental"},
                               {"dirty_voxels", dirty.volume()},
                               {"frames", 12},

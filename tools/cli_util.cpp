@@ -8,10 +8,10 @@
 namespace vdbmap::cli {
 
 Progress::Progress(std::string label)
-    : label_(std::move(label)), tty_(::isatty(STDERR_FILENO) != 0), start_(std::chrono::steady_clock::now()) {}
+    : label_(std::move(label)), tty_(::isatty(STDERR_FILENO) != 0) {}
 
 void Progress::update(std::size_t done, std::size_t total) {
-  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double elapsed = since_start_.s();
   const double rate = elapsed > 0 ? double(done) / elapsed : 0.0;
   const double eta = rate > 0 ? double(total - done) / rate : 0.0;
   if (tty_) {

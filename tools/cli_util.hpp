@@ -1,9 +1,10 @@
 // Small helpers shared by the subcommands: progress display and JSON summaries.
 #pragma once
 
+#include "vdbmap/timing.hpp"
+
 #include <nlohmann/json.hpp>
 
-#include <chrono>
 #include <cstddef>
 #include <filesystem>
 #include <string>
@@ -21,7 +22,7 @@ class Progress {
   std::string label_;
   bool tty_;
   int last_decile_ = -1;
-  std::chrono::steady_clock::time_point start_;
+  Stopwatch since_start_;
 };
 
 /// Writes a JSON object to `path` atomically (temporary + rename), pretty-printed.

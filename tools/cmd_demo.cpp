@@ -1,6 +1,7 @@
 // `vdbmap demo`: integrates the built-in synthetic room and reports the mesh's accuracy against
 // the analytic scene.
 #include "command.hpp"
+#include "vdbmap/timing.hpp"
 
 #include "vdbmap/camera.hpp"
 #include "vdbmap/io/mesh_io.hpp"
@@ -9,7 +10,6 @@
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -38,9 +38,9 @@ void runDemo(const DemoOptions& o) {
   const auto poses = testing::AnalyticScene::demoTrajectory(o.frames);
   for (std::size_t i = 0; i < poses.size(); ++i) {
     const PointCloud points_S = backProject(scene.renderDepth(K, poses[i], integrator.max_range_m + 1.0), K);
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     volume.integrate(i, points_S, poses[i]);
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    ms.push_back(watch.ms());
   }
   std::sort(ms.begin(), ms.end());
 

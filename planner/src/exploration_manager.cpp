@@ -1,9 +1,9 @@
 #include "vdbmap/planner/exploration_manager.hpp"
+#include "vdbmap/timing.hpp"
 
 #include "vdbmap/planner/assume_free_map.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -14,9 +14,6 @@
 namespace vdbmap::planner {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
 /// Parts of the initial turn on the spot: three turns of 120 deg (each shorter than half a turn,
 /// so the trajectory's shortest-way yaw profile turns the intended way).
 constexpr int kInitialTurnParts = 3;
@@ -367,9 +364,9 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap map(base_map, free_boxes_);
   ExplorationStep step;
-  const auto t0 = Clock::now();
+  const Stopwatch map_update;
   refreshFrontiers(map, dirty);
-  step.map_update_ms = msSince(t0);
+  step.map_update_ms = map_update.ms();
   step.clusters = frontiers_.clusters().size();
   step.frontier_voxels = frontiers_.frontierVoxelCount();
 
@@ -379,7 +376,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
     step.targets = std::size_t(-1);
     return step;
   }
-  const auto t1 = Clock::now();
+  const Stopwatch replan_watch;
   ++counters_.replans;
   if (step.reason == ReplanReason::CollisionRisk) ++counters_.collision_risks;
   shift_requested_ = false;
@@ -403,7 +400,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   }
   failed_last_ = step.status == ExplorationStatus::Failed;
   if (failed_last_) ++counters_.replans_failed;
-  step.replan_ms = msSince(t1);
+  step.replan_ms = replan_watch.ms();
   return step;
 }
 

@@ -1,4 +1,5 @@
 #include "vdbmap/planner/path_planner.hpp"
+#include "vdbmap/timing.hpp"
 
 #include <ompl/base/MotionValidator.h>
 #include <ompl/base/ProblemDefinition.h>
@@ -12,7 +13,6 @@
 #include <ompl/util/RandomNumbers.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <mutex>
 #include <stdexcept>
@@ -197,9 +197,9 @@ bool PathPlanner::isSegmentClear(const Vec3d& a_W, const Vec3d& b_W) { return ch
 const Eigen::AlignedBox3d& PathPlanner::searchBounds() const { return checker_->bounds_W; }
 
 PathResult PathPlanner::plan(const Vec3d& start_W, const Vec3d& goal_W, std::uint64_t query_seed) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   auto finish = [&](PathResult r) {
-    r.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.time_s = watch.s();
     return r;
   };
   PathResult result;

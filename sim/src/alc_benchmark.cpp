@@ -1,4 +1,5 @@
 #include "vdbmap/sim/alc_benchmark.hpp"
+#include "vdbmap/timing.hpp"
 
 #include "internal/spread.hpp"
 #include "text_format.hpp"
@@ -7,7 +8,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -27,8 +27,6 @@ void AlcBenchmarkConfig::validate() const {
 }
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 constexpr const char* kArms[] = {"no_alc", "alc"};
 
@@ -76,7 +74,7 @@ void writeOutputs(const AlcBenchmarkResult& result, const AlcBenchmarkConfig& co
 
 AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::filesystem::path& out_dir) {
   config.validate();
-  const auto wall0 = Clock::now();
+  const Stopwatch wall;
   const auto report = [&](const std::string& line) {
     if (config.report) config.report(line);
   };
@@ -106,7 +104,7 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
              std::to_string(s.alc_detours) + " detours (" + format("%.1f s", s.alc_time_s) + "), " +
              format("%.0f s wall", s.wall_s));
       result.runs.push_back(run);
-      result.wall_s = secondsSince(wall0);
+      result.wall_s = wall.s();
       writeOutputs(result, config, out_dir);
     }
   }

@@ -1,4 +1,5 @@
 #include "vdbmap/sim/drift_benchmark.hpp"
+#include "vdbmap/timing.hpp"
 
 #include "text_format.hpp"
 
@@ -11,7 +12,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <chrono>
 #include <cstdio>
 #include <future>
 #include <map>
@@ -37,8 +37,6 @@ void DriftBenchmarkConfig::validate() const {
 }
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 /// A short name of each mode as the paper's baselines.
 const char* paperName(ConsistencyMode m) {
@@ -57,7 +55,7 @@ const char* paperName(ConsistencyMode m) {
 
 DriftBenchmarkRow replayMode(const io::FrameSource& log, ConsistencyMode mode, const DriftBenchmarkConfig& c,
                              const TriangleMesh& ground_truth, const std::filesystem::path& mesh_out) {
-  const auto t0 = Clock::now();
+  const Stopwatch replay_watch;
   MapperConfig mc = c.mapper;
   mc.mode = mode;
   mc.tsdf.voxel_size_m = c.voxel_size_m;
@@ -71,7 +69,7 @@ DriftBenchmarkRow replayMode(const io::FrameSource& log, ConsistencyMode mode, c
   row.keyframes_kept = mapper.keyframesKept();
   row.reintegrated_frames = mapper.stats().reintegrated_frames;
   row.correction_events = replay.correction_events;
-  row.wall_s = secondsSince(t0);
+  row.wall_s = replay_watch.s();
 
   const TriangleMesh mesh = extractMesh(mapper.volume());
   if (mesh.vertices.empty())
@@ -103,7 +101,7 @@ nlohmann::json toJson(const DriftBenchmarkRow& r) {
 
 DriftBenchmarkResult runDriftBenchmark(const DriftBenchmarkConfig& config, const std::filesystem::path& out_dir) {
   config.validate();
-  const auto wall0 = Clock::now();
+  const Stopwatch wall;
   std::mutex report_mutex;
   auto report = [&](const std::string& line) {
     const std::lock_guard<std::mutex> lock(report_mutex);
@@ -128,11 +126,11 @@ DriftBenchmarkResult runDriftBenchmark(const DriftBenchmarkConfig& config, const
     FlightOptions fo;
     fo.overwrite = true;
     fo.description = "vdbmap bench drift: level " + level + ", world " + config.world_mesh.string();
-    const auto t0 = Clock::now();
+    const Stopwatch flight_watch;
     const FlightResult flight = simulateFlight(world, trajectory, sc, out_dir / level / "log", fo);
     report(level + ": simulated " + std::to_string(flight.frames) + " frames, " +
            std::to_string(flight.loop_closures.size()) + " loop closures, odometry error at the end " +
-           format("%.3f m", flight.odometry_error_final_m) + " (" + format("%.1f s", secondsSince(t0)) + ")");
+           format("%.3f m", flight.odometry_error_final_m) + " (" + format("%.1f s", flight_watch.s()) + ")");
     return flight;
   };
   auto replay = [&](const io::FrameSource& log, const std::string& level, ConsistencyMode mode) {
@@ -162,7 +160,7 @@ DriftBenchmarkResult runDriftBenchmark(const DriftBenchmarkConfig& config, const
       rows.push_back(std::async(std::launch::async, replay, std::cref(*log), level, mode));
     for (auto& row : rows) result.rows.push_back(row.get());
   }
-  result.wall_s = secondsSince(wall0);
+  result.wall_s = wall.s();
 
   nlohmann::json table = nlohmann::json::array();
   for (const DriftBenchmarkRow& r : result.rows) table.push_back(toJson(r));

@@ -6,14 +6,11 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
 namespace vdbmap::sim {
 namespace {
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 nlohmann::json describe(const SimulatorConfig& c) {
   const CameraIntrinsics& K = c.camera.intrinsics;
@@ -83,8 +80,7 @@ struct FlightRecorder::Log {
       : writer(dir, sensor, options) {}
 };
 
-FlightRecorder::FlightRecorder(const std::filesystem::path& log_dir, const Simulator& sim, bool overwrite)
-    : start_(Clock::now()), last_(start_) {
+FlightRecorder::FlightRecorder(const std::filesystem::path& log_dir, const Simulator& sim, bool overwrite) {
   io::LogWriterOptions options;
   options.overwrite = overwrite;
   log_ = std::make_unique<Log>(log_dir, sim.camera().sensorInfo(), options);
@@ -110,8 +106,8 @@ void FlightRecorder::record(const SimFrame& frame) {
   result_.odometry_error_final_m = odom_error;
   result_.estimate_error_max_m = std::max(result_.estimate_error_max_m, estimate_error);
   sq_error_ += estimate_error * estimate_error;
-  frame_ms_.push_back(msSince(last_));
-  last_ = Clock::now();
+  frame_ms_.push_back(since_last_frame_.ms());
+  since_last_frame_.restart();
 }
 
 FlightResult FlightRecorder::finish(const SimulatorConfig& config, const std::string& description, double duration_s,
@@ -127,7 +123,7 @@ FlightResult FlightRecorder::finish(const SimulatorConfig& config, const std::st
     std::nth_element(ms.begin(), ms.begin() + std::ptrdiff_t(ms.size() / 2), ms.end());
     result.frame_ms_median = ms[ms.size() / 2];
   }
-  result.wall_s = msSince(start_) / 1e3;
+  result.wall_s = since_start_.s();
 
   nlohmann::json loops = nlohmann::json::array();
   for (const LoopClosure& l : result.loop_closures)

@@ -1,9 +1,9 @@
 #include "vdbmap/sim/pose_graph.hpp"
+#include "vdbmap/timing.hpp"
 
 #include <ceres/ceres.h>
 
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -83,7 +83,7 @@ struct EdgeResidual {
 PoseGraphSummary PoseGraph4Dof::optimize(const PoseGraphSolveOptions& options) {
   options.validate();
   if (nodes_.empty()) throw std::logic_error("PoseGraph4Dof::optimize: empty graph");
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch solve;
   std::vector<std::array<double, 4>> x(nodes_.size());
   for (std::size_t i = 0; i < nodes_.size(); ++i)
     x[i] = {nodes_[i].p_W.x(), nodes_[i].p_W.y(), nodes_[i].p_W.z(), nodes_[i].yaw};
@@ -118,7 +118,7 @@ PoseGraphSummary PoseGraph4Dof::optimize(const PoseGraphSolveOptions& options) {
   out.iterations = int(summary.iterations.size());
   out.initial_cost = summary.initial_cost;
   out.final_cost = summary.final_cost;
-  out.solve_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  out.solve_ms = solve.ms();
   return out;
 }
 

@@ -1,10 +1,10 @@
 #include "vdbmap/sim/surface_coverage.hpp"
+#include "vdbmap/timing.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <chrono>
 #include <deque>
 #include <random>
 #include <stdexcept>
@@ -158,7 +158,7 @@ ObservableSurface::ObservableSurface(const World& world, const Eigen::AlignedBox
     : config_(config) {
   config_.validate();
   if (box_W.isEmpty()) throw std::invalid_argument("ObservableSurface: the box is empty");
-  const auto t0 = std::chrono::steady_clock::now();
+  const Stopwatch build;
   ReachGrid grid(world, box_W, config_.grid_m, config_.vehicle_clearance_m);
   if (!grid.flood(start_W))
     throw std::invalid_argument("ObservableSurface: the start is outside the box or within vehicle_clearance_m of a surface");
@@ -179,7 +179,7 @@ ObservableSurface::ObservableSurface(const World& world, const Eigen::AlignedBox
     if (seen[i]) observable_.push_back(samples[i]);
   stats_.observable = observable_.size();
   stats_.observable_area_m2 = double(observable_.size()) * config_.sample_spacing_m * config_.sample_spacing_m;
-  stats_.build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  stats_.build_s = build.s();
 }
 
 std::vector<bool> ObservableSurface::known(const planner::MapQuery& map) const {

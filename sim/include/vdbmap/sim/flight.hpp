@@ -9,8 +9,8 @@
 
 #include "vdbmap/sim/simulator.hpp"
 #include "vdbmap/sim/trajectory.hpp"
+#include "vdbmap/timing.hpp"
 
-#include <chrono>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -84,7 +84,7 @@ class FlightRecorder {
   FlightResult result_;
   std::vector<double> frame_t_, frame_ms_;
   double sq_error_ = 0.0;
-  std::chrono::steady_clock::time_point start_, last_;
+  Stopwatch since_start_, since_last_frame_;
 };
 
 /// Flies `trajectory` and writes the log to `log_dir`. Throws std::invalid_argument for an empty
