@@ -1,6 +1,8 @@
 // Running the `vdbmap` CLI from tests: its exit status, its output in a file, fresh folders.
 #pragma once
 
+#include "common/fresh_dir.hpp"
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -21,12 +23,5 @@ inline std::string slurp(const std::filesystem::path& p) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-/// An empty folder of this name under the temporary directory.
-inline std::filesystem::path freshDir(const std::string& name) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / name;
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
 
 }  // namespace vdbmap::test

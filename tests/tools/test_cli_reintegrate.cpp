@@ -2,6 +2,7 @@
 // corrects the saved map with a trajectory of any subset of stamps: equal, bit for bit, to
 // integrating the frames from scratch at the interpolated corrected poses; --extrinsic turns body
 // poses into camera poses; bad inputs are named.
+#include "common/drifting_circle.hpp"
 #include "tools/cli_test_util.hpp"
 
 #include "vdbmap/io/frame_source.hpp"
@@ -22,13 +23,6 @@ namespace {
 int run(const std::string& args, const fs::path& out_file) { return test::runCli(args, out_file); }
 using test::slurp;
 
-Pose3d truePose(int i) { return lookingPose({0.4 * std::cos(0.6 * i), 0.4 * std::sin(0.6 * i), 1.2}, 0.6 * i, 0.15); }
-Pose3d odometry(int i) {
-  Pose3d drift = Pose3d::Identity();
-  drift.linear() = Eigen::AngleAxisd(0.015 * i, Vec3d::UnitZ()).toRotationMatrix();
-  drift.translation() = Vec3d(0.0, 0.02 * i, 0.0);
-  return drift * truePose(i);
-}
 }  // namespace
 
 TEST_CASE("vdbmap reintegrate corrects a saved map exactly as integrating at the corrected poses", "[cli][reintegrate]") {
@@ -40,10 +34,10 @@ TEST_CASE("vdbmap reintegrate corrects a saved map exactly as integrating at the
   sensor.max_range_m = 5.0;
   {
     io::LogWriter log(dir / "log", sensor);
-    for (int i = 0; i < 8; ++i) log.addDepthFrame(0.1 * i, scene.renderDepth(sensor.intrinsics, truePose(i), 5.0), odometry(i));
+    for (int i = 0; i < 8; ++i) log.addDepthFrame(0.1 * i, scene.renderDepth(sensor.intrinsics, test::circlePose(i), 5.0), test::circleOdometry(i));
   }
   std::vector<io::StampedPose> keyposes;  // the true pose of every other frame, as a keyframe back end gives
-  for (int i = 0; i < 8; i += 2) keyposes.push_back({0.1 * i, truePose(i)});
+  for (int i = 0; i < 8; i += 2) keyposes.push_back({0.1 * i, test::circlePose(i)});
   io::writeTumTrajectory(dir / "corrected.txt", keyposes);
 
   REQUIRE(run("integrate " + (dir / "log").string() + " --mode all --voxel-size 0.1 -o " + (dir / "map.vdb").string(), out) == 0);
@@ -83,7 +77,7 @@ TEST_CASE("vdbmap reintegrate corrects a saved map exactly as integrating at the
     CHECK((kf.T_W_S_integrated.matrix() - b.at(id).T_W_S_integrated.matrix()).cwiseAbs().maxCoeff() < 1e-6);
 
   // Named failures, nothing written.
-  io::writeTumTrajectory(dir / "later.txt", {{50.0, truePose(0)}});
+  io::writeTumTrajectory(dir / "later.txt", {{50.0, test::circlePose(0)}});
   CHECK(run("reintegrate " + (dir / "map.vdb").string() + " --trajectory " + (dir / "later.txt").string() + " -o " +
                 (dir / "x.vdb").string(),
             out) != 0);

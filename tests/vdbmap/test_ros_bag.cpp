@@ -3,6 +3,8 @@
 // poses published at other stamps are interpolated at the depth stamps and moved by the
 // extrinsic; bad bags (truncated, unknown encoding, missing topic, no CameraInfo, stamps out of
 // order, distortion) are refused by name. Skipped (77) without bag support or python3-rosbag.
+#include "common/drifting_circle.hpp"
+#include "common/fresh_dir.hpp"
 #include "common/shared_data.hpp"
 
 #include "vdbmap/file_error.hpp"
@@ -26,14 +28,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-Pose3d truePose(int i) { return lookingPose({0.4 * std::cos(0.6 * i), 0.4 * std::sin(0.6 * i), 1.2}, 0.6 * i, 0.15); }
-Pose3d odometry(int i) {
-  Pose3d drift = Pose3d::Identity();
-  drift.linear() = Eigen::AngleAxisd(0.015 * i, Vec3d::UnitZ()).toRotationMatrix();
-  drift.translation() = Vec3d(0.0, 0.02 * i, 0.0);
-  return drift * truePose(i);
-}
-
 /// A log of 6 analytic frames with drifting odometry and a correction of every frame at the last.
 fs::path writeLog(const fs::path& dir) {
   io::SensorInfo sensor;
@@ -42,8 +36,8 @@ fs::path writeLog(const fs::path& dir) {
   io::LogWriter log(dir / "log", sensor);
   std::vector<io::StampedPose> corrected;
   for (int i = 0; i < 6; ++i) {
-    log.addDepthFrame(0.1 * (i + 1), scene.renderDepth(sensor.intrinsics, truePose(i), 5.0), odometry(i));
-    corrected.push_back({0.1 * (i + 1), truePose(i)});
+    log.addDepthFrame(0.1 * (i + 1), scene.renderDepth(sensor.intrinsics, test::circlePose(i), 5.0), test::circleOdometry(i));
+    corrected.push_back({0.1 * (i + 1), test::circlePose(i)});
   }
   log.addCorrection(0.6, corrected);
   return dir / "log";
@@ -65,17 +59,10 @@ void makeBag(const fs::path& log, const fs::path& bag, const std::string& option
   REQUIRE(status == 0);
 }
 
-fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
 }  // namespace
 
 TEST_CASE("a bag's topics, types, counts and span are listed", "[io][rosbag]") {
-  const fs::path dir = freshDir("vdbmap_bag_info");
+  const fs::path dir = test::freshDir("vdbmap_bag_info");
   makeBag(writeLog(dir), dir / "run.bag");
   const io::RosBagInfo info = io::inspectRosBag(dir / "run.bag");
   REQUIRE(info.topics.size() == 4);
@@ -91,7 +78,7 @@ TEST_CASE("a bag's topics, types, counts and span are listed", "[io][rosbag]") {
 }
 
 TEST_CASE("a bag with a keyframe Path gives the same map as the equivalent folder log", "[io][rosbag]") {
-  const fs::path dir = freshDir("vdbmap_bag_equal");
+  const fs::path dir = test::freshDir("vdbmap_bag_equal");
   const fs::path log = writeLog(dir);
   for (const char* encoding : {"16UC1", "32FC1"}) {
     INFO(encoding);
@@ -129,7 +116,7 @@ TEST_CASE("a bag with a keyframe Path gives the same map as the equivalent folde
 }
 
 TEST_CASE("poses at other stamps are interpolated at the depth stamps and moved by the extrinsic", "[io][rosbag]") {
-  const fs::path dir = freshDir("vdbmap_bag_interp");
+  const fs::path dir = test::freshDir("vdbmap_bag_interp");
   const fs::path log = writeLog(dir);
   // The body: 0.5 m/s along x turning at 0.2 rad/s, published every 30 ms from t = 0.15 s.
   makeBag(log, dir / "run.bag", "--analytic-odometry --odometry-start 0.15 --pose-type transform");
@@ -149,7 +136,7 @@ TEST_CASE("poses at other stamps are interpolated at the depth stamps and moved 
 }
 
 TEST_CASE("bad bags are refused naming the file, the topic and the stamp", "[io][rosbag][hostile]") {
-  const fs::path dir = freshDir("vdbmap_bag_bad");
+  const fs::path dir = test::freshDir("vdbmap_bag_bad");
   const fs::path log = writeLog(dir);
   makeBag(log, dir / "good.bag");
   fs::copy_file(dir / "good.bag", dir / "cut.bag");

@@ -1,6 +1,8 @@
 // Correcting a saved map afterwards: the keyframe store's file round-trips exactly and refuses
 // bad files by name; a mapper loaded from a saved map and corrected equals integrating its frames
 // from scratch at the corrected poses, bit for bit; a store of another run is refused.
+#include "common/drifting_circle.hpp"
+#include "common/fresh_dir.hpp"
 #include "vdbmap/file_error.hpp"
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/testing/analytic_scene.hpp"
@@ -18,15 +20,6 @@ namespace {
 
 std::shared_ptr<const CameraIntrinsics> camera() { return std::make_shared<const CameraIntrinsics>(CameraIntrinsics{160, 120, 96.8, 96.8, 79.5, 59.5}); }
 
-Pose3d truePose(int i) { return lookingPose({0.4 * std::cos(0.6 * i), 0.4 * std::sin(0.6 * i), 1.2}, 0.6 * i, 0.15); }
-
-/// Odometry drifting in yaw and y.
-Pose3d odometry(int i) {
-  Pose3d drift = Pose3d::Identity();
-  drift.linear() = Eigen::AngleAxisd(0.015 * i, Vec3d::UnitZ()).toRotationMatrix();
-  drift.translation() = Vec3d(0.0, 0.02 * i, 0.0);
-  return drift * truePose(i);
-}
 
 MapperConfig config(ConsistencyMode mode) {
   MapperConfig c;
@@ -34,13 +27,6 @@ MapperConfig config(ConsistencyMode mode) {
   c.tsdf.voxel_size_m = 0.1;
   c.integrator.max_range_m = 5.0;
   return c;
-}
-
-fs::path freshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
 }
 
 /// Overwrites `n` bytes at `offset` of a file.
@@ -56,10 +42,10 @@ constexpr int kFrames = 8;
 }  // namespace
 
 TEST_CASE("a keyframe store saved and loaded holds the same frames, poses and data", "[mapper][saved]") {
-  const fs::path dir = freshDir("vdbmap_saved_store");
+  const fs::path dir = test::freshDir("vdbmap_saved_store");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 3; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), truePose(i), 5.0), camera(), odometry(i));
-  mapper.addPointFrame(7, 0.5, {Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}, odometry(7));
+  for (int i = 0; i < 3; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+  mapper.addPointFrame(7, 0.5, {Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}, test::circleOdometry(7));
   mapper.keyframes().save(dir / "s.keyframes");
   const KeyframeStore loaded = KeyframeStore::load(dir / "s.keyframes");
   REQUIRE(loaded.size() == mapper.keyframes().size());
@@ -78,9 +64,9 @@ TEST_CASE("a keyframe store saved and loaded holds the same frames, poses and da
 }
 
 TEST_CASE("bad keyframe store files are refused naming the file, the keyframe and the field", "[mapper][saved][hostile]") {
-  const fs::path dir = freshDir("vdbmap_saved_hostile");
+  const fs::path dir = test::freshDir("vdbmap_saved_hostile");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), truePose(i), 5.0), camera(), odometry(i));
+  for (int i = 0; i < 2; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
   const fs::path good = dir / "good.keyframes", bad = dir / "bad.keyframes";
   mapper.keyframes().save(good);
   const auto fresh = [&] { fs::copy_file(good, bad, fs::copy_options::overwrite_existing); };
@@ -114,11 +100,11 @@ TEST_CASE("a saved map corrected after loading equals integrating its frames fro
           "[mapper][saved]") {
   for (const ConsistencyMode mode : {ConsistencyMode::All, ConsistencyMode::Keyframes}) {
     INFO("mode " << toString(mode));
-    const fs::path dir = freshDir("vdbmap_saved_correct");
+    const fs::path dir = test::freshDir("vdbmap_saved_correct");
     {
       Mapper mapper(config(mode));
       for (int i = 0; i < kFrames; ++i)
-        mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), truePose(i), 5.0), camera(), odometry(i));
+        mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
       mapper.reintegrateAll(Vec3d::Zero());
       mapper.save(dir / "map.vdb");
       CHECK(fs::exists(dir / "map.keyframes"));
@@ -127,14 +113,14 @@ TEST_CASE("a saved map corrected after loading equals integrating its frames fro
     Mapper loaded = Mapper::load(dir / "map.vdb");
     CHECK(loaded.config().mode == ConsistencyMode::All);
     std::map<FrameId, Pose3d> corrected;
-    for (const auto& [id, kf] : loaded.keyframes()) corrected[id] = truePose(int(id));
+    for (const auto& [id, kf] : loaded.keyframes()) corrected[id] = test::circlePose(int(id));
     // Every kept frame drifted beyond the gates but frame 0 (where the drift starts).
     CHECK(loaded.updatePoses(corrected) == corrected.size() - corrected.count(0));
     loaded.reintegrateAll(Vec3d::Zero());
 
     Mapper scratch(config(ConsistencyMode::None));
     for (const auto& [id, kf] : loaded.keyframes())
-      scratch.addDepthFrame(id, kf.timestamp, kf.data.decodeDepth(), kf.data.intrinsics(), truePose(int(id)));
+      scratch.addDepthFrame(id, kf.timestamp, kf.data.decodeDepth(), kf.data.intrinsics(), test::circlePose(int(id)));
     CHECK(loaded.volume().exactlyEquals(scratch.volume()));
 
     // Saved again, it loads again (the corrected poses are the ones the map now holds).
@@ -144,12 +130,12 @@ TEST_CASE("a saved map corrected after loading equals integrating its frames fro
 }
 
 TEST_CASE("a saved map is refused without its exact state or with another run's keyframes", "[mapper][saved][hostile]") {
-  const fs::path dir = freshDir("vdbmap_saved_mismatch");
+  const fs::path dir = test::freshDir("vdbmap_saved_mismatch");
   for (const char* name : {"a", "b"}) {
     Mapper mapper(config(ConsistencyMode::All));
     const int n = std::string(name) == "a" ? 3 : 2;
     for (int i = 0; i < n; ++i)
-      mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), truePose(i), 5.0), camera(), odometry(i));
+      mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
     mapper.save(dir / (std::string(name) + ".vdb"));
   }
   fs::copy_file(dir / "b.keyframes", dir / "a.keyframes", fs::copy_options::overwrite_existing);
@@ -159,7 +145,7 @@ TEST_CASE("a saved map is refused without its exact state or with another run's 
   fs::remove(dir / "b.exact.vdb");
   CHECK_THROWS_WITH(Mapper::load(dir / "b.vdb"), Catch::Contains("no exact companion"));
   Mapper queued(config(ConsistencyMode::All));
-  queued.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), truePose(0), 5.0), camera(), odometry(0));
-  queued.updatePoses({{0, truePose(5)}});
+  queued.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
+  queued.updatePoses({{0, test::circlePose(5)}});
   CHECK_THROWS_AS(queued.save(dir / "q.vdb"), std::logic_error);
 }
