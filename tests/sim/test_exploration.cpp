@@ -108,7 +108,10 @@ TEST_CASE("Each collision event is listed in the run's events, when it began", "
 
 TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", "[sim][exploration]") {
   const World world(twoRooms());
-  const ExplorationConfig config = twoRoomConfig("s3");
+  // Counted budgets: the run is the same on a loaded machine (with wall-clock budgets a busy CI
+  // machine gave the planner fewer iterations and another flight).
+  ExplorationConfig config = twoRoomConfig("s3");
+  setBudgets(config, BudgetMode::Counted);
   const ExplorationResult r = runExploration(world, config);
   INFO("time " << r.exploration_time_s << " s, loops " << r.loop_closures << ", escapes "
                  << r.planner_counters.escapes << " (retreats " << r.planner_counters.retreats << "), closest "
