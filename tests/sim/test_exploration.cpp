@@ -52,7 +52,8 @@ ExplorationConfig twoRoomConfig(const std::string& drift) {
 
 TEST_CASE("Closed-loop exploration of two rooms finishes, covers them, and never collides", "[sim][exploration]") {
   const World world(twoRooms());
-  const ExplorationConfig config = twoRoomConfig("s1");
+  ExplorationConfig config = twoRoomConfig("s1");
+  setBudgets(config, BudgetMode::Counted);  // the same flight on a loaded machine
   const std::filesystem::path log = std::filesystem::temp_directory_path() / "vdbmap_test_explore_log";
   std::filesystem::remove_all(log);
   ExplorationOptions options;
