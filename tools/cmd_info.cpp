@@ -27,8 +27,11 @@ nlohmann::json toJson(const MapFileInfo& info) {
   }
   nlohmann::json meta = nlohmann::json::object();
   for (const auto& [k, v] : info.metadata) meta[k] = v;
-  return {{"path", info.path.string()}, {"file_bytes", info.file_bytes}, {"has_exact_state", info.has_exact_state},
-          {"grids", grids}, {"metadata", meta}};
+  nlohmann::json j = {{"path", info.path.string()}, {"file_bytes", info.file_bytes},
+                      {"has_exact_state", info.has_exact_state}, {"unit_id", info.unit_id},
+                      {"grids", grids}, {"metadata", meta}};
+  if (!info.exact_state_problem.empty()) j["exact_state_problem"] = info.exact_state_problem;
+  return j;
 }
 
 const Registration registration("info", [](CLI::App& app) {
@@ -70,7 +73,9 @@ const Registration registration("info", [](CLI::App& app) {
       return;
     }
     std::printf("%s: %.1f MB, exact state %s\n", map->c_str(), info.file_bytes / 1e6,
-                info.has_exact_state ? "present" : "absent");
+                info.has_exact_state ? "present"
+                : info.exact_state_problem.empty() ? "absent"
+                                                   : ("unusable: " + info.exact_state_problem).c_str());
     for (const MapFileGrid& g : info.grids) {
       std::printf("  grid %-8s %-6s %-10s %10zu active voxels, %.1f MB in memory, voxel %.3f m", g.name.c_str(),
                   g.type.c_str(), g.grid_class.c_str(), g.active_voxels, g.memory_bytes / 1e6, g.voxel_size_m);

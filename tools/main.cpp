@@ -1,6 +1,7 @@
 // `vdbmap`: the command-line front end. Parsing and printing only; the work is in the libraries.
 #include "command.hpp"
 
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/errors.hpp"
 #include "vdbmap/version.hpp"
 
@@ -60,6 +61,8 @@ int main(int argc, char** argv) {
   CLI::App app{"vdbmap: globally consistent TSDF mapping on OpenVDB, with re-integration, "
                "frame pruning and exploration planning"};
   app.require_subcommand(1);
+  // Ctrl-C or a kill during a save removes its temporaries; the files it replaces stay as they were.
+  vdbmap::removeTemporariesOnSignals();
   app.set_version_flag("--version", std::string("vdbmap ") + vdbmap::kVersion);
   for (auto& [name, setup] : vdbmap::cli::registeredCommands()) setup(app);
   try {

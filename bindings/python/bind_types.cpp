@@ -84,7 +84,7 @@ void bindIntrinsics(py::module_& m) {
   addStructProtocol(K);
   K.def_readwrite("width", &CameraIntrinsics::width, "image width in pixels (> 0)")
       .def_readwrite("height", &CameraIntrinsics::height, "image height in pixels (> 0)")
-      .def_readwrite("fx", &CameraIntrinsics::fx, "focal length in pixels (finite, non-zero)")
+      .def_readwrite("fx", &CameraIntrinsics::fx, "focal length in pixels, in (0, 1e7]")
       .def_readwrite("fy", &CameraIntrinsics::fy, "focal length in pixels; may be negative (flipped y)")
       .def_readwrite("cx", &CameraIntrinsics::cx, "principal point x in pixels")
       .def_readwrite("cy", &CameraIntrinsics::cy, "principal point y in pixels")

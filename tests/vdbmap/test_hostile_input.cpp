@@ -2,11 +2,13 @@
 // 100000 x 100000 pixels, a PLY or PCD claiming 1e12 points, an OFF claiming 1e12 vertices) are
 // refused before anything is allocated, with the file, the element or field and the declared
 // count named; control bytes quoted from a file are escaped; a map of a newer format is refused;
-// writing over a folder says so. Every hostile file is a few bytes written here.
+// writing over a folder says so; a write stopped by a signal leaves no temporary. Every hostile file
+// is a few bytes written here.
 #include "test_io_helpers.hpp"
 
 #include "vdbmap/atomic_file.hpp"
 #include "vdbmap/camera.hpp"
+#include "vdbmap/eval.hpp"
 #include "vdbmap/file_error.hpp"
 #include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/frame_source.hpp"
@@ -14,12 +16,16 @@
 #include "vdbmap/io/png_io.hpp"
 #include "vdbmap/io/point_cloud_io.hpp"
 #include "vdbmap/map_file.hpp"
+#include "vdbmap/mapper.hpp"
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <csignal>
+#include <cstdlib>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -27,9 +33,12 @@
 #include <ostream>
 #include <stdexcept>
 #include <string>
+#include <sys/wait.h>
+#include <unistd.h>
 
 using namespace vdbmap;
 using vdbmap::test::TempDir;
+using vdbmap::test::readBytes;
 using vdbmap::test::writeText;
 
 namespace {
@@ -262,6 +271,44 @@ TEST_CASE("a map of a newer format version is refused, naming the file and both 
   }
 }
 
+TEST_CASE("a truncated map is refused from its declared sizes before OpenVDB reads it, naming what runs past the end",
+          "[tsdf][io][hostile]") {
+  TempDir dir;
+  TsdfVolume volume;
+  volume.integrate(0, PointCloud{{0.f, 0.f, 1.f}, {0.1f, 0.f, 1.f}, {0.f, 0.1f, 1.2f}}, Pose3d::Identity());
+  volume.save(dir / "saved.vdb");
+  const std::string bytes = readBytes(dir / "saved.vdb");
+  // 100 bytes: inside the file's metadata (OpenVDB alone took 20 GB of memory on this file).
+  // Half: the grids' data are cut off.
+  for (const std::size_t keep : {std::size_t(100), bytes.size() / 2}) {
+    writeText(dir / "cut.vdb", bytes.substr(0, keep));
+    for (const auto& read : std::initializer_list<std::function<void()>>{
+             [&] { TsdfVolume::load(dir / "cut.vdb"); }, [&] { readTsdfGrid(dir / "cut.vdb"); },
+             [&] { inspectMapFile(dir / "cut.vdb"); }, [&] { TsdfVolume::savedUnitId(dir / "cut.vdb"); }})
+      requireFileErrorMentioning(read, {"cut.vdb", "truncated or damaged"});
+  }
+  // A cut companion: load names it; info reports it unusable.
+  writeText(TsdfVolume::exactStatePath(dir / "saved.vdb"),
+            readBytes(TsdfVolume::exactStatePath(dir / "saved.vdb")).substr(0, 300));
+  requireFileErrorMentioning([&] { TsdfVolume::load(dir / "saved.vdb"); }, {"saved.exact.vdb", "truncated or damaged"});
+  CHECK_FALSE(inspectMapFile(dir / "saved.vdb").has_exact_state);
+  CHECK_THAT(inspectMapFile(dir / "saved.vdb").exact_state_problem, Catch::Contains("saved.exact.vdb"));
+}
+
+TEST_CASE("a ground-truth mesh with a NaN or far vertex is refused naming the vertex, before sampling",
+          "[eval][hostile]") {
+  TriangleMesh mesh;
+  mesh.vertices = {Vec3f(0.f, 0.f, 0.f), Vec3f(std::nanf(""), 0.f, 0.f), Vec3f(0.f, 1.f, 0.f)};
+  mesh.triangles = {Eigen::Vector3i(0, 1, 2)};
+  CHECK_THROWS_WITH(SurfaceDistance(mesh, 0.01), Catch::Contains("vertex 1") && Catch::Contains("not finite"));
+  mesh.vertices[1] = Vec3f(1e9f, 0.f, 0.f);
+  CHECK_THROWS_WITH(SurfaceDistance(mesh, 0.01), Catch::Contains("vertex 1"));
+  // A large triangle at a fine spacing: the sample count is bounded before any is drawn.
+  mesh.vertices[1] = Vec3f(1e4f, 0.f, 0.f);
+  mesh.vertices[2] = Vec3f(0.f, 1e4f, 0.f);
+  CHECK_THROWS_WITH(SurfaceDistance(mesh, 0.01), Catch::Contains("samples") && Catch::Contains("coarser spacing"));
+}
+
 TEST_CASE("writing over a folder says it is a folder and leaves nothing behind", "[io][atomic][hostile]") {
   TempDir dir;
   std::filesystem::create_directories(dir / "out.vdb");
@@ -294,6 +341,52 @@ TEST_CASE("writing over a folder says it is a folder and leaves nothing behind",
     CHECK(entry.path().filename().string().find(".tmp.") == std::string::npos);
 }
 
+TEST_CASE("a process stopped by a signal during a write removes its temporary and dies of that signal",
+          "[io][atomic][hostile]") {
+  TempDir dir;
+  for (int sig : {SIGINT, SIGTERM}) {
+    const std::filesystem::path target = dir / ("out" + std::to_string(sig) + ".bin");
+    writeText(target, "the previous content");
+    const pid_t child = ::fork();
+    REQUIRE(child >= 0);
+    if (child == 0) {  // the child: a write in progress when the signal arrives
+      removeTemporariesOnSignals();
+      const std::filesystem::path tmp = temporaryPathFor(target);
+      writeText(tmp, "half a file");
+      std::raise(sig);
+      std::_Exit(3);  // not reached: the handler ends the process by the signal
+    }
+    int status = 0;
+    REQUIRE(::waitpid(child, &status, 0) == child);
+    CHECK(WIFSIGNALED(status));
+    CHECK(WTERMSIG(status) == sig);
+    CHECK(readBytes(target) == "the previous content");
+    for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
+      CHECK(entry.path().filename().string().find(".tmp.") == std::string::npos);
+  }
+}
+
+TEST_CASE("a voxel size far too small for a frame is refused before any work, naming the memory estimate",
+          "[tsdf][hostile]") {
+  // 0.1 mm voxels and rays of up to 4 m: about 10^13 bytes of leaves by the estimate, more than any
+  // machine this runs on. The frame is refused before a voxel is written.
+  CameraIntrinsics K;  // 640 x 480
+  TsdfConfig config;
+  config.voxel_size_m = 1e-4;
+  TsdfVolume volume(config);
+  const DepthImage depth(K.width, K.height, 4.0f);
+  CHECK_THROWS_WITH(volume.integrate(7, depth, K, Pose3d::Identity()),
+                    Catch::Contains("frame 7") && Catch::Contains("GB of map memory") && Catch::Contains("voxel size"));
+  CHECK_THROWS_WITH(volume.integrate(8, backProject(depth, K), Pose3d::Identity()),
+                    Catch::Contains("frame 8") && Catch::Contains("GB of map memory"));
+  CHECK(volume.activeVoxelCount() == 0);
+  CHECK(volume.frameCount() == 0);
+  // Four points 12 cm away fit at that voxel size and are integrated.
+  volume.integrate(9, PointCloud{{0.f, 0.f, 0.12f}, {0.01f, 0.f, 0.12f}, {0.f, 0.01f, 0.12f}, {0.01f, 0.01f, 0.12f}},
+                   Pose3d::Identity());
+  CHECK(volume.activeVoxelCount() > 0);
+}
+
 TEST_CASE("a pose far beyond the range of the map is refused before any work and names the frame",
           "[tsdf][mapper][hostile]") {
   CameraIntrinsics K;
@@ -319,4 +412,22 @@ TEST_CASE("a pose far beyond the range of the map is refused before any work and
   CHECK(volume.activeVoxelCount() == voxels);
   // Points, the same.
   CHECK_THROWS_WITH(volume.integrate(4, backProject(depth, K), far), Catch::Contains("frame 4") && Catch::Contains("range"));
+
+  // Within the map's range but beyond what frame pruning packs (2^20 cells of 1 cm here): refused
+  // by the keyframes mapper before the map or its store change, for a new frame and a correction.
+  MapperConfig keyframes;
+  keyframes.mode = ConsistencyMode::Keyframes;
+  keyframes.tsdf.voxel_size_m = 0.01;
+  keyframes.set_cover.cell_size_vox = 1.0;
+  Mapper mapper(keyframes);
+  Pose3d beyond_cells = Pose3d::Identity();
+  beyond_cells.translation() = Vec3d(0.0, 20000.0, 0.0);
+  const auto camera = std::make_shared<const CameraIntrinsics>(K);
+  CHECK_THROWS_WITH(mapper.addDepthFrame(5, 0.0, depth, camera, beyond_cells),
+                    Catch::Contains("frame 5") && Catch::Contains("frame pruning"));
+  CHECK(mapper.volume().frameCount() == 0);
+  CHECK(mapper.keyframes().size() == 0);
+  mapper.addDepthFrame(6, 0.1, depth, camera, Pose3d::Identity());
+  CHECK_THROWS_WITH(mapper.updatePoses({{6, beyond_cells}}), Catch::Contains("frame 6") && Catch::Contains("frame pruning"));
+  CHECK(mapper.queuedFrames() == 0);
 }

@@ -207,6 +207,36 @@ TEST_CASE("openDataset rejects bad logs naming the file and line", "[io][log][ba
     writeText(log / "frames.csv", header + "1.0,depth/000000.png,0,0,0\n");
     VDBMAP_REQUIRE_THROWS_MENTIONING(openDataset(log), "frames.csv:2:", "9 comma-separated");
   }
+  SECTION("a line with an extra field, as formats.md says") {
+    writeText(log / "frames.csv", header + "1.0,depth/000000.png,0,0,0,0,0,0,1,7\n");
+    VDBMAP_REQUIRE_THROWS_MENTIONING(openDataset(log), "frames.csv:2:", "9 comma-separated", "found 10");
+  }
+  SECTION("a header with an extra column") {
+    writeText(log / "frames.csv", "timestamp,file,tx,ty,tz,qx,qy,qz,qw,confidence\n");
+    VDBMAP_REQUIRE_THROWS_MENTIONING(openDataset(log), "frames.csv:1:", "header");
+  }
+  SECTION("DBL_MAX as depth_scale or max_range_m: refused in a short message naming the key") {
+    for (const char* key : {"depth_scale", "max_range_m"}) {
+      std::string json = R"({"kind": "depth", "width": 64, "height": 48, "fx": 50.0, "fy": 50.0, "cx": 31.5,
+                             "cy": 23.5, "depth_scale": 0.001, "max_range_m": 5.0})";
+      const std::string from = std::string("\"") + key + "\": " + (std::string(key) == "depth_scale" ? "0.001" : "5.0");
+      json.replace(json.find(from), from.size(), std::string("\"") + key + "\": 1.7976931348623157e308");
+      writeText(log / "sensor.json", json);
+      try {
+        openDataset(log);
+        FAIL("accepted " << key << " = DBL_MAX");
+      } catch (const std::exception& e) {
+        const std::string msg = e.what();
+        CHECK_THAT(msg, Catch::Contains(key) && Catch::Contains("1.79769e+308"));
+        CHECK(msg.size() < 200);
+      }
+    }
+  }
+  SECTION("a negative fx, which formats.md does not allow") {
+    writeText(log / "sensor.json", R"({"kind": "depth", "width": 64, "height": 48, "fx": -50.0, "fy": 50.0,
+                                     "cx": 31.5, "cy": 23.5, "depth_scale": 0.001})");
+    VDBMAP_REQUIRE_THROWS_MENTIONING(openDataset(log), "sensor.json", "fx");
+  }
   SECTION("a pose with NaN fails only that frame") {
     writeText(log / "frames.csv", header + "10.0,depth/000000.png,0,0,0,0,0,0,1\n10.1,depth/000001.png,0,nan,0,0,0,0,1\n"
                                            "10.2,depth/000002.png,0,0,0,0,0,0,1\n10.3,depth/000003.png,0,0,0,0,0,0,1\n");

@@ -1,9 +1,12 @@
 // Correcting a saved map afterwards: the keyframe store's file round-trips exactly and refuses
 // bad files by name; a mapper loaded from a saved map and corrected equals integrating its frames
-// from scratch at the corrected poses, bit for bit; a store of another run is refused.
+// from scratch at the corrected poses, bit for bit; a store or a companion of another save is
+// refused by its unit id; a save that fails part way changes nothing and leaves no temporaries.
 #include "common/drifting_circle.hpp"
 #include "common/fresh_dir.hpp"
+#include "test_io_helpers.hpp"
 #include "vdbmap/file_error.hpp"
+#include "vdbmap/map_file.hpp"
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/testing/analytic_scene.hpp"
 
@@ -12,6 +15,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <string>
 
 using namespace vdbmap;
 namespace fs = std::filesystem;
@@ -88,12 +93,29 @@ TEST_CASE("bad keyframe store files are refused naming the file, the keyframe an
   CHECK_THROWS_WITH(KeyframeStore::load(bad), Catch::Contains("more than its"));
   fresh();
   const double nan = std::nan("");
-  patch(bad, 24 + 16, &nan, 8);  // the first keyframe's T_W_S_integrated(0, 0)
+  patch(bad, 24 + 32 + 16, &nan, 8);  // after the header and the unit id: the first keyframe's T_W_S_integrated(0, 0)
   CHECK_THROWS_WITH(KeyframeStore::load(bad), Catch::Contains("keyframe 0 (id 0)") && Catch::Contains("T_W_S_integrated"));
   fresh();
   std::ofstream(bad, std::ios::app) << "extra";
   CHECK_THROWS_WITH(KeyframeStore::load(bad), Catch::Contains("bytes after the last keyframe"));
   CHECK_THROWS_AS(KeyframeStore::load(dir / "missing.keyframes"), FileError);
+}
+
+TEST_CASE("a version 1 keyframe store (no unit id) still loads", "[mapper][saved]") {
+  const fs::path dir = test::freshDir("vdbmap_saved_v1");
+  Mapper mapper(config(ConsistencyMode::All));
+  for (int i = 0; i < 2; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+  mapper.keyframes().save(dir / "v2.keyframes");
+  // Version 1: the same file without the unit id, its size field 0 (then reserved).
+  std::string bytes = test::readBytes(dir / "v2.keyframes");
+  REQUIRE(KeyframeStore::savedUnitId(dir / "v2.keyframes").size() == 32);
+  bytes.erase(24, 32);
+  const std::uint32_t one = 1, none = 0;
+  bytes.replace(8, 4, reinterpret_cast<const char*>(&one), 4);
+  bytes.replace(12, 4, reinterpret_cast<const char*>(&none), 4);
+  std::ofstream(dir / "v1.keyframes", std::ios::binary) << bytes;
+  CHECK(KeyframeStore::savedUnitId(dir / "v1.keyframes").empty());
+  CHECK(KeyframeStore::load(dir / "v1.keyframes").size() == 2);
 }
 
 TEST_CASE("a saved map corrected after loading equals integrating its frames from scratch at the corrected poses",
@@ -139,7 +161,8 @@ TEST_CASE("a saved map is refused without its exact state or with another run's 
     mapper.save(dir / (std::string(name) + ".vdb"));
   }
   fs::copy_file(dir / "b.keyframes", dir / "a.keyframes", fs::copy_options::overwrite_existing);
-  CHECK_THROWS_WITH(Mapper::load(dir / "a.vdb"), Catch::Contains("a.vdb holds 3 frames") && Catch::Contains("not of the same run"));
+  CHECK_THROWS_WITH(Mapper::load(dir / "a.vdb"), Catch::Contains("a.keyframes belongs to another save than") &&
+                                                     Catch::Contains("a.vdb") && Catch::Contains("unit id"));
   fs::remove(dir / "b.keyframes");
   CHECK_THROWS_WITH(Mapper::load(dir / "b.vdb"), Catch::Contains("no keyframe store"));
   fs::remove(dir / "b.exact.vdb");
@@ -148,4 +171,63 @@ TEST_CASE("a saved map is refused without its exact state or with another run's 
   queued.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
   queued.updatePoses({{0, test::circlePose(5)}});
   CHECK_THROWS_AS(queued.save(dir / "q.vdb"), std::logic_error);
+}
+
+TEST_CASE("a map and an exact companion of different saves are refused, naming both files", "[tsdf][saved][hostile]") {
+  const fs::path dir = test::freshDir("vdbmap_saved_unit");
+  Mapper mapper(config(ConsistencyMode::All));
+  for (int i = 0; i < 2; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+  const TsdfVolume& volume = mapper.volume();
+  volume.save(dir / "a.vdb");
+  volume.save(dir / "b.vdb");  // the same state, another save (as a second writer, or a later save)
+  const std::string unit_a = TsdfVolume::savedUnitId(dir / "a.vdb");
+  CHECK(unit_a.size() == 32);
+  CHECK(unit_a != TsdfVolume::savedUnitId(dir / "b.vdb"));
+  CHECK(inspectMapFile(dir / "a.vdb").has_exact_state);
+  CHECK(inspectMapFile(dir / "a.vdb").unit_id == unit_a);
+
+  // What a stop between the companion's rename and the map's leaves: the new companion, the old map.
+  fs::copy_file(dir / "b.exact.vdb", dir / "a.exact.vdb", fs::copy_options::overwrite_existing);
+  CHECK_THROWS_WITH(TsdfVolume::load(dir / "a.vdb"), Catch::Contains("a.exact.vdb belongs to another save than") &&
+                                                         Catch::Contains("a.vdb") && Catch::Contains(unit_a));
+  const MapFileInfo info = inspectMapFile(dir / "a.vdb");
+  CHECK_FALSE(info.has_exact_state);
+  CHECK_THAT(info.exact_state_problem, Catch::Contains("another save"));
+
+  // A companion that is not a map at all: info says why, load names it.
+  std::ofstream(dir / "b.exact.vdb", std::ios::trunc) << "garbage";
+  CHECK_FALSE(inspectMapFile(dir / "b.vdb").has_exact_state);
+  CHECK_THAT(inspectMapFile(dir / "b.vdb").exact_state_problem, Catch::Contains("b.exact.vdb"));
+  CHECK_THROWS_WITH(TsdfVolume::load(dir / "b.vdb"), Catch::Contains("b.exact.vdb") && Catch::Contains("truncated or damaged"));
+
+  // Without a companion the map loads approximately, as before.
+  fs::remove(dir / "a.exact.vdb");
+  CHECK_FALSE(TsdfVolume::load(dir / "a.vdb").hasExactState());
+}
+
+TEST_CASE("a map name that is a companion's name is refused before anything is written", "[tsdf][saved][hostile]") {
+  const fs::path dir = test::freshDir("vdbmap_saved_names");
+  Mapper mapper(config(ConsistencyMode::All));
+  mapper.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
+  CHECK_THROWS_WITH(mapper.volume().save(dir / "x.exact.vdb"), Catch::Contains("x.exact.vdb") && Catch::Contains("companion"));
+  CHECK_THROWS_WITH(mapper.save(dir / "x.keyframes"), Catch::Contains("x.keyframes") && Catch::Contains("keyframe store"));
+  CHECK(fs::is_empty(dir));
+}
+
+TEST_CASE("a save that fails part way leaves the previous files as they were and no temporaries", "[mapper][saved][hostile]") {
+  const fs::path dir = test::freshDir("vdbmap_saved_failed");
+  Mapper first(config(ConsistencyMode::All));
+  first.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
+  first.save(dir / "m.vdb");
+  const std::string map_before = test::readBytes(dir / "m.vdb"), store_before = test::readBytes(dir / "m.keyframes");
+  // The companion's name is taken by a folder: the store is staged first, then the companion fails.
+  fs::remove(dir / "m.exact.vdb");
+  fs::create_directory(dir / "m.exact.vdb");
+  Mapper second(config(ConsistencyMode::All));
+  for (int i = 0; i < 3; ++i) second.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+  CHECK_THROWS_WITH(second.save(dir / "m.vdb"), Catch::Contains("m.exact.vdb") && Catch::Contains("folder"));
+  CHECK(test::readBytes(dir / "m.vdb") == map_before);
+  CHECK(test::readBytes(dir / "m.keyframes") == store_before);
+  for (const auto& entry : fs::directory_iterator(dir))
+    CHECK_THAT(entry.path().filename().string(), !Catch::Contains(".tmp."));
 }

@@ -2,19 +2,26 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
 namespace vdbmap {
 
 void CameraIntrinsics::validate() const {
-  auto fail = [](const std::string& what) { throw std::invalid_argument("CameraIntrinsics: " + what); };
-  if (width <= 0) fail("width must be > 0, got " + std::to_string(width));
-  if (height <= 0) fail("height must be > 0, got " + std::to_string(height));
-  if (!std::isfinite(fx) || fx == 0.0) fail("fx must be finite and non-zero, got " + std::to_string(fx));
-  if (!std::isfinite(fy) || fy == 0.0) fail("fy must be finite and non-zero, got " + std::to_string(fy));
-  if (!std::isfinite(cx)) fail("cx must be finite");
-  if (!std::isfinite(cy)) fail("cy must be finite");
+  // Values are printed with ostream (1.79769e+308), never std::to_string (309 digits).
+  auto require = [](bool ok, const char* field, const char* range, double got) {
+    if (ok) return;
+    std::ostringstream msg;
+    msg << "CameraIntrinsics: " << field << " must be " << range << ", got " << got;
+    throw std::invalid_argument(msg.str());
+  };
+  require(width >= 1 && width <= kMaxCameraSide, "width", "in [1, 65536]", width);
+  require(height >= 1 && height <= kMaxCameraSide, "height", "in [1, 65536]", height);
+  require(fx > 0.0 && fx <= 1e7, "fx", "in (0, 1e7] pixels", fx);
+  require(std::abs(fy) > 0.0 && std::abs(fy) <= 1e7, "fy", "non-zero with |fy| <= 1e7 pixels (negative: flipped y axis)", fy);
+  require(std::abs(cx) <= 1e7, "cx", "finite with |cx| <= 1e7 pixels", cx);
+  require(std::abs(cy) <= 1e7, "cy", "finite with |cy| <= 1e7 pixels", cy);
 }
 
 DepthImage depthFromRaw(int width, int height, const std::uint16_t* raw, double depth_scale,

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <tuple>
@@ -150,8 +151,10 @@ class SubmapPolicy final : public ConsistencyPolicy {
   /// The fusion of the submaps: the sum over submaps of resampled (w * tsdf) and w, both with
   /// background 0 so that interpolation near unobserved space does not mix in the +truncation
   /// background. Each submap's resampled grids are cached until it changes (a new frame, a moved
-  /// anchor), so a rebuild resamples only the changed submaps.
+  /// anchor), so a rebuild resamples only the changed submaps. The caches are rebuilt under a
+  /// lock, so concurrent const calls are safe (they change nothing observable).
   const TsdfVolume& volume() const override {
+    const std::lock_guard<std::mutex> lock(cache_mutex_);
     if (!fused_stale_) return *fused_;
     auto wsdf_sum = openvdb::FloatGrid::create(0.0f);
     auto w_sum = openvdb::FloatGrid::create(0.0f);
@@ -206,6 +209,7 @@ class SubmapPolicy final : public ConsistencyPolicy {
   MapperLedger& ledger_;
   std::set<FrameId> ids_;
   std::vector<Submap> submaps_;
+  mutable std::mutex cache_mutex_;  ///< guards fused_, fused_stale_ and the submaps' caches in volume()
   mutable std::unique_ptr<TsdfVolume> fused_;
   mutable bool fused_stale_ = true;
 };
@@ -222,6 +226,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
 
   IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) override {
     if (store_.contains(id)) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
+    if (pruner_) checkPackable(id, T_W_S, config_.tsdf, config_.integrator, config_.set_cover.cell_size_vox);
     ++ledger_.stats.frames_total;
     const DecodedFrame decoded = decodeFrame(data);  // once, for integration and the pruner's set
     CellSet cells;
@@ -251,6 +256,9 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   }
 
   std::size_t updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) override {
+    if (pruner_)  // all checked before any changes
+      for (const auto& [id, T] : T_W_S_by_id)
+        if (store_.contains(id)) checkPackable(id, T, config_.tsdf, config_.integrator, config_.set_cover.cell_size_vox);
     std::size_t changed = 0;
     for (const auto& [id, T] : T_W_S_by_id) {
       if (!store_.contains(id) || drops_.count(id)) continue;  // pruned, being dropped, or never given

@@ -1,6 +1,7 @@
 #include "vdbmap/eval.hpp"
 
 #include "vdbmap/triangle_geometry.hpp"
+#include "vdbmap/tsdf_volume.hpp"  // kMaxAbsPosition_m
 
 #include <nanoflann.hpp>
 
@@ -38,11 +39,38 @@ struct SurfaceDistance::Index {
   std::unique_ptr<KdTree> sample_tree, vertex_tree;
 };
 
+namespace {
+/// About 10 GB of samples and kd-tree: beyond it the spacing is too fine for the mesh.
+constexpr double kMaxSurfaceSamples = 2e8;
+}  // namespace
+
 SurfaceDistance::SurfaceDistance(const TriangleMesh& mesh, double spacing) : index_(std::make_unique<Index>()) {
   if (mesh.vertices.empty()) throw std::invalid_argument("SurfaceDistance: the mesh has no vertices");
   if (!(spacing > 0)) throw std::invalid_argument("SurfaceDistance: sample spacing must be > 0");
   Index& ix = *index_;
-  for (const Vec3f& v : mesh.vertices) ix.vertices.push_back(v.cast<double>());
+  for (const Vec3f& v : mesh.vertices) {
+    if (!v.allFinite() || v.cwiseAbs().maxCoeff() > kMaxAbsPosition_m) {
+      std::ostringstream msg;
+      msg << "SurfaceDistance: mesh vertex " << ix.vertices.size() << " (" << v.transpose()
+          << ") is not finite or beyond " << kMaxAbsPosition_m << " m";
+      throw std::invalid_argument(msg.str());
+    }
+    ix.vertices.push_back(v.cast<double>());
+  }
+  // The samples are bounded before any is drawn: a mesh's area decides them, not its vertex count.
+  double total_area = 0.0;
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    if ((t.array() < 0).any() || (t.array() >= int(ix.vertices.size())).any()) continue;
+    const Vec3d &a = ix.vertices[t[0]], &b = ix.vertices[t[1]], &c = ix.vertices[t[2]];
+    total_area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  if (total_area / (spacing * spacing) > kMaxSurfaceSamples) {
+    std::ostringstream msg;
+    msg << "SurfaceDistance: the mesh's " << total_area << " m^2 at a sample spacing of " << spacing << " m need "
+        << total_area / (spacing * spacing) << " samples, more than " << kMaxSurfaceSamples
+        << "; use a coarser spacing";
+    throw std::invalid_argument(msg.str());
+  }
   std::mt19937 rng(12345);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   for (const Eigen::Vector3i& t : mesh.triangles) {

@@ -1,5 +1,6 @@
 // The keyframe store's file (docs/formats.md, "MAP.keyframes"): a little-endian binary file.
-//   header:   "VDBMAPKF", u32 version (1), u32 0, u64 keyframe count
+//   header:   "VDBMAPKF", u32 version (2), u32 unit id bytes (0 in version 1), u64 keyframe count,
+//             the unit id (ASCII, the save's AtomicFileSet::unitId(); version 2)
 //   each:     u64 id, f64 timestamp, f64[16] T_W_S_integrated, f64[16] T_W_S_latest (column-major),
 //             u8 integrated, u8 kind (0 depth, 1 points), u8 compressed, u8 has camera,
 //             i32 stride, u32 count, f64 unit_m,
@@ -10,6 +11,7 @@
 #include "vdbmap/atomic_file.hpp"
 #include "vdbmap/file_error.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -19,7 +21,9 @@ namespace vdbmap {
 namespace {
 
 constexpr char kMagic[8] = {'V', 'D', 'B', 'M', 'A', 'P', 'K', 'F'};
-constexpr std::uint32_t kVersion = 1;
+/// 2: the header holds the unit id of the save (the map's), checked by Mapper::load.
+constexpr std::uint32_t kVersion = 2;
+constexpr std::uint32_t kMaxUnitIdBytes = 64;
 /// The smallest keyframe record (no camera, empty payload): what bounds a count read from a file.
 constexpr std::uint64_t kMinRecordBytes = 8 + 8 + 2 * 16 * 8 + 4 + 4 + 4 + 8 + 8;
 
@@ -146,12 +150,20 @@ struct KeyframeStoreFile {
 };
 
 void KeyframeStore::save(const std::filesystem::path& path) const {
+  AtomicFileSet files;
+  stageSave(path, files);
+  files.commit();
+}
+
+void KeyframeStore::stageSave(const std::filesystem::path& path, AtomicFileSet& files) const {
   if (!littleEndian()) throw FileError("cannot write " + path.string() + ": keyframe stores are little-endian");
-  writeFileAtomically(path, [&](std::ostream& os) {
+  const std::string& unit = files.unitId();
+  files.add(path, [&](std::ostream& os) {
     os.write(kMagic, sizeof(kMagic));
     put(os, kVersion);
-    put(os, std::uint32_t(0));
+    put(os, std::uint32_t(unit.size()));
     put(os, std::uint64_t(frames_.size()));
+    os.write(unit.data(), std::streamsize(unit.size()));
     for (const auto& [id, kf] : frames_) {
       put(os, std::uint64_t(kf.id));
       put(os, kf.timestamp);
@@ -163,18 +175,42 @@ void KeyframeStore::save(const std::filesystem::path& path) const {
   });
 }
 
-KeyframeStore KeyframeStore::load(const std::filesystem::path& path) {
-  if (!littleEndian()) throw FileError("cannot read " + path.string() + ": keyframe stores are little-endian");
-  Reader in(path);
+namespace {
+
+/// Reads the header; returns the keyframe count and sets `unit_id`.
+std::uint64_t readHeader(Reader& in, std::string& unit_id) {
   char magic[8];
   in.bytes(magic, sizeof(magic), "the header");
   if (std::memcmp(magic, kMagic, sizeof(magic)) != 0) in.fail("not a vdbmap keyframe store (no VDBMAPKF header)");
   const auto version = in.get<std::uint32_t>("version");
   if (version < 1 || version > kVersion)
-    in.fail("keyframe store of version " + std::to_string(version) + ", this build reads version " +
+    in.fail("keyframe store of version " + std::to_string(version) + ", this build reads versions 1 to " +
             std::to_string(kVersion));
-  in.get<std::uint32_t>("reserved");
+  const auto id_bytes = in.get<std::uint32_t>("unit id size");
+  if (version == 1 ? id_bytes != 0 : id_bytes > kMaxUnitIdBytes)
+    in.fail("unit id of " + std::to_string(id_bytes) + " bytes (at most " + std::to_string(kMaxUnitIdBytes) + ")");
   const auto count = in.get<std::uint64_t>("keyframe count");
+  unit_id.assign(id_bytes, '\0');
+  in.bytes(unit_id.data(), id_bytes, "the unit id");
+  for (char c : unit_id)
+    if (!std::isxdigit(static_cast<unsigned char>(c))) in.fail("the unit id is not hexadecimal");
+  return count;
+}
+
+}  // namespace
+
+std::string KeyframeStore::savedUnitId(const std::filesystem::path& path) {
+  Reader in(path);
+  std::string unit_id;
+  readHeader(in, unit_id);
+  return unit_id;
+}
+
+KeyframeStore KeyframeStore::load(const std::filesystem::path& path) {
+  if (!littleEndian()) throw FileError("cannot read " + path.string() + ": keyframe stores are little-endian");
+  Reader in(path);
+  std::string unit_id;
+  const std::uint64_t count = readHeader(in, unit_id);
   if (count > in.left() / kMinRecordBytes)
     in.fail("says " + std::to_string(count) + " keyframes, more than its " + std::to_string(in.left()) + " bytes can hold");
   KeyframeStore store;

@@ -1,5 +1,7 @@
 #include "vdbmap/map_file.hpp"
 
+#include "internal/vdb_file_check.hpp"
+
 #include "vdbmap/file_error.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
@@ -11,6 +13,9 @@ namespace detail {
 /// Throws FileError naming the file and both versions when `meta` holds a vdbmap_format_version
 /// newer than this build writes (defined in tsdf_volume_io.cpp beside the version constant).
 void checkMapFormatVersion(const openvdb::MetaMap& meta, const std::filesystem::path& path);
+/// Throws FileError unless `exact_meta` is a readable companion of the same save as `map_meta`.
+void checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMap& exact_meta,
+                         const std::filesystem::path& map_path, const std::filesystem::path& exact_path);
 }  // namespace detail
 
 namespace {
@@ -18,6 +23,7 @@ namespace {
 openvdb::io::File openFile(const std::filesystem::path& path) {
   initializeOpenVdb();
   if (!std::filesystem::is_regular_file(path)) throw vdbmap::FileError("cannot open map " + path.string() + ": no such file");
+  internal::checkVdbFileStructure(path);
   openvdb::io::File file(path.string());
   try {
     file.open();
@@ -32,18 +38,38 @@ openvdb::io::File openFile(const std::filesystem::path& path) {
 openvdb::FloatGrid::Ptr readTsdfGrid(const std::filesystem::path& path) {
   openvdb::io::File file = openFile(path);
   if (!file.hasGrid("tsdf")) throw vdbmap::FileError(path.string() + ": no grid named 'tsdf' (not a vdbmap map?)");
-  auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
+  openvdb::FloatGrid::Ptr grid;
+  try {
+    grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
+  } catch (const openvdb::Exception& e) {  // e.g. "KeyError: Map is not registered" for a damaged transform
+    throw vdbmap::FileError("cannot read map " + path.string() + ": grid 'tsdf': " + e.what());
+  }
   if (!grid) throw vdbmap::FileError(path.string() + ": grid 'tsdf' is not a float grid");
   return grid;
 }
 
-MapFileInfo inspectMapFile(const std::filesystem::path& path) {
+namespace {
+MapFileInfo inspectOpenedMapFile(const std::filesystem::path& path) {
   openvdb::io::File file = openFile(path);
   MapFileInfo info;
   info.path = path;
   info.file_bytes = std::filesystem::file_size(path);
-  info.has_exact_state = std::filesystem::is_regular_file(TsdfVolume::exactStatePath(path));
   const openvdb::MetaMap::Ptr meta = file.getMetadata();
+  if (const auto id = meta->getMetadata<openvdb::StringMetadata>("vdbmap_unit_id")) info.unit_id = id->value();
+  const std::filesystem::path exact = TsdfVolume::exactStatePath(path);
+  if (std::filesystem::is_regular_file(exact)) {
+    try {
+      internal::checkVdbFileStructure(exact);
+      openvdb::io::File companion(exact.string());
+      companion.open();
+      detail::checkExactCompanion(*meta, *companion.getMetadata(), path, exact);
+      info.has_exact_state = true;
+    } catch (const openvdb::Exception& e) {
+      info.exact_state_problem = "cannot read " + exact.string() + ": " + e.what();
+    } catch (const vdbmap::FileError& e) {
+      info.exact_state_problem = e.what();
+    }
+  }
   for (auto it = meta->beginMeta(); it != meta->endMeta(); ++it) info.metadata.emplace_back(it->first, it->second->str());
   const openvdb::GridPtrVecPtr grids = file.getGrids();
   for (const openvdb::GridBase::Ptr& g : *grids) {
@@ -63,6 +89,16 @@ MapFileInfo inspectMapFile(const std::filesystem::path& path) {
     info.grids.push_back(m);
   }
   return info;
+}
+
+}  // namespace
+
+MapFileInfo inspectMapFile(const std::filesystem::path& path) {
+  try {
+    return inspectOpenedMapFile(path);
+  } catch (const openvdb::Exception& e) {
+    throw vdbmap::FileError("cannot read map " + path.string() + ": " + e.what());
+  }
 }
 
 }  // namespace vdbmap

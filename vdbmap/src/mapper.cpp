@@ -2,6 +2,7 @@
 
 #include "internal/consistency_policy.hpp"
 
+#include "vdbmap/atomic_file.hpp"
 #include "vdbmap/file_error.hpp"
 
 #include <sstream>
@@ -106,9 +107,14 @@ void Mapper::save(const std::filesystem::path& map_path) const {
     throw std::logic_error("Mapper::save: " + std::to_string(queuedFrames()) +
                            " frames still wait for background work; call reintegrateAll first");
   const bool keeps_frames = config_.mode == ConsistencyMode::All || config_.mode == ConsistencyMode::Keyframes;
-  // The store first: a map file never sits beside a store of another run.
-  if (keeps_frames) keyframes().save(keyframesPath(map_path));
-  volume().save(map_path);
+  if (keeps_frames && map_path.extension() == ".keyframes")
+    throw FileError("cannot write map " + map_path.string() + ": a name ending in .keyframes is the name of its "
+                    "keyframe store; choose another");
+  // One unit: the store and the companion are renamed before the map, all under one unit id.
+  AtomicFileSet files;
+  if (keeps_frames) keyframes().stageSave(keyframesPath(map_path), files);
+  volume().stageSave(map_path, files);
+  files.commit();
 }
 
 Mapper Mapper::load(const std::filesystem::path& map_path, const ReintegrationConfig& reintegration) {
@@ -120,6 +126,11 @@ Mapper Mapper::load(const std::filesystem::path& map_path, const ReintegrationCo
   if (!std::filesystem::is_regular_file(store_path))
     throw FileError(map_path.string() + ": no keyframe store " + store_path.string() +
                     " (integrate in all or keyframes mode writes it)");
+  const std::string map_unit = TsdfVolume::savedUnitId(map_path), store_unit = KeyframeStore::savedUnitId(store_path);
+  if (map_unit != store_unit)
+    throw FileError(store_path.string() + " belongs to another save than " + map_path.string() + " (unit id " +
+                    (store_unit.empty() ? "none" : store_unit) + ", the map's " + (map_unit.empty() ? "none" : map_unit) +
+                    "): a save was stopped between its files, or two programs wrote the same map");
   KeyframeStore store = KeyframeStore::load(store_path);
   const std::map<FrameId, Pose3d> held = volume.integratedPoses();
   std::size_t integrated = 0;

@@ -19,6 +19,8 @@
 //   and the greedy takes them all (a non-empty unselected set has r(c) >= 1 on each of its cells).
 #include "vdbmap/set_cover.hpp"
 
+#include "vdbmap/tsdf_volume.hpp"  // FrameError
+
 #include "internal/grid_dda.hpp"
 #include "internal/projective_integrator.hpp"
 #include "internal/ray_integrator.hpp"
@@ -139,6 +141,19 @@ std::uint64_t packCell(const openvdb::Coord& c) {
   }
   return (std::uint64_t(c.x() + kCoordBias) << 42) | (std::uint64_t(c.y() + kCoordBias) << 21) |
          std::uint64_t(c.z() + kCoordBias);
+}
+
+void checkPackable(FrameId id, const Pose3d& T_W_S, const TsdfConfig& tsdf, const IntegratorConfig& integrator,
+                   double cell_size_vox) {
+  const double cell_m = tsdf.voxel_size_m * cell_size_vox;
+  const double reach_cells = (T_W_S.translation().cwiseAbs().maxCoeff() + integrator.max_range_m) / cell_m + 2.0;
+  if (!(reach_cells < double(kCoordBias))) {
+    std::ostringstream msg;
+    msg << "frame " << id << ": T_W_S translation (" << T_W_S.translation().transpose()
+        << ") m is beyond the range frame pruning covers (|x|, |y|, |z| + max range < "
+        << double(kCoordBias) * cell_m << " m = 2^20 cells of " << cell_m << " m)";
+    throw FrameError(msg.str());
+  }
 }
 
 CellSet CellSet::fromSortedKeys(const std::vector<std::uint64_t>& keys) {

@@ -9,8 +9,13 @@
 
 #include <tbb/task_arena.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <fstream>
+#include <limits>
 #include <sstream>
+#include <string>
 
 namespace vdbmap {
 
@@ -185,8 +190,87 @@ std::map<FrameId, TsdfVolume::FrameRecord>::iterator TsdfVolume::checkKnownFrame
   return it;
 }
 
+namespace {
+
+/// Bytes of one leaf (8^3 voxels) in each of the three Int64 grids, values and masks.
+constexpr double kLeafBytes = 3.0 * (512.0 * 8.0 + 3.0 * 64.0);
+/// Frames whose bound with the configured max range stays below this are not examined further.
+constexpr double kQuickBoundBytes = 256.0 * (1 << 20);
+
+/// MemAvailable of /proc/meminfo in bytes, or +inf where it cannot be read.
+double availableMemoryBytes() {
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key;
+  while (meminfo >> key) {
+    if (key == "MemAvailable:") {
+      double kib = 0.0;
+      meminfo >> kib;
+      return kib * 1024.0;
+    }
+    meminfo.ignore(1 << 12, '\n');
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+/// An upper estimate of the map memory one frame can add: a ray of length l crosses at most
+/// sqrt(3) l / L + 3 leaves of side L, and the rays together no more leaves than their view
+/// volume (dilated by two leaves) holds.
+double frameBytesBound(double rays, double reach_m, double view_volume_m3, double voxel_m) {
+  const double leaf_m = 8.0 * voxel_m;
+  const double along_rays = rays * (std::sqrt(3.0) * reach_m / leaf_m + 3.0);
+  const double in_view = view_volume_m3 / (leaf_m * leaf_m * leaf_m);
+  return std::min(along_rays, in_view) * kLeafBytes;
+}
+
+/// Throws FrameError naming the frame and the estimate when it exceeds the available memory.
+void checkFrameFits(FrameId id, double estimate_bytes, double rays, double reach_m, double voxel_m) {
+  if (estimate_bytes <= kQuickBoundBytes) return;
+  const double available = availableMemoryBytes();
+  if (estimate_bytes <= available) return;
+  std::ostringstream msg;
+  msg.precision(3);
+  msg << "frame " << id << ": integrating it could take about " << estimate_bytes / 1e9 << " GB of map memory ("
+      << rays << " rays up to " << reach_m << " m through voxels of " << voxel_m << " m), more than the "
+      << available / 1e9 << " GB available; use a larger voxel size or a shorter max range";
+  throw FrameError(msg.str());
+}
+
+/// The pinhole's view pyramid to depth r, dilated by two leaves (its volume, m^3).
+double pyramidVolume(const CameraIntrinsics& K, double r, double leaf_m) {
+  const double rr = r + 2.0 * leaf_m;
+  return (K.width / std::abs(K.fx) * rr + 4.0 * leaf_m) * (K.height / std::abs(K.fy) * rr + 4.0 * leaf_m) * rr / 3.0;
+}
+
+}  // namespace
+
+void TsdfVolume::checkFrameMemory(FrameId id, const PointCloud& points_S) const {
+  const double v = config_.voxel_size_m, reach = integrator_.max_range_m + config_.truncation_m();
+  const double rays = double(points_S.size());
+  auto sphere = [v](double r) { return 4.0 / 3.0 * M_PI * std::pow(r + 16.0 * v, 3.0); };
+  if (frameBytesBound(rays, reach, sphere(reach), v) <= kQuickBoundBytes) return;
+  double far = 0.0;  // the farthest point within range: what this frame really reaches
+  for (const Vec3f& p : points_S)
+    if (p.allFinite()) far = std::max(far, std::min(double(p.norm()), integrator_.max_range_m));
+  far += config_.truncation_m();
+  checkFrameFits(id, frameBytesBound(rays, far, sphere(far), v), rays, far, v);
+}
+
+void TsdfVolume::checkFrameMemory(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K) const {
+  const double v = config_.voxel_size_m, reach = integrator_.max_range_m + config_.truncation_m();
+  const double rays = double(depth_m.depth_m.size());
+  if (frameBytesBound(rays, reach, pyramidVolume(K, reach, 8.0 * v), v) <= kQuickBoundBytes) return;
+  double far = 0.0;
+  for (float d : depth_m.depth_m)
+    if (std::isfinite(d) && d > 0.0f) far = std::max(far, std::min(double(d), integrator_.max_range_m));
+  // A pixel's ray is longer than its depth off the optical axis: bounded by the image corners.
+  const double corner = std::hypot(K.width / std::abs(K.fx), K.height / std::abs(K.fy));
+  far = far * std::sqrt(1.0 + corner * corner) + config_.truncation_m();
+  checkFrameFits(id, frameBytesBound(rays, far, pyramidVolume(K, far, 8.0 * v), v), rays, far, v);
+}
+
 IntegrationStats TsdfVolume::integrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S) {
   checkNewFrame(id, T_W_S);
+  checkFrameMemory(id, points_S);
   IntegrationStats stats = apply(points_S, T_W_S, +1);
   frames_[id] = FrameRecord{fingerprint(points_S, T_W_S), T_W_S};
   return stats;
@@ -202,6 +286,7 @@ IntegrationStats TsdfVolume::deintegrate(FrameId id, const PointCloud& points_S,
 IntegrationStats TsdfVolume::integrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
                                        const Pose3d& T_W_S, VoxelFootprint* footprint) {
   checkNewFrame(id, T_W_S);
+  checkFrameMemory(id, depth_m, K);
   IntegrationStats stats = apply(depth_m, K, T_W_S, +1, footprint);
   frames_[id] = FrameRecord{fingerprint(depth_m, K, T_W_S), T_W_S};
   return stats;

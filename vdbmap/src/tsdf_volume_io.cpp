@@ -1,4 +1,6 @@
 // Saving and loading TsdfVolume: the portable float map (.vdb) and the exact companion file.
+#include "internal/vdb_file_check.hpp"
+
 #include "vdbmap/atomic_file.hpp"
 #include "vdbmap/file_error.hpp"
 #include "vdbmap/tsdf_volume.hpp"
@@ -17,7 +19,13 @@ namespace {
 /// 2: frame fingerprints by a faster hash (version 1 companions cannot de-integrate their frames).
 /// 3: the companion also holds the hit counts (grid "hits"). Version 2 companions still load, with
 ///    no hits: de-integrating their frames then leaves negative counts, which read as no hits.
-constexpr int kFormatVersion = 3;
+/// 4: the map and its companions carry the id of the save that wrote them ("vdbmap_unit_id").
+constexpr int kFormatVersion = 4;
+constexpr const char* kUnitIdKey = "vdbmap_unit_id";
+/// The fields a companion must share with its map (beyond the unit id, which older files lack).
+constexpr const char* kSharedFields[] = {"voxel_size_m", "truncation_vox", "weighting",  "min_weight",
+                                         "occupancy_threshold_vox", "min_range_m", "max_range_m",
+                                         "ray_mode", "frames_integrated"};
 constexpr int kOldestReadableVersion = 2;
 
 openvdb::MetaMap configMetadata(const TsdfConfig& c, const IntegratorConfig& in, std::size_t frames) {
@@ -43,19 +51,22 @@ T requireMeta(const openvdb::MetaMap& meta, const std::string& key, const std::f
   return m->value();
 }
 
-void writeGrids(const std::filesystem::path& path, const openvdb::GridPtrVec& grids, const openvdb::MetaMap& meta) {
-  const std::filesystem::path tmp = vdbmap::temporaryPathFor(path);
+void writeGrids(const std::filesystem::path& path, const openvdb::GridPtrVec& grids, const openvdb::MetaMap& meta,
+                AtomicFileSet& files) {
+  const std::filesystem::path tmp = files.add(path);
   try {
     openvdb::io::File file(tmp.string());
     file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
     file.write(grids, meta);
     file.close();
   } catch (const std::exception& e) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
     throw vdbmap::FileError("cannot write " + path.string() + ": " + e.what());
   }
-  vdbmap::commitTemporary(tmp, path);
+}
+
+std::string unitIdOf(const openvdb::MetaMap& meta) {
+  const auto id = meta.getMetadata<openvdb::StringMetadata>(kUnitIdKey);
+  return id ? id->value() : std::string();
 }
 
 }  // namespace
@@ -76,7 +87,51 @@ void checkMapFormatVersion(const openvdb::MetaMap& meta, const std::filesystem::
                             std::to_string(kFormatVersion) + "); written by a newer vdbmap?");
 }
 
+void checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMap& exact_meta,
+                         const std::filesystem::path& map_path, const std::filesystem::path& exact_path) {
+  const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(exact_meta, "vdbmap_format_version", exact_path);
+  if (version < kOldestReadableVersion || version > kFormatVersion)
+    throw vdbmap::FileError(exact_path.string() + ": exact state of format version " + std::to_string(version) +
+                            ", this build reads versions " + std::to_string(kOldestReadableVersion) + " to " +
+                            std::to_string(kFormatVersion) +
+                            " (remove the .exact.vdb file to load the map approximately)");
+  const std::string hint = ": a save was stopped between its files, or two programs wrote the same map (remove " +
+                           exact_path.filename().string() + " to load the map approximately)";
+  const std::string map_id = unitIdOf(map_meta), exact_id = unitIdOf(exact_meta);
+  if (map_id != exact_id)
+    throw vdbmap::FileError(exact_path.string() + " belongs to another save than " + map_path.string() + " (unit id " +
+                            (exact_id.empty() ? "none" : exact_id) + ", the map's " + (map_id.empty() ? "none" : map_id) +
+                            ")" + hint);
+  for (const char* field : kSharedFields) {
+    const openvdb::Metadata::ConstPtr a = map_meta[field], b = exact_meta[field];
+    if (!a || !b || a->str() != b->str())
+      throw vdbmap::FileError(exact_path.string() + ": '" + field + "' is " + (b ? b->str() : "missing") +
+                              ", the map " + map_path.string() + " says " + (a ? a->str() : "nothing") + hint);
+  }
+  if (requireMeta<openvdb::Int64Metadata, openvdb::Int64>(exact_meta, "weight_scale", exact_path) != kWeightScale ||
+      requireMeta<openvdb::Int64Metadata, openvdb::Int64>(exact_meta, "sdf_scale", exact_path) != kSdfScale)
+    throw vdbmap::FileError(exact_path.string() + ": fixed-point scales differ from this build's");
+}
+
 }  // namespace detail
+
+bool TsdfVolume::isExactStatePath(const std::filesystem::path& path) {
+  const std::string name = path.filename().string();
+  const std::string suffix = ".exact.vdb";
+  return name.size() >= suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string TsdfVolume::savedUnitId(const std::filesystem::path& path) {
+  initializeOpenVdb();
+  try {
+    internal::checkVdbFileStructure(path);
+    openvdb::io::File file(path.string());
+    file.open();
+    return unitIdOf(*file.getMetadata());
+  } catch (const openvdb::Exception& e) {
+    throw vdbmap::FileError("cannot read map " + path.string() + ": " + e.what());
+  }
+}
 
 std::filesystem::path TsdfVolume::exactStatePath(const std::filesystem::path& path) {
   std::filesystem::path p = path;
@@ -86,15 +141,25 @@ std::filesystem::path TsdfVolume::exactStatePath(const std::filesystem::path& pa
 }
 
 void TsdfVolume::save(const std::filesystem::path& path) const {
+  AtomicFileSet files;
+  stageSave(path, files);
+  files.commit();
+}
+
+void TsdfVolume::stageSave(const std::filesystem::path& path, AtomicFileSet& files) const {
   if (path.has_parent_path() && !std::filesystem::is_directory(path.parent_path()))
     throw vdbmap::FileError("cannot write " + path.string() + ": folder " + path.parent_path().string() +
                         " does not exist");
-  // Refused before the companion is written, which would otherwise be left without its map.
   if (std::error_code ec; std::filesystem::is_directory(path, ec))
     throw vdbmap::FileError("cannot write " + path.string() + ": it is a folder (give a file name)");
-  const openvdb::MetaMap meta = configMetadata(config_, integrator_, frames_.size());
+  if (isExactStatePath(path))
+    throw vdbmap::FileError("cannot write map " + path.string() +
+                            ": a name ending in .exact.vdb is the name of a map's exact companion; choose another");
+  openvdb::MetaMap meta = configMetadata(config_, integrator_, frames_.size());
+  meta.insertMeta(kUnitIdKey, openvdb::StringMetadata(files.unitId()));
 
-  // The exact state and the frame registry go first: a map file never points at a stale companion.
+  // The companion is renamed before the map: a stop in between leaves a map and a companion of
+  // different saves, which load() refuses by their unit ids.
   if (exact_state_) {
     nlohmann::json registry = nlohmann::json::array();
     for (const auto& [id, rec] : frames_) {
@@ -107,7 +172,7 @@ void TsdfVolume::save(const std::filesystem::path& path) const {
     exact_meta.insertMeta("weight_scale", openvdb::Int64Metadata(kWeightScale));
     exact_meta.insertMeta("sdf_scale", openvdb::Int64Metadata(kSdfScale));
     writeGrids(exactStatePath(path), {weight_q_->deepCopyGrid(), wsdf_q_->deepCopyGrid(), hits_->deepCopyGrid()},
-               exact_meta);
+               exact_meta, files);
   }
 
   openvdb::FloatGrid::Ptr tsdf = tsdfGrid();
@@ -116,7 +181,7 @@ void TsdfVolume::save(const std::filesystem::path& path) const {
     tsdf->insertMeta(it->first, *it->second);
     weight->insertMeta(it->first, *it->second);
   }
-  writeGrids(path, {tsdf, weight}, meta);
+  writeGrids(path, {tsdf, weight}, meta, files);
 }
 
 TsdfVolume TsdfVolume::fromWeightedSums(const TsdfConfig& config, const IntegratorConfig& integrator,
@@ -140,6 +205,7 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
   initializeOpenVdb();
   if (!std::filesystem::is_regular_file(path)) throw vdbmap::FileError("cannot open map " + path.string() + ": no such file");
   try {
+    internal::checkVdbFileStructure(path);
     openvdb::io::File file(path.string());
     file.open();
     const openvdb::MetaMap::Ptr meta = file.getMetadata();
@@ -158,18 +224,12 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
 
     const std::filesystem::path exact = exactStatePath(path);
     if (std::filesystem::is_regular_file(exact)) {
+      internal::checkVdbFileStructure(exact);
       openvdb::io::File ef(exact.string());
       ef.open();
       const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
+      detail::checkExactCompanion(*meta, *emeta, path, exact);
       const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(*emeta, "vdbmap_format_version", exact);
-      if (version < kOldestReadableVersion || version > kFormatVersion)
-        throw vdbmap::FileError(exact.string() + ": exact state of format version " + std::to_string(version) +
-                                ", this build reads versions " + std::to_string(kOldestReadableVersion) + " to " +
-                                std::to_string(kFormatVersion) +
-                                " (remove the .exact.vdb file to load the map approximately)");
-      if (requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "weight_scale", exact) != kWeightScale ||
-          requireMeta<openvdb::Int64Metadata, openvdb::Int64>(*emeta, "sdf_scale", exact) != kSdfScale)
-        throw vdbmap::FileError(exact.string() + ": fixed-point scales differ from this build's");
       auto w = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("weight_q"));
       auto wd = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("wsdf_q"));
       if (!w || !wd) throw vdbmap::FileError(exact.string() + ": grids weight_q / wsdf_q missing or not Int64");

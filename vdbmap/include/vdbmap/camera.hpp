@@ -12,15 +12,19 @@
 
 namespace vdbmap {
 
+/// The largest image side a camera may have (pixels).
+inline constexpr int kMaxCameraSide = 65536;
+
 struct CameraIntrinsics {
   int width = 640;
   int height = 480;
-  double fx = 387.229;  ///< focal length in pixels; FUEL's simulated camera by default
+  double fx = 387.229;  ///< focal length in pixels, > 0; FUEL's simulated camera by default
   double fy = 387.229;  ///< may be negative (flipped y axis), never zero
   double cx = 320.0;
   double cy = 240.0;
 
-  /// Throws std::invalid_argument naming the field when a value is out of range.
+  /// Throws std::invalid_argument naming the field when a value is out of range: sides in
+  /// [1, kMaxCameraSide], fx in (0, 1e7], |fy| in (0, 1e7], |cx|, |cy| <= 1e7.
   void validate() const;
 };
 

@@ -13,9 +13,12 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace vdbmap {
+
+class AtomicFileSet;
 
 /// One frame's sensor data, quantized and compressed.
 class EncodedFrame {
@@ -87,6 +90,10 @@ class KeyframeStore {
   /// stored) to `path` (docs/formats.md, "MAP.keyframes"), atomically: a failure leaves an
   /// existing file untouched. Throws FileError naming the file.
   void save(const std::filesystem::path& path) const;
+  /// save() into a set the caller commits, under the set's unit id (Mapper::save: with its map).
+  void stageSave(const std::filesystem::path& path, AtomicFileSet& files) const;
+  /// The unit id in the file's header ("" for version 1 stores). Throws FileError as load().
+  static std::string savedUnitId(const std::filesystem::path& path);
   /// Reads a file save() wrote. Throws FileError naming the file, the keyframe and the field on
   /// bad input (wrong magic, newer version, sizes beyond the file, invalid camera or pose), before
   /// allocating for sizes the file cannot hold.

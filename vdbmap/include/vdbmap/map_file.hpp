@@ -29,7 +29,9 @@ struct MapFileInfo {
   std::size_t file_bytes = 0;
   std::vector<MapFileGrid> grids;
   std::vector<std::pair<std::string, std::string>> metadata;  ///< file metadata, as text
-  bool has_exact_state = false;  ///< the .exact.vdb companion exists
+  bool has_exact_state = false;     ///< the .exact.vdb companion exists and belongs to this map
+  std::string exact_state_problem;  ///< why a companion that exists is not usable ("" when it is)
+  std::string unit_id;              ///< the save's unit id ("" for maps of format 3 and older)
 };
 
 /// Lists a .vdb file's grids (fully read, so counts are exact) and metadata.

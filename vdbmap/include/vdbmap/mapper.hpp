@@ -118,7 +118,8 @@ class Mapper {
   std::size_t queuedFrames() const;
 
   /// The map: in submap mode the fusion of all submaps (rebuilt when a submap changed,
-  /// approximate state).
+  /// approximate state; the rebuild is locked, so const calls may run concurrently, as with
+  /// every const member).
   const TsdfVolume& volume() const;
   /// Voxel box changed since the last call (integration, re-integration, pruning, anchors);
   /// empty when nothing changed. Planners refresh frontiers and distances there.

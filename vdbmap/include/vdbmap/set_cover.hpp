@@ -91,6 +91,10 @@ class CellSet {
 /// Packs a cell into a 64-bit key ordered by (x, y, z); throws std::out_of_range outside [-2^20, 2^20).
 std::uint64_t packCell(const openvdb::Coord& c);
 openvdb::Coord unpackCell(std::uint64_t key);
+/// Throws FrameError naming frame `id` unless every cell within the integrator's max range of the
+/// sensor at T_W_S packs (the pruner's limit, checked before a frame changes any state).
+void checkPackable(FrameId id, const Pose3d& T_W_S, const TsdfConfig& tsdf, const IntegratorConfig& integrator,
+                   double cell_size_vox);
 
 /// The coarse cell (cell_size_vox voxels wide) that contains the world point p_W.
 openvdb::Coord cellOf(const Vec3d& p_W, double voxel_size_m, double cell_size_vox);

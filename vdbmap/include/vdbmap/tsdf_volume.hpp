@@ -21,8 +21,11 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <string>
 
 namespace vdbmap {
+
+class AtomicFileSet;
 
 /// What one call of integrate() or deintegrate() did with its points.
 struct IntegrationStats {
@@ -129,12 +132,18 @@ class TsdfVolume {
   // ---- files (implemented in tsdf_volume_io.cpp) ---------------------------------------------
   /// Writes `path` (.vdb: float grids "tsdf" and "weight" plus metadata, readable by vdb_print
   /// and pyopenvdb) and the exact integer state with the frame registry to exactStatePath(path).
-  /// Both are written to temporaries and renamed: a failure leaves existing files untouched.
+  /// Both are written as one AtomicFileSet under a fresh unit id: a failure leaves existing files
+  /// untouched. Throws FileError for a name ending in .exact.vdb (a companion's name).
   void save(const std::filesystem::path& path) const;
+  /// save() into a set the caller commits, e.g. with more files of the same unit (Mapper::save).
+  void stageSave(const std::filesystem::path& path, AtomicFileSet& files) const;
   /// Loads a map saved by save(). With the companion file the state is exact and integration can
   /// resume bit for bit; without it the state is rebuilt from the float grids (approximately) and
-  /// the frame registry is empty. Throws std::runtime_error naming the file on bad input.
+  /// the frame registry is empty. Throws FileError naming the file on bad input, and naming both
+  /// files when the companion is of another save (another unit id or map settings).
   static TsdfVolume load(const std::filesystem::path& path);
+  /// The unit id the map file at `path` was saved under ("" for maps of format 3 and older).
+  static std::string savedUnitId(const std::filesystem::path& path);
   /// A map rebuilt from float sums: `weight` (ray units) and `weighted_tsdf` (weight x tsdf in
   /// metres) on the same voxels, e.g. the fusion of submaps. The state is approximate (quantized
   /// from floats, hasExactState() false) and the frame registry is empty.
@@ -142,6 +151,8 @@ class TsdfVolume {
                                      const openvdb::FloatGrid& weight, const openvdb::FloatGrid& weighted_tsdf);
   /// `map.vdb` -> `map.exact.vdb`.
   static std::filesystem::path exactStatePath(const std::filesystem::path& path);
+  /// Whether `path` has a companion's name (ends in .exact.vdb).
+  static bool isExactStatePath(const std::filesystem::path& path);
   /// Whether the state came from exact data (false after loading a map without its companion).
   bool hasExactState() const { return exact_state_; }
 
@@ -157,6 +168,10 @@ class TsdfVolume {
   void checkPose(FrameId id, const Pose3d& T_W_S, const char* what) const;
   /// Throws FrameError unless `id` is new and T_W_S passes checkPose.
   void checkNewFrame(FrameId id, const Pose3d& T_W_S) const;
+  /// Throws FrameError naming the estimate when integrating the frame could need more map memory
+  /// than the machine has available (a voxel size far too small for the frame's reach).
+  void checkFrameMemory(FrameId id, const PointCloud& points_S) const;
+  void checkFrameMemory(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K) const;
   /// Throws FrameError unless `id` is integrated with this fingerprint; returns its record.
   std::map<FrameId, FrameRecord>::iterator checkKnownFrame(FrameId id, std::uint64_t fingerprint, const char* what);
   std::uint64_t fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const;

@@ -91,13 +91,12 @@ FrameSourceContents readLog(const std::filesystem::path& folder) {
     const std::size_t ln = lines.lineNumber();
     if (!have_header) {
       const std::string_view h = trim(line);
-      if (h.substr(0, std::string_view(kFramesHeader).size()) != kFramesHeader)
-        failAt(csv, ln, std::string("expected the header line '") + kFramesHeader + "'");
+      if (h != kFramesHeader) failAt(csv, ln, std::string("expected the header line '") + kFramesHeader + "'");
       have_header = true;
       continue;
     }
     splitOn(line, ',', f);
-    if (f.size() < 9) failAt(csv, ln, "expected 9 comma-separated fields (" + std::string(kFramesHeader) + "), found " + std::to_string(f.size()));
+    if (f.size() != 9) failAt(csv, ln, "expected 9 comma-separated fields (" + std::string(kFramesHeader) + "), found " + std::to_string(f.size()));
     FrameRecord r;
     r.index = c.records.size();
     r.source = csv_name + ":" + std::to_string(ln);

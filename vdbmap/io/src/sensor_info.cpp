@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace vdbmap::io {
@@ -15,14 +16,19 @@ namespace vdbmap::io {
 const char* toString(SensorKind kind) { return kind == SensorKind::Depth ? "depth" : "points"; }
 
 void SensorInfo::validate() const {
-  auto fail = [](const std::string& what) { throw std::invalid_argument("SensorInfo: " + what); };
+  // Values are printed with ostream (1.79769e+308), never std::to_string (309 digits).
+  auto require = [](bool ok, const char* field, const char* range, double got) {
+    if (ok) return;
+    std::ostringstream msg;
+    msg << "SensorInfo: " << field << " must be " << range << ", got " << got;
+    throw std::invalid_argument(msg.str());
+  };
   if (kind == SensorKind::Depth) {
     intrinsics.validate();
-    if (!(depth_scale > 0.0) || !std::isfinite(depth_scale))
-      fail("depth_scale must be finite and > 0 (metres per depth unit), got " + std::to_string(depth_scale));
+    require(depth_scale > 0.0 && depth_scale <= 1.0, "depth_scale", "in (0, 1] metres per depth unit", depth_scale);
   }
-  if (!(min_range_m >= 0.0) || !std::isfinite(min_range_m)) fail("min_range_m must be finite and >= 0, got " + std::to_string(min_range_m));
-  if (!(max_range_m > min_range_m)) fail("max_range_m must be > min_range_m, got " + std::to_string(max_range_m));
+  require(max_range_m > 0.0 && max_range_m <= 1000.0, "max_range_m", "in (0, 1000] m", max_range_m);
+  require(min_range_m >= 0.0 && min_range_m < max_range_m, "min_range_m", "in [0, max_range_m)", min_range_m);
 }
 
 SensorInfo readSensorJson(const std::filesystem::path& path) {
