@@ -1,6 +1,7 @@
 // Files and datasets: the log reader and dataset importers, log replay through a Mapper, the log
 // writer, depth PNGs, point clouds, meshes, trajectories, and map file inspection.
 #include "binding.hpp"
+#include "object_lock.hpp"
 
 #include "vdbmap/io/frame_source.hpp"
 #include "vdbmap/io/log_writer.hpp"
@@ -233,8 +234,8 @@ void bindReplay(py::module_& m) {
           if (PyErr_CheckSignals() != 0) throw py::error_already_set();
           if (user) user(done, total);
         };
-        py::gil_scoped_release nogil;
-        return replayLog(source, mapper, options);
+        // The mapper is locked for writing; the callback runs on this thread, so it may read the mapper.
+        return withLock(&mapper, Access::Write, [&] { return replayLog(source, mapper, options); });
       },
       py::arg("source"), py::arg("mapper"), py::arg("options") = ReplayOptions{},
       "Replays a sequence into a mapper as the CLI's `integrate` does: frames in order with the poses the log "
@@ -438,7 +439,11 @@ void bindMapFile(py::module_& m) {
             return d;
           },
           "file metadata as text, {name: value}")
-      .def_readonly("has_exact_state", &MapFileInfo::has_exact_state, "the .exact.vdb companion exists")
+      .def_readonly("has_exact_state", &MapFileInfo::has_exact_state,
+                    "the .exact.vdb companion exists and belongs to this map")
+      .def_readonly("exact_state_problem", &MapFileInfo::exact_state_problem,
+                    "why an existing companion is not usable ('' when it is or is absent)")
+      .def_readonly("unit_id", &MapFileInfo::unit_id, "the save's unit id ('' for maps of format 3 and older)")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   m.def("inspect_map_file", &inspectMapFile, py::arg("path"), py::call_guard<py::gil_scoped_release>(),

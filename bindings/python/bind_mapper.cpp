@@ -1,5 +1,6 @@
 // Mapper: the four consistency modes, frames, pose updates, budgeted re-integration, keyframes.
 #include "binding.hpp"
+#include "object_lock.hpp"
 
 #include "vdbmap/mapper.hpp"
 
@@ -78,8 +79,7 @@ void bindMapperClass(py::module_& m) {
          const DepthImage d = toDepth(depth, depth_scale, "depth");
          const Pose3d T = toPose(T_W_S, "T_W_S");
          auto intrinsics = std::make_shared<const CameraIntrinsics>(K);
-         py::gil_scoped_release nogil;
-         return self.addDepthFrame(id, timestamp, d, intrinsics, T);
+         return withLock(&self, Access::Write, [&] { return self.addDepthFrame(id, timestamp, d, intrinsics, T); });
        },
        py::arg("frame_id"), py::arg("timestamp"), py::arg("depth"), py::arg("intrinsics"), py::arg("T_W_S"),
        py::arg("depth_scale") = py::none(),
@@ -91,8 +91,7 @@ void bindMapperClass(py::module_& m) {
           [](Mapper& self, FrameId id, double timestamp, py::handle points_S, py::handle T_W_S) {
             const PointCloud p = toPoints(points_S, "points_S");
             const Pose3d T = toPose(T_W_S, "T_W_S");
-            py::gil_scoped_release nogil;
-            return self.addPointFrame(id, timestamp, p, T);
+            return withLock(&self, Access::Write, [&] { return self.addPointFrame(id, timestamp, p, T); });
           },
           py::arg("frame_id"), py::arg("timestamp"), py::arg("points_S"), py::arg("T_W_S"),
           "Same for points (N, 3) in the sensor frame.")
@@ -100,8 +99,7 @@ void bindMapperClass(py::module_& m) {
           "update_poses",
           [](Mapper& self, py::handle poses) {
             const std::map<FrameId, Pose3d> p = toPoseMap(poses, "poses");
-            py::gil_scoped_release nogil;
-            return self.updatePoses(p);
+            return withLock(&self, Access::Write, [&] { return self.updatePoses(p); });
           },
           py::arg("poses"),
           "New pose estimates {frame_id: (4, 4) T_W_S} (a loop-closure correction). Frames moved beyond the "
@@ -111,8 +109,7 @@ void bindMapperClass(py::module_& m) {
           "reintegrate",
           [](Mapper& self, py::handle robot_W) {
             const Vec3d r = toVec3(robot_W, "robot_W");
-            py::gil_scoped_release nogil;
-            return self.reintegrate(r);
+            return withLock(&self, Access::Write, [&] { return self.reintegrate(r); });
           },
           py::arg("robot_W"), "One budgeted background cycle (re-integrations and de-integrations of dropped frames), frames "
           "nearest to robot_W (3,) first.")
@@ -120,47 +117,49 @@ void bindMapperClass(py::module_& m) {
           "reintegrate_all",
           [](Mapper& self, py::handle robot_W) {
             const Vec3d r = toVec3(robot_W, "robot_W");
-            py::gil_scoped_release nogil;
-            return self.reintegrateAll(r);
+            return withLock(&self, Access::Write, [&] { return self.reintegrateAll(r); });
           },
           py::arg("robot_W"),
           "Works off every waiting frame (re-integrations, dropped frames) and the last pruning solve; returns how "
           "many frames.")
-      .def_property_readonly("queued_frames", &Mapper::queuedFrames,
+      .def_property_readonly("queued_frames", locked<Access::Read>(&Mapper::queuedFrames),
                              "frames awaiting background work (re-integration or de-integration)");
 
   c.def(
        "volume",
-       [](const Mapper& self) {
-         py::gil_scoped_release nogil;
-         return TsdfVolume(self.volume());
-       },
+       [](const Mapper& self) { return withLock(&self, Access::Read, [&] { return TsdfVolume(self.volume()); }); },
        "A snapshot of the map (a deep copy, independent of the mapper): in submap mode the fusion of all "
        "submaps. Keep it in a variable rather than calling this per query.")
       .def(
-          "take_dirty_region", [](Mapper& self) { return toTuple(self.takeDirtyRegion()); },
+          "take_dirty_region",
+          [](Mapper& self) { return toTuple(withLock(&self, Access::Write, [&] { return self.takeDirtyRegion(); })); },
           "Voxel box ((i, j, k) min, (i, j, k) max) changed since the last call, or None.")
       .def_property_readonly(
-          "stats", [](const Mapper& self) { return self.stats(); }, "MapperStats (a copy)")
-      .def_property_readonly("keyframes_kept", &Mapper::keyframesKept, "frames whose data the mapper keeps")
-      .def_property_readonly("keyframe_store_bytes", &Mapper::keyframeStoreBytes,
+          "stats", locked<Access::Read>(&Mapper::stats), "MapperStats (a copy)")
+      .def_property_readonly("keyframes_kept", locked<Access::Read>(&Mapper::keyframesKept),
+                             "frames whose data the mapper keeps")
+      .def_property_readonly("keyframe_store_bytes", locked<Access::Read>(&Mapper::keyframeStoreBytes),
                              "bytes of the stored (compressed) keyframes")
       .def(
           "keyframe_ids",
           [](const Mapper& self) {
-            std::vector<FrameId> ids;
-            for (const auto& [id, kf] : self.keyframes()) ids.push_back(id);
-            return ids;
+            return withLock(&self, Access::Read, [&] {
+              std::vector<FrameId> ids;
+              for (const auto& [id, kf] : self.keyframes()) ids.push_back(id);
+              return ids;
+            });
           },
           "Ids of the stored keyframes, ascending.")
       .def(
-          "keyframe", [](const Mapper& self, FrameId id) { return Keyframe(self.keyframes().at(id)); },
+          "keyframe",
+          [](const Mapper& self, FrameId id) {
+            return withLock(&self, Access::Read, [&] { return Keyframe(self.keyframes().at(id)); });
+          },
           py::arg("frame_id"), "A copy of a stored keyframe; IndexError when it is not stored (e.g. pruned).")
       .def(
           "save",
           [](const Mapper& self, const std::filesystem::path& path) {
-            py::gil_scoped_release nogil;
-            self.save(path);
+            withLock(&self, Access::Read, [&] { self.save(path); });
           },
           py::arg("path"),
           "Writes the map (path, .vdb, with its .exact.vdb) and in all and keyframes modes the keyframe store "

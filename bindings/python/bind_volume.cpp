@@ -1,6 +1,7 @@
 // TsdfVolume: integration, exact de-integration, queries at arrays of points, exports, files; and
 // mesh extraction.
 #include "binding.hpp"
+#include "object_lock.hpp"
 
 #include "vdbmap/mesh.hpp"
 #include "vdbmap/tsdf_volume.hpp"
@@ -31,15 +32,15 @@ py::tuple samples(const TsdfVolume& v, const std::vector<openvdb::Coord>& voxels
   float* t = tsdf.mutable_data();
   float* w = weight.mutable_data();
   std::uint8_t* s = state.mutable_data();
-  {
-    py::gil_scoped_release nogil;
+  withLock(&v, Access::Read, [&] {
     for (std::size_t i = 0; i < voxels.size(); ++i) {
       const VoxelSample sample = v.sample(voxels[i]);
       t[i] = sample.tsdf_m;
       w[i] = sample.weight;
       s[i] = std::uint8_t(sample.state);
     }
-  }
+    return 0;
+  });
   return py::make_tuple(tsdf, weight, state);
 }
 
@@ -62,8 +63,7 @@ py::array_t<std::int32_t> coordsToArray(const std::vector<openvdb::Coord>& coord
 py::tuple knownVoxels(const TsdfVolume& v) {
   std::vector<openvdb::Coord> ijk;
   std::vector<float> tsdf, weight;
-  {
-    py::gil_scoped_release nogil;
+  withLock(&v, Access::Read, [&] {
     const openvdb::FloatGrid::Ptr t = v.tsdfGrid();
     const openvdb::FloatGrid::Ptr w = v.weightGrid();
     const auto wacc = w->getConstAccessor();
@@ -76,15 +76,10 @@ py::tuple knownVoxels(const TsdfVolume& v) {
       tsdf.push_back(*it);
       weight.push_back(wacc.getValue(it.getCoord()));
     }
-  }
+    return 0;
+  });
   return py::make_tuple(coordsToArray(ijk), py::array_t<float>(py::ssize_t(tsdf.size()), tsdf.data()),
                         py::array_t<float>(py::ssize_t(weight.size()), weight.data()));
-}
-
-template <typename Fn>
-IntegrationStats withoutGil(Fn&& fn) {
-  py::gil_scoped_release nogil;
-  return fn();
 }
 
 void bindTsdfVolume(py::module_& m) {
@@ -98,9 +93,9 @@ void bindTsdfVolume(py::module_& m) {
       .def_property_readonly(
           "config", [](const TsdfVolume& self) { return self.config(); }, "TsdfConfig (a copy)")
       .def_property_readonly(
-          "integrator_config", [](const TsdfVolume& self) { return self.integratorConfig(); },
+          "integrator_config", locked<Access::Read>(&TsdfVolume::integratorConfig),
           "IntegratorConfig (a copy)")
-      .def("set_threads", &TsdfVolume::setThreads, py::arg("threads"),
+      .def("set_threads", locked<Access::Write>(&TsdfVolume::setThreads), py::arg("threads"),
            "Changes only the worker thread count (0 = all cores); the map does not depend on it.");
 
   v.def(
@@ -108,7 +103,7 @@ void bindTsdfVolume(py::module_& m) {
        [](TsdfVolume& self, FrameId id, py::handle points_S, py::handle T_W_S) {
          const PointCloud p = toPoints(points_S, "points_S");
          const Pose3d T = toPose(T_W_S, "T_W_S");
-         return withoutGil([&] { return self.integrate(id, p, T); });
+         return withLock(&self, Access::Write, [&] { return self.integrate(id, p, T); });
        },
        py::arg("frame_id"), py::arg("points_S"), py::arg("T_W_S"),
        "Integrates points (N, 3) in the sensor frame seen from the pose T_W_S (4, 4). NaN/zero points are "
@@ -119,7 +114,7 @@ void bindTsdfVolume(py::module_& m) {
           [](TsdfVolume& self, FrameId id, py::handle points_S, py::handle T_W_S) {
             const PointCloud p = toPoints(points_S, "points_S");
             const Pose3d T = toPose(T_W_S, "T_W_S");
-            return withoutGil([&] { return self.deintegrate(id, p, T); });
+            return withLock(&self, Access::Write, [&] { return self.deintegrate(id, p, T); });
           },
           py::arg("frame_id"), py::arg("points_S"), py::arg("T_W_S"),
           "Removes exactly what integrate(frame_id, points_S, T_W_S) added. ValueError, changing nothing, when "
@@ -130,7 +125,7 @@ void bindTsdfVolume(py::module_& m) {
              std::optional<double> depth_scale) {
             const DepthImage d = toDepth(depth, depth_scale, "depth");
             const Pose3d T = toPose(T_W_S, "T_W_S");
-            return withoutGil([&] { return self.integrate(id, d, K, T); });
+            return withLock(&self, Access::Write, [&] { return self.integrate(id, d, K, T); });
           },
           py::arg("frame_id"), py::arg("depth"), py::arg("intrinsics"), py::arg("T_W_S"),
           py::arg("depth_scale") = py::none(),
@@ -143,14 +138,16 @@ void bindTsdfVolume(py::module_& m) {
              std::optional<double> depth_scale) {
             const DepthImage d = toDepth(depth, depth_scale, "depth");
             const Pose3d T = toPose(T_W_S, "T_W_S");
-            return withoutGil([&] { return self.deintegrate(id, d, K, T); });
+            return withLock(&self, Access::Write, [&] { return self.deintegrate(id, d, K, T); });
           },
           py::arg("frame_id"), py::arg("depth"), py::arg("intrinsics"), py::arg("T_W_S"),
           py::arg("depth_scale") = py::none(), "The inverse of integrate_depth with the same arguments.")
-      .def("is_integrated", &TsdfVolume::isIntegrated, py::arg("frame_id"), "Whether the map holds that frame.")
-      .def_property_readonly("frame_count", &TsdfVolume::frameCount, "number of integrated frames")
+      .def("is_integrated", locked<Access::Read>(&TsdfVolume::isIntegrated), py::arg("frame_id"),
+           "Whether the map holds that frame.")
+      .def_property_readonly("frame_count", locked<Access::Read>(&TsdfVolume::frameCount), "number of integrated frames")
       .def(
-          "integrated_poses", [](const TsdfVolume& self) { return toDict(self.integratedPoses()); },
+          "integrated_poses",
+          [](const TsdfVolume& self) { return toDict(withLock(&self, Access::Read, [&] { return self.integratedPoses(); })); },
           "{frame_id: (4, 4) pose each frame was integrated with}");
 
   v.def(
@@ -167,11 +164,11 @@ void bindTsdfVolume(py::module_& m) {
             const std::vector<openvdb::Coord> voxels = voxelsOf(self, points_W);
             py::array_t<std::int64_t> hits(py::ssize_t(voxels.size()));
             std::int64_t* h = hits.mutable_data();
-            {
-              py::gil_scoped_release nogil;
+            withLock(&self, Access::Read, [&] {
               const auto acc = self.hitCountGrid()->getConstAccessor();  // the counts only, not the sums
               for (std::size_t i = 0; i < voxels.size(); ++i) h[i] = acc.getValue(voxels[i]);
-            }
+              return 0;
+            });
             return hits;
           },
           py::arg("points_W"),
@@ -194,19 +191,31 @@ void bindTsdfVolume(py::module_& m) {
             return out;
           },
           py::arg("ijk"), "Centres (N, 3) float64 in metres of voxels (N, 3) integers.")
-      .def_property_readonly("active_voxel_count", &TsdfVolume::activeVoxelCount,
+      .def_property_readonly("active_voxel_count", locked<Access::Read>(&TsdfVolume::activeVoxelCount),
                              "voxels with any weight (known or not)")
-      .def_property_readonly("memory_bytes", &TsdfVolume::memoryBytes, "memory of the exact state in bytes")
+      .def_property_readonly("memory_bytes", locked<Access::Read>(&TsdfVolume::memoryBytes),
+                             "memory of the exact state in bytes")
       .def(
-          "active_bounding_box", [](const TsdfVolume& self) { return toTuple(self.activeBoundingBox()); },
+          "active_bounding_box",
+          [](const TsdfVolume& self) {
+            return toTuple(withLock(&self, Access::Read, [&] { return self.activeBoundingBox(); }));
+          },
           "Index box ((i, j, k) min, (i, j, k) max) inclusive of the voxels with any weight, or None when empty.")
       .def("known_voxels", &knownVoxels,
            "Every known voxel: (ijk int32 (M, 3), tsdf_m float32 (M,), weight float32 (M,)), the active voxels "
            "of the saved 'tsdf' and 'weight' grids, in OpenVDB's tree order.")
-      .def("exactly_equals", &TsdfVolume::exactlyEquals, py::arg("other"), py::call_guard<py::gil_scoped_release>(),
+      .def(
+          "exactly_equals",
+          [](const TsdfVolume& self, const TsdfVolume& other) {
+            return withLock(&self, Access::Read, [&] {
+              const ObjectLock other_lock(&other, Access::Read);  // no GIL here; same object: not locked twice
+              return self.exactlyEquals(other);
+            });
+          },
+          py::arg("other"),
            "True when both maps hold bit-identical exact state.");
 
-  v.def("save", &TsdfVolume::save, py::arg("path"), py::call_guard<py::gil_scoped_release>(),
+  v.def("save", locked<Access::Read>(&TsdfVolume::save), py::arg("path"),
         "Writes path (.vdb: float grids 'tsdf' and 'weight' with metadata, readable by vdb_print and pyopenvdb) "
         "and the exact state beside it (exact_state_path(path)). Written to temporaries and renamed. OSError when "
         "it cannot be written.")
@@ -214,15 +223,19 @@ void bindTsdfVolume(py::module_& m) {
                   "A map saved by save(): exact with its companion file, else approximate from the float grids "
                   "(has_exact_state False). OSError naming the file on missing or bad input.")
       .def_static("exact_state_path", &TsdfVolume::exactStatePath, py::arg("path"), "map.vdb -> map.exact.vdb")
-      .def_property_readonly("has_exact_state", &TsdfVolume::hasExactState,
+      .def_property_readonly("has_exact_state", locked<Access::Read>(&TsdfVolume::hasExactState),
                              "whether the state came from exact data (False after loading without the companion)")
-      .def("__copy__", [](const TsdfVolume& self) { return TsdfVolume(self); })
+      .def("__copy__", [](const TsdfVolume& self) { return withLock(&self, Access::Read, [&] { return TsdfVolume(self); }); })
       .def(
-          "__deepcopy__", [](const TsdfVolume& self, py::dict) { return TsdfVolume(self); }, py::arg("memo"))
+          "__deepcopy__",
+          [](const TsdfVolume& self, py::dict) { return withLock(&self, Access::Read, [&] { return TsdfVolume(self); }); },
+          py::arg("memo"))
       .def("__repr__", [](const TsdfVolume& self) {
+        const auto [frames, active] = withLock(&self, Access::Read, [&] {
+          return std::make_pair(self.frameCount(), self.activeVoxelCount());
+        });
         return "TsdfVolume(voxel_size_m=" + std::string(py::repr(py::float_(self.config().voxel_size_m))) +
-               ", frame_count=" + std::to_string(self.frameCount()) +
-               ", active_voxel_count=" + std::to_string(self.activeVoxelCount()) + ")";
+               ", frame_count=" + std::to_string(frames) + ", active_voxel_count=" + std::to_string(active) + ")";
       });
 }
 
@@ -231,10 +244,7 @@ void bindMesh(py::module_& m) {
       "extract_mesh",
       [](const TsdfVolume& volume) {
         TriangleMesh mesh;
-        {
-          py::gil_scoped_release nogil;
-          mesh = extractMesh(volume);
-        }
+        mesh = withLock(&volume, Access::Read, [&] { return extractMesh(volume); });
         return toArrays(mesh);
       },
       py::arg("volume"),
