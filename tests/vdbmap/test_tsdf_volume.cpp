@@ -4,6 +4,7 @@
 #include "vdbmap/camera.hpp"
 #include "vdbmap/mesh.hpp"
 #include "vdbmap/testing/analytic_scene.hpp"
+#include "vdbmap/testing/soak.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 
 #include <catch2/catch.hpp>
@@ -20,6 +21,26 @@
 using namespace vdbmap;
 using namespace vdbmap::test;
 
+
+TEST_CASE("a short soak of random depth and point frames at random poses ends with the map empty exactly",
+          "[tsdf][soak]") {
+  // The benchmark runs 10,000 cycles (bench/bench_soak.cpp); 300 here, both kinds of frames.
+  testing::SoakParams params;
+  params.cycles = 300;
+  params.seed = 26;
+  const testing::SoakResult r = testing::runIntegrateDeintegrateSoak(params);
+  CHECK(r.integrations == 300);
+  CHECK(r.deintegrations == 300);
+  CHECK(r.depth_frames == 150);
+  CHECK(r.point_frames == 150);
+  CHECK(r.max_active_voxels > 10000);  // the frames really wrote into the map
+  CHECK(r.weight_voxels_after == 0);
+  CHECK(r.wsdf_voxels_after == 0);
+  CHECK(r.hit_voxels_after == 0);
+  CHECK(r.frames_after == 0);
+  CHECK(r.emptyExactly());
+  CHECK(r.rss_kib.size() == std::size_t(params.memory_samples));
+}
 
 TEST_CASE("integrating then de-integrating frames in another order restores the empty map bit for bit",
           "[tsdf][reversibility]") {
