@@ -51,6 +51,9 @@ void checkOutput(const std::filesystem::path& path, const char* what) {
 void runIntegrate(IntegrateOptions o) {
   // `-o map` means map.vdb, so that its companions (map.exact.vdb) are never another map's.
   if (o.output.extension() != ".vdb") o.output += ".vdb";
+  if (TsdfVolume::isExactStatePath(o.output))
+    throw std::runtime_error("map " + o.output.string() + ": a name ending in .exact.vdb is the name of a map's exact "
+                             "companion; choose another");
   checkOutput(o.output, "map");
   checkOutput(o.mesh, "--mesh");
   checkOutput(o.json, "--json");

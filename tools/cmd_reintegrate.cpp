@@ -28,6 +28,9 @@ struct ReintegrateOptions {
 
 void runReintegrate(ReintegrateOptions o) {
   if (o.output.extension() != ".vdb") o.output += ".vdb";
+  if (TsdfVolume::isExactStatePath(o.output))
+    throw std::runtime_error(o.output.string() + ": a name ending in .exact.vdb is the name of a map's exact "
+                             "companion; choose another");
   if (std::filesystem::exists(o.output) && !o.overwrite)
     throw std::runtime_error(o.output.string() + " exists; give --overwrite to replace it");
   if (std::error_code ec; std::filesystem::equivalent(o.map, o.output, ec))

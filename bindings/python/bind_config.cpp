@@ -12,7 +12,7 @@ namespace {
 void bindTsdfConfig(py::module_& m) {
   py::class_<TsdfConfig> c(m, "TsdfConfig", "The map's geometry and the meaning of its values.");
   addStructProtocol(c);
-  c.def_readwrite("voxel_size_m", &TsdfConfig::voxel_size_m, "edge of a voxel in metres; (0, 10]")
+  c.def_readwrite("voxel_size_m", &TsdfConfig::voxel_size_m, "edge of a voxel in metres; [1e-4, 10]")
       .def_readwrite("truncation_vox", &TsdfConfig::truncation_vox, "truncation distance in voxels; [1, 100]");
   defEnumField(c, "weighting", &TsdfConfig::weighting, &parseWeighting,
                "Weighting (or its name: 'constant', 'inverse_square')");

@@ -40,9 +40,9 @@ RayMode parseRayMode(const std::string& text) {
 }
 
 void TsdfConfig::validate() const {
-  if (!(voxel_size_m > 0.0 && voxel_size_m <= 10.0)) {
+  if (!(voxel_size_m >= 1e-4 && voxel_size_m <= 10.0)) {  // below 0.1 mm OpenVDB's transforms lose precision
     std::ostringstream msg;
-    msg << "TsdfConfig.voxel_size_m must be in (0, 10], got " << voxel_size_m;
+    msg << "TsdfConfig.voxel_size_m must be in [1e-4, 10], got " << voxel_size_m;
     throw std::invalid_argument(msg.str());
   }
   requireRange("TsdfConfig", "truncation_vox", truncation_vox, 1.0, 100.0, "[1, 100]");
