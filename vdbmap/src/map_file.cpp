@@ -19,14 +19,17 @@ void checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMa
 }  // namespace detail
 
 namespace {
-// Opens a map and refuses one of a newer format than this build reads.
+// Opens a map and refuses one of a newer format than this build reads. Every vdbmap reader opens
+// files without delayed loading: the maps are read whole anyway, and OpenVDB's delayed-load path
+// trusts the file's per-leaf metadata (a damaged entry made it abort in DelayedLoadMetadata::getMask;
+// fuzz/regressions/fuzz_vdb).
 openvdb::io::File openFile(const std::filesystem::path& path) {
   initializeOpenVdb();
   if (!std::filesystem::is_regular_file(path)) throw vdbmap::FileError("cannot open map " + path.string() + ": no such file");
   internal::checkVdbFileStructure(path);
   openvdb::io::File file(path.string());
   try {
-    file.open();
+    file.open(/*delayLoad=*/false);
   } catch (const openvdb::Exception& e) {
     throw vdbmap::FileError("cannot read map " + path.string() + ": " + e.what());
   }
@@ -61,7 +64,7 @@ MapFileInfo inspectOpenedMapFile(const std::filesystem::path& path) {
     try {
       internal::checkVdbFileStructure(exact);
       openvdb::io::File companion(exact.string());
-      companion.open();
+      companion.open(/*delayLoad=*/false);
       detail::checkExactCompanion(*meta, *companion.getMetadata(), path, exact);
       info.has_exact_state = true;
     } catch (const openvdb::Exception& e) {

@@ -126,7 +126,7 @@ std::string TsdfVolume::savedUnitId(const std::filesystem::path& path) {
   try {
     internal::checkVdbFileStructure(path);
     openvdb::io::File file(path.string());
-    file.open();
+    file.open(/*delayLoad=*/false);
     return unitIdOf(*file.getMetadata());
   } catch (const openvdb::Exception& e) {
     throw vdbmap::FileError("cannot read map " + path.string() + ": " + e.what());
@@ -207,7 +207,7 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
   try {
     internal::checkVdbFileStructure(path);
     openvdb::io::File file(path.string());
-    file.open();
+    file.open(/*delayLoad=*/false);
     const openvdb::MetaMap::Ptr meta = file.getMetadata();
     detail::checkMapFormatVersion(*meta, path);
     TsdfConfig c;
@@ -226,7 +226,7 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
     if (std::filesystem::is_regular_file(exact)) {
       internal::checkVdbFileStructure(exact);
       openvdb::io::File ef(exact.string());
-      ef.open();
+      ef.open(/*delayLoad=*/false);
       const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
       detail::checkExactCompanion(*meta, *emeta, path, exact);
       const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(*emeta, "vdbmap_format_version", exact);
