@@ -11,7 +11,7 @@ from conftest import pose, small_camera, wall_depth, wall_points
 
 
 def test_out_of_range_config_fields_raise_value_error_naming_field_and_range():
-    with pytest.raises(ValueError, match=r"TsdfConfig\.voxel_size_m must be in \(0, 10\], got -1"):
+    with pytest.raises(ValueError, match=r"TsdfConfig\.voxel_size_m must be in \[1e-4, 10\], got -1"):
         vdbmap.TsdfVolume(vdbmap.TsdfConfig(voxel_size_m=-1.0))
     with pytest.raises(ValueError, match=r"IntegratorConfig\.min_range_m"):
         vdbmap.IntegratorConfig(min_range_m=9.0, max_range_m=5.0).validate()
