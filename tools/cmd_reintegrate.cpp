@@ -6,6 +6,7 @@
 #include "command.hpp"
 
 #include "vdbmap/io/pose_interpolation.hpp"
+#include "vdbmap/io/timestamps.hpp"
 #include "vdbmap/io/tum_trajectory.hpp"
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/timing.hpp"
@@ -16,9 +17,6 @@
 
 namespace vdbmap::cli {
 namespace {
-
-/// How close (seconds) a trajectory stamp must be to a keyframe's to be that keyframe's.
-constexpr double kStampMatch_s = 1e-4;
 
 struct ReintegrateOptions {
   std::filesystem::path map, trajectory, output;
@@ -61,9 +59,8 @@ void runReintegrate(ReintegrateOptions o) {
   std::vector<io::StampedPose> corrected;
   std::size_t outside = 0;
   for (io::StampedPose p : io::readTumTrajectory(o.trajectory)) {
-    const auto near = std::lower_bound(track.begin(), track.end(), p.timestamp_s - kStampMatch_s,
-                                       [](const io::StampedPose& f, double t) { return f.timestamp_s < t; });
-    if (near != track.end() && std::abs(near->timestamp_s - p.timestamp_s) <= kStampMatch_s) p.timestamp_s = near->timestamp_s;
+    if (const auto near = io::findStamp(track.begin(), track.end(), p.timestamp_s); near != track.end())
+      p.timestamp_s = near->timestamp_s;
     if (p.timestamp_s < track.front().timestamp_s || p.timestamp_s > track.back().timestamp_s) {
       ++outside;
       continue;

@@ -33,11 +33,9 @@ const FrameRecord& FrameSource::record(std::size_t i) const {
 }
 
 std::optional<std::size_t> FrameSource::findFrame(double timestamp_s, double tolerance_s) const {
-  const auto it = std::lower_bound(c_.records.begin(), c_.records.end(), timestamp_s - tolerance_s,
-                                   [](const FrameRecord& r, double t) { return r.timestamp_s < t; });
-  if (it != c_.records.end() && std::abs(it->timestamp_s - timestamp_s) <= tolerance_s)
-    return std::size_t(it - c_.records.begin());
-  return std::nullopt;
+  const auto it = findStamp(c_.records.begin(), c_.records.end(), timestamp_s, tolerance_s);
+  if (it == c_.records.end()) return std::nullopt;
+  return std::size_t(it - c_.records.begin());
 }
 
 Frame FrameSource::load(std::size_t i) const {

@@ -12,15 +12,13 @@
 #include <cstddef>
 #include <filesystem>
 #include <memory>
+#include "vdbmap/io/timestamps.hpp"
+
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace vdbmap::io {
-
-/// Two timestamps closer than this name the same frame (files hold 4 to 9 decimals; frames are
-/// at least a few milliseconds apart).
-constexpr double kTimestampMatchTolerance_s = 1e-4;
 
 /// Datasets without timestamps get timestamp = frame number / this rate (the Kinect-style
 /// 30 Hz of 7-Scenes, ICL-NUIM, Redwood and SUN3D; a nominal clock for Replica renders).
