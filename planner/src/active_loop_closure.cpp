@@ -1,4 +1,5 @@
 #include "vdbmap/planner/active_loop_closure.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,18 +12,16 @@ void AlcParams::validate() const {
   history.validate();
   clusters.validate();
   tour.validate();
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("AlcParams." + field + " must be in " + range);
-  };
+  const FieldCheck check("AlcParams");
   auto in = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
-  if (!in(epsilon, 0.0, 100.0)) fail("epsilon", "[0, 100]");
-  if (!(search_radius_m > 0.0 && search_radius_m <= 1e3)) fail("search_radius_m", "(0, 1000]");
-  if (!in(initial_period_s, 0.0, 1e6)) fail("initial_period_s", "[0, 1e6]");
-  if (!(give_up_timeout_s > 0.0 && give_up_timeout_s <= 1e6)) fail("give_up_timeout_s", "(0, 1e6]");
-  if (!in(suspension_s, 0.0, 1e6)) fail("suspension_s", "[0, 1e6]");
-  if (!in(loop_quiet_s, 0.0, 1e6)) fail("loop_quiet_s", "[0, 1e6]");
-  if (max_failures_per_cluster < 1 || max_failures_per_cluster > 1000) fail("max_failures_per_cluster", "[1, 1000]");
-  if (!(unreachable_cost_s > 0.0 && unreachable_cost_s <= 1e9)) fail("unreachable_cost_s", "(0, 1e9]");
+  if (!in(epsilon, 0.0, 100.0)) check.fail("epsilon", "[0, 100]");
+  if (!(search_radius_m > 0.0 && search_radius_m <= 1e3)) check.fail("search_radius_m", "(0, 1000]");
+  if (!in(initial_period_s, 0.0, 1e6)) check.fail("initial_period_s", "[0, 1e6]");
+  if (!(give_up_timeout_s > 0.0 && give_up_timeout_s <= 1e6)) check.fail("give_up_timeout_s", "(0, 1e6]");
+  if (!in(suspension_s, 0.0, 1e6)) check.fail("suspension_s", "[0, 1e6]");
+  if (!in(loop_quiet_s, 0.0, 1e6)) check.fail("loop_quiet_s", "[0, 1e6]");
+  if (max_failures_per_cluster < 1 || max_failures_per_cluster > 1000) check.fail("max_failures_per_cluster", "[1, 1000]");
+  if (!(unreachable_cost_s > 0.0 && unreachable_cost_s <= 1e9)) check.fail("unreachable_cost_s", "(0, 1e9]");
 }
 
 std::string toString(AlcStatus status) {

@@ -1,4 +1,5 @@
 #include "vdbmap/planner/cost.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include <tbb/parallel_for.h>
 
@@ -16,13 +17,11 @@ std::uint64_t pairSeed(ClusterId a, ClusterId b) { return (std::uint64_t(a) << 3
 }  // namespace
 
 void CostParams::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("CostParams." + field + " must be in " + range);
-  };
-  if (!(v_max_m_s > 0.0 && v_max_m_s <= 100.0)) fail("v_max_m_s", "(0, 100]");
-  if (!(yaw_rate_max_rad_s > 0.0 && yaw_rate_max_rad_s <= 100.0)) fail("yaw_rate_max_rad_s", "(0, 100]");
-  if (!(w_dir >= 0.0 && w_dir <= 1e3)) fail("w_dir", "[0, 1000]");
-  if (!(unreachable_cost_s > 0.0 && unreachable_cost_s <= 1e9)) fail("unreachable_cost_s", "(0, 1e9]");
+  const FieldCheck check("CostParams");
+  if (!(v_max_m_s > 0.0 && v_max_m_s <= 100.0)) check.fail("v_max_m_s", "(0, 100]");
+  if (!(yaw_rate_max_rad_s > 0.0 && yaw_rate_max_rad_s <= 100.0)) check.fail("yaw_rate_max_rad_s", "(0, 100]");
+  if (!(w_dir >= 0.0 && w_dir <= 1e3)) check.fail("w_dir", "[0, 1000]");
+  if (!(unreachable_cost_s > 0.0 && unreachable_cost_s <= 1e9)) check.fail("unreachable_cost_s", "(0, 1e9]");
 }
 
 double motionCost(double path_length_m, double yaw_change_rad, double departure_angle_rad, const CostParams& p) {

@@ -1,4 +1,5 @@
 #include "vdbmap/planner/exploration_manager.hpp"
+#include "vdbmap/field_check.hpp"
 #include "vdbmap/timing.hpp"
 
 #include "vdbmap/planner/assume_free_map.hpp"
@@ -105,9 +106,7 @@ PathParams ExplorationParams::costPathDefaults() {
 }
 
 void ExplorationParams::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("ExplorationParams." + field + " must be in " + range);
-  };
+  const FieldCheck check("ExplorationParams");
   if (box_W.isEmpty() || !box_W.min().allFinite() || !box_W.max().allFinite())
     throw std::invalid_argument("ExplorationParams.box_W must be a finite, non-empty box");
   frontier.validate();
@@ -120,18 +119,18 @@ void ExplorationParams::validate() const {
   trajectory.validate();
   for (int a = 0; a < 3; ++a)
     if (!(start_free_half_size_m[a] >= 0.0 && start_free_half_size_m[a] <= 10.0))
-      fail("start_free_half_size_m", "[0, 10] per axis");
-  if (!(viewpoint_margin_z_m >= 0.0 && viewpoint_margin_z_m <= 10.0)) fail("viewpoint_margin_z_m", "[0, 10]");
-  if (!(replan_time_left_s >= 0.0 && replan_time_left_s <= 100.0)) fail("replan_time_left_s", "[0, 100]");
-  if (!(replan_covered_after_s >= 0.0 && replan_covered_after_s <= 100.0)) fail("replan_covered_after_s", "[0, 100]");
-  if (!(replan_period_s > 0.0 && replan_period_s <= 1000.0)) fail("replan_period_s", "(0, 1000]");
-  if (!(covered_fraction > 0.0 && covered_fraction <= 1.0)) fail("covered_fraction", "(0, 1]");
+      check.fail("start_free_half_size_m", "[0, 10] per axis");
+  if (!(viewpoint_margin_z_m >= 0.0 && viewpoint_margin_z_m <= 10.0)) check.fail("viewpoint_margin_z_m", "[0, 10]");
+  if (!(replan_time_left_s >= 0.0 && replan_time_left_s <= 100.0)) check.fail("replan_time_left_s", "[0, 100]");
+  if (!(replan_covered_after_s >= 0.0 && replan_covered_after_s <= 100.0)) check.fail("replan_covered_after_s", "[0, 100]");
+  if (!(replan_period_s > 0.0 && replan_period_s <= 1000.0)) check.fail("replan_period_s", "(0, 1000]");
+  if (!(covered_fraction > 0.0 && covered_fraction <= 1.0)) check.fail("covered_fraction", "(0, 1]");
   if (!(collision_radius_m >= 0.0 && collision_radius_m <= path.clearance_m))
-    fail("collision_radius_m", "[0, path.clearance_m]");
-  if (max_failures < 1 || max_failures > 100) fail("max_failures", "[1, 100]");
-  if (revisit_rounds < 0 || revisit_rounds > 100) fail("revisit_rounds", "[0, 100]");
-  if (final_min_cluster_size < 0 || final_min_cluster_size > 100000000) fail("final_min_cluster_size", "[0, 1e8]");
-  if (max_targets_per_replan < 1 || max_targets_per_replan > 100) fail("max_targets_per_replan", "[1, 100]");
+    check.fail("collision_radius_m", "[0, path.clearance_m]");
+  if (max_failures < 1 || max_failures > 100) check.fail("max_failures", "[1, 100]");
+  if (revisit_rounds < 0 || revisit_rounds > 100) check.fail("revisit_rounds", "[0, 100]");
+  if (final_min_cluster_size < 0 || final_min_cluster_size > 100000000) check.fail("final_min_cluster_size", "[0, 1e8]");
+  if (max_targets_per_replan < 1 || max_targets_per_replan > 100) check.fail("max_targets_per_replan", "[1, 100]");
   if (alc_enabled) alc.validate();
 }
 

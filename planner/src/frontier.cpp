@@ -1,4 +1,5 @@
 #include "vdbmap/planner/frontier.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
@@ -105,14 +106,12 @@ std::vector<openvdb::Coord> sampleVoxels(const std::vector<openvdb::Coord>& voxe
 }  // namespace
 
 void FrontierParams::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("FrontierParams." + field + " must be in " + range);
-  };
-  if (min_cluster_size < 1 || min_cluster_size > 100000000) fail("min_cluster_size", "[1, 1e8]");
-  if (!(split_radius_xy_m > 0.0 && split_radius_xy_m <= 1e4)) fail("split_radius_xy_m", "(0, 1e4]");
-  if (sample_stride_vox < 1 || sample_stride_vox > 64) fail("sample_stride_vox", "[1, 64]");
+  const FieldCheck check("FrontierParams");
+  if (min_cluster_size < 1 || min_cluster_size > 100000000) check.fail("min_cluster_size", "[1, 1e8]");
+  if (!(split_radius_xy_m > 0.0 && split_radius_xy_m <= 1e4)) check.fail("split_radius_xy_m", "(0, 1e4]");
+  if (sample_stride_vox < 1 || sample_stride_vox > 64) check.fail("sample_stride_vox", "[1, 64]");
   if (bounds_W && (bounds_W->isEmpty() || !bounds_W->min().allFinite() || !bounds_W->max().allFinite()))
-    fail("bounds_W", "non-empty finite boxes");
+    check.fail("bounds_W", "non-empty finite boxes");
 }
 
 bool isFrontierVoxel(MapReader& reader, const openvdb::Coord& ijk, const openvdb::CoordBBox* bounds) {

@@ -1,4 +1,5 @@
 #include "vdbmap/planner/local_refinement.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include <tbb/parallel_for.h>
 
@@ -9,14 +10,12 @@
 namespace vdbmap::planner {
 
 void RefinementParams::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("RefinementParams." + field + " must be in " + range);
-  };
-  if (max_clusters < 1 || max_clusters > 100) fail("max_clusters", "[1, 100]");
-  if (!(radius_m > 0.0 && radius_m <= 1e4)) fail("radius_m", "(0, 1e4]");
-  if (top_viewpoints < 1 || top_viewpoints > 1000) fail("top_viewpoints", "[1, 1000]");
-  if (!(max_decay >= 0.0 && max_decay <= 1.0)) fail("max_decay", "[0, 1]");
-  if (!(min_distance_m >= 0.0 && min_distance_m <= 1e3)) fail("min_distance_m", "[0, 1000]");
+  const FieldCheck check("RefinementParams");
+  if (max_clusters < 1 || max_clusters > 100) check.fail("max_clusters", "[1, 100]");
+  if (!(radius_m > 0.0 && radius_m <= 1e4)) check.fail("radius_m", "(0, 1e4]");
+  if (top_viewpoints < 1 || top_viewpoints > 1000) check.fail("top_viewpoints", "[1, 1000]");
+  if (!(max_decay >= 0.0 && max_decay <= 1.0)) check.fail("max_decay", "[0, 1]");
+  if (!(min_distance_m >= 0.0 && min_distance_m <= 1e3)) check.fail("min_distance_m", "[0, 1000]");
 }
 
 std::vector<std::vector<Viewpoint>> refinementLayers(const VehicleState& vehicle,

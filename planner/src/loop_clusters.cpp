@@ -1,4 +1,5 @@
 #include "vdbmap/planner/loop_clusters.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include <algorithm>
 #include <stdexcept>
@@ -7,14 +8,12 @@
 namespace vdbmap::planner {
 
 void LoopClusterParams::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("LoopClusterParams." + field + " must be in " + range);
-  };
-  if (!(min_age_s >= 0.0 && min_age_s <= 1e6)) fail("min_age_s", "[0, 1e6]");
-  if (max_viewpoints < 1 || max_viewpoints > 10000) fail("max_viewpoints", "[1, 10000]");
-  if (!(max_extent_m > 0.0 && max_extent_m <= 100.0)) fail("max_extent_m", "(0, 100]");
-  if (!(link_distance_m > 0.0 && link_distance_m <= 100.0)) fail("link_distance_m", "(0, 100]");
-  if (!(merge_distance_m >= 0.0 && merge_distance_m <= 100.0)) fail("merge_distance_m", "[0, 100]");
+  const FieldCheck check("LoopClusterParams");
+  if (!(min_age_s >= 0.0 && min_age_s <= 1e6)) check.fail("min_age_s", "[0, 1e6]");
+  if (max_viewpoints < 1 || max_viewpoints > 10000) check.fail("max_viewpoints", "[1, 10000]");
+  if (!(max_extent_m > 0.0 && max_extent_m <= 100.0)) check.fail("max_extent_m", "(0, 100]");
+  if (!(link_distance_m > 0.0 && link_distance_m <= 100.0)) check.fail("link_distance_m", "(0, 100]");
+  if (!(merge_distance_m >= 0.0 && merge_distance_m <= 100.0)) check.fail("merge_distance_m", "[0, 100]");
 }
 
 LoopClusters::LoopClusters(const LoopClusterParams& params) : params_(params) { params_.validate(); }

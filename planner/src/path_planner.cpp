@@ -1,4 +1,5 @@
 #include "vdbmap/planner/path_planner.hpp"
+#include "vdbmap/field_check.hpp"
 #include "vdbmap/timing.hpp"
 
 #include <ompl/base/MotionValidator.h>
@@ -77,16 +78,14 @@ const char* toString(PathStatus s) {
 }
 
 void PathParams::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("PathParams." + field + " must be in " + range);
-  };
-  if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) fail("clearance_m", "[0, 5]");
-  if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) fail("check_step_m", "[0, 1]");
-  if (!(time_limit_s > 0.0 && time_limit_s <= 60.0)) fail("time_limit_s", "(0, 60]");
-  if (max_iterations > 1'000'000'000u) fail("max_iterations", "[0, 1e9]");
-  if (!(rrt_range_m >= 0.0 && rrt_range_m <= 1e3)) fail("rrt_range_m", "[0, 1000]");
-  if (simplify_rounds < 0 || simplify_rounds > 100) fail("simplify_rounds", "[0, 100]");
-  if (bounds_W && bounds_W->isEmpty()) fail("bounds_W", "non-empty boxes");
+  const FieldCheck check("PathParams");
+  if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) check.fail("clearance_m", "[0, 5]");
+  if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) check.fail("check_step_m", "[0, 1]");
+  if (!(time_limit_s > 0.0 && time_limit_s <= 60.0)) check.fail("time_limit_s", "(0, 60]");
+  if (max_iterations > 1'000'000'000u) check.fail("max_iterations", "[0, 1e9]");
+  if (!(rrt_range_m >= 0.0 && rrt_range_m <= 1e3)) check.fail("rrt_range_m", "[0, 1000]");
+  if (simplify_rounds < 0 || simplify_rounds > 100) check.fail("simplify_rounds", "[0, 100]");
+  if (bounds_W && bounds_W->isEmpty()) check.fail("bounds_W", "non-empty boxes");
 }
 
 double polylineLength(const std::vector<Vec3d>& points) {

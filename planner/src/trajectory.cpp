@@ -1,4 +1,5 @@
 #include "vdbmap/planner/trajectory.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -30,19 +31,17 @@ const char* toString(TrajectoryStatus s) {
 }
 
 void TrajectoryParams::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("TrajectoryParams." + field + " must be in " + range);
-  };
-  if (!(v_max_m_s > 0.0 && v_max_m_s <= 100.0)) fail("v_max_m_s", "(0, 100]");
-  if (!(a_max_m_s2 > 0.0 && a_max_m_s2 <= 100.0)) fail("a_max_m_s2", "(0, 100]");
-  if (!(yaw_rate_max_rad_s > 0.0 && yaw_rate_max_rad_s <= 100.0)) fail("yaw_rate_max_rad_s", "(0, 100]");
-  if (!(yaw_acc_max_rad_s2 > 0.0 && yaw_acc_max_rad_s2 <= 1000.0)) fail("yaw_acc_max_rad_s2", "(0, 1000]");
-  if (!(normal_acc_share > 0.0 && normal_acc_share < 1.0)) fail("normal_acc_share", "(0, 1)");
-  if (!(corner_fraction > 0.0 && corner_fraction <= 0.5)) fail("corner_fraction", "(0, 0.5]");
-  if (!(ds_m > 0.0 && ds_m <= 1.0)) fail("ds_m", "(0, 1]");
-  if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) fail("clearance_m", "[0, 5]");
-  if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) fail("check_step_m", "[0, 1]");
-  if (corner_shrink_steps < 0 || corner_shrink_steps > 30) fail("corner_shrink_steps", "[0, 30]");
+  const FieldCheck check("TrajectoryParams");
+  if (!(v_max_m_s > 0.0 && v_max_m_s <= 100.0)) check.fail("v_max_m_s", "(0, 100]");
+  if (!(a_max_m_s2 > 0.0 && a_max_m_s2 <= 100.0)) check.fail("a_max_m_s2", "(0, 100]");
+  if (!(yaw_rate_max_rad_s > 0.0 && yaw_rate_max_rad_s <= 100.0)) check.fail("yaw_rate_max_rad_s", "(0, 100]");
+  if (!(yaw_acc_max_rad_s2 > 0.0 && yaw_acc_max_rad_s2 <= 1000.0)) check.fail("yaw_acc_max_rad_s2", "(0, 1000]");
+  if (!(normal_acc_share > 0.0 && normal_acc_share < 1.0)) check.fail("normal_acc_share", "(0, 1)");
+  if (!(corner_fraction > 0.0 && corner_fraction <= 0.5)) check.fail("corner_fraction", "(0, 0.5]");
+  if (!(ds_m > 0.0 && ds_m <= 1.0)) check.fail("ds_m", "(0, 1]");
+  if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) check.fail("clearance_m", "[0, 5]");
+  if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) check.fail("check_step_m", "[0, 1]");
+  if (corner_shrink_steps < 0 || corner_shrink_steps > 30) check.fail("corner_shrink_steps", "[0, 30]");
 }
 
 // ---- sampling ----------------------------------------------------------------------------------

@@ -1,4 +1,5 @@
 #include "vdbmap/planner/viewpoint_history.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include <cmath>
 #include <stdexcept>
@@ -7,11 +8,9 @@
 namespace vdbmap::planner {
 
 void ViewpointHistoryParams::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("ViewpointHistoryParams." + field + " must be in " + range);
-  };
-  if (!(record_spacing_m >= 0.0 && record_spacing_m <= 100.0)) fail("record_spacing_m", "[0, 100]");
-  if (!(record_yaw_step_rad > 0.0 && record_yaw_step_rad <= M_PI)) fail("record_yaw_step_rad", "(0, pi]");
+  const FieldCheck check("ViewpointHistoryParams");
+  if (!(record_spacing_m >= 0.0 && record_spacing_m <= 100.0)) check.fail("record_spacing_m", "[0, 100]");
+  if (!(record_yaw_step_rad > 0.0 && record_yaw_step_rad <= M_PI)) check.fail("record_yaw_step_rad", "(0, pi]");
 }
 
 ViewpointHistory::ViewpointHistory(const ViewpointHistoryParams& params) : params_(params) { params_.validate(); }

@@ -1,4 +1,5 @@
 #include "vdbmap/sim/exploration.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include "vdbmap/sim/collision_events.hpp"
 
@@ -37,15 +38,13 @@ SimulatorConfig ExplorationConfig::defaultSimulator() {
 }
 
 void ExplorationConfig::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("ExplorationConfig." + field + " must be in " + range);
-  };
+  const FieldCheck check("ExplorationConfig");
   simulator.validate();
   mapper.validate();
   planner.validate();
-  if (!start.p_W.allFinite() || !std::isfinite(start.yaw)) fail("start", "finite values");
-  if (!(max_time_s > 0.0 && max_time_s <= 1e5)) fail("max_time_s", "(0, 1e5]");
-  if (!(vehicle_radius_m >= 0.0 && vehicle_radius_m <= 10.0)) fail("vehicle_radius_m", "[0, 10]");
+  if (!start.p_W.allFinite() || !std::isfinite(start.yaw)) check.fail("start", "finite values");
+  if (!(max_time_s > 0.0 && max_time_s <= 1e5)) check.fail("max_time_s", "(0, 1e5]");
+  if (!(vehicle_radius_m >= 0.0 && vehicle_radius_m <= 10.0)) check.fail("vehicle_radius_m", "[0, 10]");
 }
 
 // ---- the closed loop ---------------------------------------------------------------------------

@@ -1,4 +1,5 @@
 #include "vdbmap/sim/office_world.hpp"
+#include "vdbmap/field_check.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,12 +10,6 @@
 
 namespace vdbmap::sim {
 namespace {
-
-void requireRange(double v, double lo, double hi, const char* name) {
-  if (!(v >= lo && v <= hi))
-    throw std::invalid_argument(std::string("OfficeWorldConfig.") + name + " must be in [" + std::to_string(lo) + ", " +
-                                std::to_string(hi) + "], got " + std::to_string(v));
-}
 
 /// An axis-aligned box's six faces, outward (counter-clockwise seen from outside).
 void appendBox(TriangleMesh& m, const Vec3d& lo, const Vec3d& hi) {
@@ -86,19 +81,20 @@ std::vector<double> splitRooms(double length, double min, double max, std::mt199
 }  // namespace
 
 void OfficeWorldConfig::validate() const {
-  requireRange(size_x_m, 8.0, 500.0, "size_x_m");
-  requireRange(door_height_m, 1.5, 5.0, "door_height_m");
-  requireRange(height_m, door_height_m + 0.2, 20.0, "height_m");
-  requireRange(corridor_width_m, 1.2, 10.0, "corridor_width_m");
-  requireRange(min_room_m, 2.5, 50.0, "min_room_m");
-  requireRange(max_room_m, min_room_m, 100.0, "max_room_m");
-  requireRange(door_width_m, 0.8, 3.0, "door_width_m");
-  requireRange(wall_thickness_m, 0.05, 1.0, "wall_thickness_m");
-  requireRange(size_y_m, corridor_width_m + 2.0 * (min_room_m + wall_thickness_m) + 1.0, 500.0, "size_y_m");
-  requireRange(connect_probability, 0.0, 1.0, "connect_probability");
-  requireRange(hall_probability, 0.0, 1.0, "hall_probability");
-  requireRange(pillar_size_m, 0.1, 2.0, "pillar_size_m");
-  requireRange(double(clutter_per_room), 0.0, 20.0, "clutter_per_room");
+  const FieldCheck check("OfficeWorldConfig");
+  check.inRange("size_x_m", size_x_m, 8.0, 500.0);
+  check.inRange("door_height_m", door_height_m, 1.5, 5.0);
+  check.inRange("height_m", height_m, door_height_m + 0.2, 20.0);
+  check.inRange("corridor_width_m", corridor_width_m, 1.2, 10.0);
+  check.inRange("min_room_m", min_room_m, 2.5, 50.0);
+  check.inRange("max_room_m", max_room_m, min_room_m, 100.0);
+  check.inRange("door_width_m", door_width_m, 0.8, 3.0);
+  check.inRange("wall_thickness_m", wall_thickness_m, 0.05, 1.0);
+  check.inRange("size_y_m", size_y_m, corridor_width_m + 2.0 * (min_room_m + wall_thickness_m) + 1.0, 500.0);
+  check.inRange("connect_probability", connect_probability, 0.0, 1.0);
+  check.inRange("hall_probability", hall_probability, 0.0, 1.0);
+  check.inRange("pillar_size_m", pillar_size_m, 0.1, 2.0);
+  check.inRange("clutter_per_room", double(clutter_per_room), 0.0, 20.0);
   if (door_width_m + 1.0 > min_room_m - wall_thickness_m)
     throw std::invalid_argument("OfficeWorldConfig: door_width_m + 1 m must fit in a room (min_room_m - wall_thickness_m)");
 }

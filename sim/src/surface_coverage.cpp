@@ -1,4 +1,5 @@
 #include "vdbmap/sim/surface_coverage.hpp"
+#include "vdbmap/field_check.hpp"
 #include "vdbmap/timing.hpp"
 
 #include <tbb/blocked_range.h>
@@ -13,19 +14,17 @@
 namespace vdbmap::sim {
 
 void SurfaceCoverageConfig::validate() const {
-  auto fail = [](const std::string& field, const std::string& range) {
-    throw std::invalid_argument("SurfaceCoverageConfig." + field + " must be in " + range);
-  };
-  if (!(sample_spacing_m >= 0.005 && sample_spacing_m <= 1.0)) fail("sample_spacing_m", "[0.005, 1]");
-  if (!(grid_m >= 0.02 && grid_m <= 1.0)) fail("grid_m", "[0.02, 1]");
-  if (!(vehicle_clearance_m >= 0.0 && vehicle_clearance_m <= 10.0)) fail("vehicle_clearance_m", "[0, 10]");
-  if (!(max_view_distance_m > 0.0 && max_view_distance_m <= 100.0)) fail("max_view_distance_m", "(0, 100]");
+  const FieldCheck check("SurfaceCoverageConfig");
+  if (!(sample_spacing_m >= 0.005 && sample_spacing_m <= 1.0)) check.fail("sample_spacing_m", "[0.005, 1]");
+  if (!(grid_m >= 0.02 && grid_m <= 1.0)) check.fail("grid_m", "[0.02, 1]");
+  if (!(vehicle_clearance_m >= 0.0 && vehicle_clearance_m <= 10.0)) check.fail("vehicle_clearance_m", "[0, 10]");
+  if (!(max_view_distance_m > 0.0 && max_view_distance_m <= 100.0)) check.fail("max_view_distance_m", "(0, 100]");
   if (!(min_view_distance_m >= 0.0 && min_view_distance_m < max_view_distance_m))
-    fail("min_view_distance_m", "[0, max_view_distance_m)");
-  if (!(half_fov_vertical_rad > 0.0 && half_fov_vertical_rad <= M_PI / 2)) fail("half_fov_vertical_rad", "(0, pi/2]");
-  if (azimuth_steps < 1 || azimuth_steps > 360) fail("azimuth_steps", "[1, 360]");
-  if (elevation_steps < 1 || elevation_steps > 90) fail("elevation_steps", "[1, 90]");
-  if (!(known_radius_vox >= 0.0 && known_radius_vox <= 10.0)) fail("known_radius_vox", "[0, 10]");
+    check.fail("min_view_distance_m", "[0, max_view_distance_m)");
+  if (!(half_fov_vertical_rad > 0.0 && half_fov_vertical_rad <= M_PI / 2)) check.fail("half_fov_vertical_rad", "(0, pi/2]");
+  if (azimuth_steps < 1 || azimuth_steps > 360) check.fail("azimuth_steps", "[1, 360]");
+  if (elevation_steps < 1 || elevation_steps > 90) check.fail("elevation_steps", "[1, 90]");
+  if (!(known_radius_vox >= 0.0 && known_radius_vox <= 10.0)) check.fail("known_radius_vox", "[0, 10]");
 }
 
 std::vector<Vec3d> sampleSurface(const TriangleMesh& mesh, double spacing_m, std::uint64_t seed) {

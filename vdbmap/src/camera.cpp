@@ -1,5 +1,7 @@
 #include "vdbmap/camera.hpp"
 
+#include "vdbmap/field_check.hpp"
+
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -9,19 +11,13 @@
 namespace vdbmap {
 
 void CameraIntrinsics::validate() const {
-  // Values are printed with ostream (1.79769e+308), never std::to_string (309 digits).
-  auto require = [](bool ok, const char* field, const char* range, double got) {
-    if (ok) return;
-    std::ostringstream msg;
-    msg << "CameraIntrinsics: " << field << " must be " << range << ", got " << got;
-    throw std::invalid_argument(msg.str());
-  };
-  require(width >= 1 && width <= kMaxCameraSide, "width", "in [1, 65536]", width);
-  require(height >= 1 && height <= kMaxCameraSide, "height", "in [1, 65536]", height);
-  require(fx > 0.0 && fx <= 1e7, "fx", "in (0, 1e7] pixels", fx);
-  require(std::abs(fy) > 0.0 && std::abs(fy) <= 1e7, "fy", "non-zero with |fy| <= 1e7 pixels (negative: flipped y axis)", fy);
-  require(std::abs(cx) <= 1e7, "cx", "finite with |cx| <= 1e7 pixels", cx);
-  require(std::abs(cy) <= 1e7, "cy", "finite with |cy| <= 1e7 pixels", cy);
+  const FieldCheck check("CameraIntrinsics");
+  check.inRange("width", width, 1, kMaxCameraSide);
+  check.inRange("height", height, 1, kMaxCameraSide);
+  if (!(fx > 0.0 && fx <= 1e7)) check.fail("fx", "(0, 1e7] pixels", fx);
+  if (!(std::abs(fy) > 0.0 && std::abs(fy) <= 1e7)) check.fail("fy", "+-(0, 1e7] pixels (negative: flipped y axis)", fy);
+  check.inRange("cx", cx, -1e7, 1e7);
+  check.inRange("cy", cy, -1e7, 1e7);
 }
 
 DepthImage depthFromRaw(int width, int height, const std::uint16_t* raw, double depth_scale,

@@ -19,6 +19,7 @@
 //   and the greedy takes them all (a non-empty unselected set has r(c) >= 1 on each of its cells).
 #include "vdbmap/set_cover.hpp"
 
+#include "vdbmap/field_check.hpp"
 #include "vdbmap/tsdf_volume.hpp"  // FrameError
 
 #include "internal/grid_dda.hpp"
@@ -43,14 +44,6 @@ constexpr int kCoordBias = 1 << 20;
 constexpr std::uint64_t kCoordMask = (std::uint64_t(1) << 21) - 1;
 /// Above this many bits (16 MiB) the frame's bounding box is too big for a dense bit set.
 constexpr std::uint64_t kMaxDenseBits = std::uint64_t(1) << 27;
-
-void requireRange(const char* field, double value, double lo, double hi, const char* range_text) {
-  if (!(value >= lo && value <= hi)) {
-    std::ostringstream msg;
-    msg << "SetCoverConfig." << field << " must be in " << range_text << ", got " << value;
-    throw std::invalid_argument(msg.str());
-  }
-}
 
 void requireCellSize(double cell_size_vox) {
   if (!(cell_size_vox >= 1.0 && cell_size_vox <= 64.0)) {
@@ -118,15 +111,12 @@ void validateGreedy(int n_ob, double tau_gain) {
 // ---- config -----------------------------------------------------------------------------------
 
 void SetCoverConfig::validate() const {
-  requireRange("n_ob", double(n_ob), 1.0, 1000.0, "[1, 1000]");
-  requireRange("tau_gain", tau_gain, 0.0, 1e9, "[0, 1e9]");
-  if (!(block_size_m > 0.0 && block_size_m <= 1e4)) {
-    std::ostringstream msg;
-    msg << "SetCoverConfig.block_size_m must be in (0, 1e4], got " << block_size_m;
-    throw std::invalid_argument(msg.str());
-  }
-  requireRange("cell_size_vox", cell_size_vox, 1.0, 64.0, "[1, 64]");
-  requireRange("solve_period_frames", double(solve_period_frames), 1.0, 1e6, "[1, 1e6]");
+  const FieldCheck check("SetCoverConfig");
+  check.inRange("n_ob", double(n_ob), 1.0, 1000.0);
+  check.inRange("tau_gain", tau_gain, 0.0, 1e9);
+  if (!(block_size_m > 0.0 && block_size_m <= 1e4)) check.fail("block_size_m", "(0, 1e4]", block_size_m);
+  check.inRange("cell_size_vox", cell_size_vox, 1.0, 64.0);
+  check.inRange("solve_period_frames", double(solve_period_frames), 1.0, 1e6);
 }
 
 // ---- cells ------------------------------------------------------------------------------------

@@ -1,6 +1,7 @@
 #include "vdbmap/io/sensor_info.hpp"
 
 #include "vdbmap/atomic_file.hpp"
+#include "vdbmap/field_check.hpp"
 #include "vdbmap/io/errors.hpp"
 
 #include "text_util.hpp"
@@ -8,7 +9,6 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 namespace vdbmap::io {
@@ -16,19 +16,13 @@ namespace vdbmap::io {
 const char* toString(SensorKind kind) { return kind == SensorKind::Depth ? "depth" : "points"; }
 
 void SensorInfo::validate() const {
-  // Values are printed with ostream (1.79769e+308), never std::to_string (309 digits).
-  auto require = [](bool ok, const char* field, const char* range, double got) {
-    if (ok) return;
-    std::ostringstream msg;
-    msg << "SensorInfo: " << field << " must be " << range << ", got " << got;
-    throw std::invalid_argument(msg.str());
-  };
+  const FieldCheck check("SensorInfo");
   if (kind == SensorKind::Depth) {
     intrinsics.validate();
-    require(depth_scale > 0.0 && depth_scale <= 1.0, "depth_scale", "in (0, 1] metres per depth unit", depth_scale);
+    if (!(depth_scale > 0.0 && depth_scale <= 1.0)) check.fail("depth_scale", "(0, 1] metres per unit", depth_scale);
   }
-  require(max_range_m > 0.0 && max_range_m <= 1000.0, "max_range_m", "in (0, 1000] m", max_range_m);
-  require(min_range_m >= 0.0 && min_range_m < max_range_m, "min_range_m", "in [0, max_range_m)", min_range_m);
+  if (!(max_range_m > 0.0 && max_range_m <= 1000.0)) check.fail("max_range_m", "(0, 1000]", max_range_m);
+  if (!(min_range_m >= 0.0 && min_range_m < max_range_m)) check.fail("min_range_m", "[0, max_range_m)", min_range_m);
 }
 
 SensorInfo readSensorJson(const std::filesystem::path& path) {
@@ -38,7 +32,9 @@ SensorInfo readSensorJson(const std::filesystem::path& path) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
+    // Not only parse_error: a number beyond double's range ("1e1000") is an out_of_range, which
+    // derives from std::exception alone.
     detail::fail(path, std::string("invalid JSON: ") + e.what());
   }
   if (!j.is_object()) detail::fail(path, "expected a JSON object");
