@@ -13,10 +13,13 @@
 #include <catch2/catch.hpp>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <sys/wait.h>
+#include <unistd.h>
 
 using namespace vdbmap;
 namespace fs = std::filesystem;
@@ -230,4 +233,27 @@ TEST_CASE("a save that fails part way leaves the previous files as they were and
   CHECK(test::readBytes(dir / "m.keyframes") == store_before);
   for (const auto& entry : fs::directory_iterator(dir))
     CHECK_THAT(entry.path().filename().string(), !Catch::Contains(".tmp."));
+}
+
+TEST_CASE("a save removes temporaries that a killed save of the same map left, and no one else's", "[tsdf][saved][hostile]") {
+  const fs::path dir = test::freshDir("vdbmap_saved_stale");
+  // A process that has ended: its pid is free (until reused, which a fresh waitpid makes unlikely).
+  const pid_t dead = ::fork();
+  REQUIRE(dead >= 0);
+  if (dead == 0) std::_Exit(0);
+  int status = 0;
+  REQUIRE(::waitpid(dead, &status, 0) == dead);
+  const fs::path stale = dir / ("m.vdb.tmp." + std::to_string(dead) + ".0");
+  const fs::path stale_companion = dir / ("m.exact.vdb.tmp." + std::to_string(dead) + ".3");
+  const fs::path live = dir / ("m.vdb.tmp." + std::to_string(::getppid()) + ".0");  // our parent runs
+  const fs::path other = dir / ("n.vdb.tmp." + std::to_string(dead) + ".0");           // another map's
+  for (const fs::path& p : {stale, stale_companion, live, other}) std::ofstream(p) << "half a file";
+  Mapper mapper(config(ConsistencyMode::None));
+  mapper.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
+  mapper.volume().save(dir / "m.vdb");
+  CHECK_FALSE(fs::exists(stale));
+  CHECK_FALSE(fs::exists(stale_companion));
+  CHECK(fs::exists(live));
+  CHECK(fs::exists(other));
+  CHECK(TsdfVolume::load(dir / "m.vdb").hasExactState());
 }

@@ -5,13 +5,16 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cerrno>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
 #include <fstream>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <sys/types.h>
 #include <unistd.h>
 
 namespace vdbmap {
@@ -125,6 +128,26 @@ void renameOver(const std::filesystem::path& tmp, const std::filesystem::path& p
   unregisterTemporary(tmp);
 }
 
+/// Removes `path`'s temporaries left by processes that no longer run (a SIGKILL during a save):
+/// files named `<name>.tmp.<pid>.<n>` beside it whose pid is not alive. Others are left alone.
+void removeStaleTemporaries(const std::filesystem::path& path) {
+  const std::string prefix = path.filename().string() + ".tmp.";
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(folderOf(path), ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string rest = name.substr(prefix.size());
+    const std::size_t dot = rest.find('.');
+    if (dot == 0 || dot == std::string::npos || rest.find_first_not_of("0123456789.") != std::string::npos) continue;
+    const long pid = std::strtol(rest.substr(0, dot).c_str(), nullptr, 10);
+    if (pid <= 0 || pid == long(::getpid())) continue;
+    if (::kill(pid_t(pid), 0) == -1 && errno == ESRCH) {
+      std::error_code ignored;
+      std::filesystem::remove(it->path(), ignored);
+    }
+  }
+}
+
 std::string randomUnitId() {
   std::random_device rd;
   static const char* const kHex = "0123456789abcdef";
@@ -188,6 +211,7 @@ AtomicFileSet::~AtomicFileSet() {
 std::filesystem::path AtomicFileSet::add(const std::filesystem::path& path) {
   if (committed_) throw std::logic_error("AtomicFileSet::add after commit");
   checkWritable(path);
+  removeStaleTemporaries(path);
   for (const Entry& e : entries_)
     if (std::filesystem::absolute(e.path) == std::filesystem::absolute(path))
       throw FileError("cannot write " + path.string() + ": the same save writes it twice (its companions' names "

@@ -44,7 +44,8 @@ class AtomicFileSet {
   /// 32 hex digits, drawn from std::random_device.
   const std::string& unitId() const { return unit_id_; }
   /// A temporary to write `path` into by name. Throws FileError when `path`'s folder is missing,
-  /// `path` is a folder, or `path` is already in the set.
+  /// `path` is a folder, or `path` is already in the set. Temporaries of `path` left by a process
+  /// that no longer runs (killed during a save) are removed first.
   std::filesystem::path add(const std::filesystem::path& path);
   /// Writes `path`'s temporary now through a stream (checked as writeFileAtomically does).
   void add(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
