@@ -15,15 +15,6 @@ constexpr double kHalfDiagonalVox = 0.8660254037844386;
 constexpr double kMaxRadiusVox = 100.0;
 }  // namespace
 
-const char* toString(Occupancy o) {
-  switch (o) {
-    case Occupancy::Unknown: return "unknown";
-    case Occupancy::Free: return "free";
-    case Occupancy::Occupied: return "occupied";
-  }
-  return "?";
-}
-
 void MapReader::readBox(const openvdb::CoordBBox& box, Occupancy* out) {
   std::size_t i = 0;
   for (int x = box.min().x(); x <= box.max().x(); ++x)

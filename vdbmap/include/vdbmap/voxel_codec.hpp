@@ -20,7 +20,7 @@ namespace vdbmap {
 inline constexpr std::int64_t kWeightScale = 1024;
 inline constexpr std::int64_t kSdfScale = 32768;
 
-enum class VoxelState { Unknown, Free, Occupied };
+enum class VoxelState : std::uint8_t { Unknown, Free, Occupied };
 const char* toString(VoxelState s);
 
 /// One voxel's value, read from the exact state.

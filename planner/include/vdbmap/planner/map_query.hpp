@@ -17,6 +17,7 @@
 #pragma once
 
 #include "vdbmap/types.hpp"
+#include "vdbmap/voxel_codec.hpp"  // VoxelState
 
 #include <openvdb/Types.h>  // openvdb::Coord, CoordBBox (no trees)
 
@@ -27,9 +28,9 @@
 
 namespace vdbmap::planner {
 
-/// What the planner knows about one voxel.
-enum class Occupancy : std::uint8_t { Unknown, Free, Occupied };
-const char* toString(Occupancy o);
+/// What the planner knows about one voxel: the map's own three states (vdbmap::toString names
+/// them), read through the planner's rules (hits, assumed-free space) by each MapQuery.
+using Occupancy = VoxelState;
 
 /// Per-thread reader of a map. Not thread-safe: one per thread.
 class MapReader {
