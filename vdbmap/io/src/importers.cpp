@@ -17,6 +17,8 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <map>
 #include <regex>
 #include <sstream>
@@ -52,7 +54,14 @@ std::vector<fs::path> listMatching(const fs::path& dir, const std::regex& re, st
     if (numbers) {
       std::smatch m;
       std::regex_match(name, m, re);
-      numbers->push_back(std::stoll(m[1].str()));
+      // The digits are the file's name: "frame-99999999999999999999.depth.png" does not fit a
+      // long long, which std::stoll reports with std::out_of_range; a bad file name is bad input.
+      const std::string digits = m[1].str();
+      long long number = 0;
+      const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), number);
+      if (ec != std::errc() || end != digits.data() + digits.size())
+        fail(p, "frame number " + quoteToken(digits) + " in the file name is not an integer below 2^63");
+      numbers->push_back(number);
     }
     out.push_back(p);
   }
@@ -225,7 +234,7 @@ bool readOpen3dIntrinsics(const fs::path& path, CameraIntrinsics& K) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(readWholeFile(path));
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, or out_of_range for "1e1000"
     fail(path, std::string("invalid JSON: ") + e.what());
   }
   if (!j.is_object() || !j.contains("intrinsic_matrix")) return false;
@@ -443,7 +452,7 @@ FrameSourceContents importReplica(const fs::path& folder) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(readWholeFile(cam));
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, or out_of_range for "1e1000"
     fail(cam, std::string("invalid JSON: ") + e.what());
   }
   if (!j.is_object() || !j.contains("camera") || !j["camera"].is_object()) fail(cam, "expected an object \"camera\"");
@@ -452,7 +461,15 @@ FrameSourceContents importReplica(const fs::path& folder) {
     if (!jc.contains(key) || !jc[key].is_number()) fail(cam, std::string("\"camera\" lacks the number \"") + key + "\"");
     return jc[key].get<double>();
   };
-  s.intrinsics = CameraIntrinsics{int(num("w")), int(num("h")), num("fx"), num("fy"), num("cx"), num("cy")};
+  // Image sides are checked as doubles before the conversion to int, which is undefined
+  // behaviour for a value out of int's range (e.g. 1e300).
+  auto side = [&](const char* key) {
+    const double v = num(key);
+    if (!(v >= 1.0 && v <= 1e6) || v != std::floor(v))
+      fail(cam, std::string("\"camera\" \"") + key + "\" must be an integer in [1, 1000000]");
+    return int(v);
+  };
+  s.intrinsics = CameraIntrinsics{side("w"), side("h"), num("fx"), num("fy"), num("cx"), num("cy")};
   const double scale = num("scale");
   if (!(scale > 0)) fail(cam, "\"scale\" must be > 0");
   s.depth_scale = 1.0 / scale;  // depth_m = value / scale

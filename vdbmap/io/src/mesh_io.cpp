@@ -147,7 +147,8 @@ TriangleMesh readOff(const std::filesystem::path& path) {
     const std::size_t ln = lines.lineNumber();
     std::int64_t n = 0;
     if (!detail::parseInt64(tok[0], n) || n < 3) failAt(path, ln, "face needs a vertex count >= 3, got " + quoteToken(tok[0]));
-    if (std::int64_t(tok.size()) < n + 1)
+    // n > size - 1, not size < n + 1: n comes from the file and may be INT64_MAX (no overflow).
+    if (n > std::int64_t(tok.size()) - 1)
       failAt(path, ln, "face lists " + std::to_string(tok.size() - 1) + " indices, expected " + std::to_string(n));
     std::int64_t idx[3];
     auto index = [&](std::int64_t k) {

@@ -2,6 +2,7 @@
 
 #include "text_util.hpp"
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -294,13 +295,15 @@ PlyContent readPly(const std::filesystem::path& path, bool read_faces) {
           if (read_faces && isFaceList(e, prop)) {
             if (n < 3) fail(path, "face number " + std::to_string(k) + " has " + std::to_string(n) + " vertices (need >= 3)");
             poly.clear();
+            const std::size_t vertices = vertex_el ? vertex_el->count : 0;
             for (std::size_t i = 0; i < n; ++i) {
               const double v = decodeScalar(base + pos + i * in, prop.type, swap);
-              const auto idx = static_cast<std::int64_t>(v);
-              if (idx < 0 || (vertex_el && std::size_t(idx) >= vertex_el->count) || double(idx) != v)
+              // Checked as a double before any conversion: a float index may be 1e30, NaN or 2.5,
+              // and converting an out-of-range double to an integer is undefined behaviour.
+              if (!(v >= 0.0 && v < double(vertices)) || v != std::floor(v))
                 fail(path, "face number " + std::to_string(k) + " refers to vertex " + std::to_string(v) +
-                               " but there are " + std::to_string(vertex_el ? vertex_el->count : 0) + " vertices");
-              poly.push_back(idx);
+                               " but there are " + std::to_string(vertices) + " vertices");
+              poly.push_back(static_cast<std::int64_t>(v));
             }
             fan(poly, content.triangles);
           }

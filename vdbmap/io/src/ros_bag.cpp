@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -250,9 +251,105 @@ class RosBagSource final : public FrameSource {
   mutable std::mutex mutex_;
 };
 
+// rosbag_storage trusts the lengths a bag holds: it allocates a record's header or data length,
+// and a chunk's uncompressed size, before checking them against the file (fuzz_bag: a 35 KB bag
+// whose connection record declares a 0xffffffff-byte header made it allocate 4 GiB). So the
+// record structure is walked first, reading record headers only (a bag may be gigabytes): every
+// length must fit in the file, the positions the index names (index_pos, chunk_pos) must be the
+// starts of records of the right kind, the counted records (chunk infos, index data) must hold
+// exactly their count, and a chunk may not claim more than kMaxBagChunkBytes uncompressed.
+// Format: http://wiki.ros.org/Bags/Format/2.0 (records: header_len, header, data_len, data).
+constexpr std::uint64_t kMaxBagChunkBytes = std::uint64_t{256} << 20;  // rosbag writes 768 KiB chunks
+constexpr std::uint32_t kMaxBagHeaderBytes = std::uint32_t{16} << 20;  // message definitions are KBs
+
+void checkBagStructure(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open the bag");
+  std::error_code ec;
+  const std::uint64_t file_size = std::filesystem::file_size(path, ec);
+  if (ec) fail(path, "cannot determine the bag's size");
+  const std::string kMagic = "#ROSBAG V2.0\n";
+  std::string magic(kMagic.size(), '\0');
+  if (!in.read(magic.data(), std::streamsize(magic.size())) || magic != kMagic)
+    fail(path, "not a ROS bag of format 2.0 (its first line must be '#ROSBAG V2.0')");
+  const auto u32 = [](const char* p) {
+    std::uint32_t v;
+    std::memcpy(&v, p, 4);  // bags are little endian, as the hosts we build for
+    return v;
+  };
+  std::map<std::uint64_t, std::uint8_t> op_at;  // record start -> op
+  std::vector<std::uint64_t> index_positions, chunk_positions;
+  std::uint64_t pos = kMagic.size();
+  std::string header;
+  while (pos < file_size) {
+    const std::string at = " (record at byte " + std::to_string(pos) + ")";
+    char len[4];
+    if (file_size - pos < 4 || !in.read(len, 4)) fail(path, "truncated bag: a record header length runs past the end" + at);
+    const std::uint32_t header_len = u32(len);
+    if (header_len > kMaxBagHeaderBytes || header_len > file_size - pos - 4)
+      fail(path, "corrupt bag: record header length " + std::to_string(header_len) + " runs past the end of the file" + at);
+    header.resize(header_len);
+    if (!in.read(header.data(), std::streamsize(header_len))) fail(path, "cannot read the bag" + at);
+    // Fields: uint32 length, then "name=value".
+    std::map<std::string, std::string> fields;
+    for (std::size_t f = 0; f < header.size();) {
+      if (header.size() - f < 4) fail(path, "corrupt bag: a header field length is cut off" + at);
+      const std::uint32_t field_len = u32(header.data() + f);
+      f += 4;
+      if (field_len > header.size() - f) fail(path, "corrupt bag: a header field runs past its header" + at);
+      const std::string field = header.substr(f, field_len);
+      f += field_len;
+      const std::size_t eq = field.find('=');
+      if (eq == std::string::npos) fail(path, "corrupt bag: a header field has no '='" + at);
+      fields[field.substr(0, eq)] = field.substr(eq + 1);
+    }
+    const std::uint64_t data_len_pos = pos + 4 + header_len;
+    if (file_size - data_len_pos < 4 || !in.read(len, 4)) fail(path, "truncated bag: a record data length runs past the end" + at);
+    const std::uint32_t data_len = u32(len);
+    if (data_len > file_size - data_len_pos - 4)
+      fail(path, "corrupt bag: record data length " + std::to_string(data_len) + " runs past the end of the file" + at);
+    const auto field = [&](const char* name, std::size_t size) -> const std::string& {
+      const auto it = fields.find(name);
+      if (it == fields.end() || it->second.size() != size)
+        fail(path, std::string("corrupt bag: header field '") + name + "' is missing or not " + std::to_string(size) + " bytes" + at);
+      return it->second;
+    };
+    const std::uint8_t op = std::uint8_t(field("op", 1)[0]);
+    op_at[pos] = op;
+    if (op == 0x03) {  // file header: where the index starts
+      std::uint64_t index_pos;
+      std::memcpy(&index_pos, field("index_pos", 8).data(), 8);
+      index_positions.push_back(index_pos);
+    } else if (op == 0x05) {  // chunk: uncompressed size is allocated when it is read
+      const std::uint32_t size = u32(field("size", 4).data());
+      if (size > kMaxBagChunkBytes)
+        fail(path, "chunk of " + std::to_string(size) + " bytes uncompressed, more than the " +
+                       std::to_string(kMaxBagChunkBytes) + " bytes read" + at);
+    } else if (op == 0x06) {  // chunk info: where its chunk is, and count (connection, count) pairs
+      std::uint64_t chunk_pos;
+      std::memcpy(&chunk_pos, field("chunk_pos", 8).data(), 8);
+      chunk_positions.push_back(chunk_pos);
+      if (std::uint64_t(u32(field("count", 4).data())) * 8 != data_len)
+        fail(path, "corrupt bag: a chunk info's count does not match its data" + at);
+    } else if (op == 0x04) {  // index data: count (time, offset) pairs
+      if (std::uint64_t(u32(field("count", 4).data())) * 12 != data_len)
+        fail(path, "corrupt bag: an index record's count does not match its data" + at);
+    }
+    pos = data_len_pos + 4 + data_len;
+    in.seekg(std::streamoff(pos));
+  }
+  for (const std::uint64_t p : index_positions)
+    if (p != 0 && op_at.count(p) == 0) fail(path, "corrupt bag: index_pos " + std::to_string(p) + " is not the start of a record");
+  for (const std::uint64_t p : chunk_positions) {
+    const auto it = op_at.find(p);
+    if (it == op_at.end() || it->second != 0x05) fail(path, "corrupt bag: chunk_pos " + std::to_string(p) + " is not the start of a chunk");
+  }
+}
+
 std::unique_ptr<rosbag::Bag> openBag(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw FileError(path.string() + ": no such bag file");
+  checkBagStructure(path);
   auto bag = std::make_unique<rosbag::Bag>();
   bag->open(path.string(), rosbag::bagmode::Read);
   return bag;

@@ -1,0 +1,19 @@
+// Fuzz target: PNG depth images (vdbmap/io/png_io.hpp). The bytes are written to a .png and read
+// as a 16-bit depth image (unchecked size, and against a camera of the input's own header size),
+// then as any PNG, and their header alone.
+#include "fuzz_support.hpp"
+
+#include "vdbmap/io/png_io.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace vdbmap;
+  const std::filesystem::path file = fuzz::freshScratchDir() / "depth.png";
+  fuzz::writeFile(file, data, size);
+  int width = 0, height = 0;
+  fuzz::expectRefusalOrSuccess([&] { io::readPngSize(file, width, height); });
+  fuzz::expectRefusalOrSuccess([&] { io::readDepthPng(file, 0.001); });
+  // 7-Scenes' invalid value, and the camera check with the header's own size (so decoding runs).
+  fuzz::expectRefusalOrSuccess([&] { io::readDepthPng(file, 1.0 / 5000.0, 65535, width, height); });
+  fuzz::expectRefusalOrSuccess([&] { io::readPng(file); });
+  return 0;
+}
