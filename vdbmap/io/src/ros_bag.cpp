@@ -458,9 +458,8 @@ std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& path, const
         std::vector<StampedPose> poses;
         for (const geometry_msgs::PoseStamped& p : path_msg->poses) {
           double t = p.header.stamp.toSec();
-          const auto near = std::lower_bound(c.records.begin(), c.records.end(), t - kTimestampMatchTolerance_s,
-                                             [](const FrameRecord& r, double x) { return r.timestamp_s < x; });
-          if (near != c.records.end() && std::abs(near->timestamp_s - t) <= kTimestampMatchTolerance_s) t = near->timestamp_s;
+          if (const auto near = findStamp(c.records.begin(), c.records.end(), t); near != c.records.end())
+            t = near->timestamp_s;
           if (t < c.records.front().timestamp_s || t > ev.event_timestamp_s) {
             ++poses_left_out;
             continue;
