@@ -12,11 +12,11 @@ set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
 targets=(vdbmap_tests fuzz_replay_all)
-test_regex='^(vdbmap: |fuzz_replay_)'
+test_regex='^(vdbmap:|fuzz_replay_)'
 if [ "${1:-}" = "--planner" ]; then
   shift
   targets+=(planner_tests)
-  test_regex='^(vdbmap: |planner: |fuzz_replay_)'
+  test_regex='^(vdbmap:|planner:|fuzz_replay_)'
 fi
 
 vdbmap_install_packages

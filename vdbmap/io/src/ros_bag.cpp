@@ -11,6 +11,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 #ifdef VDBMAP_HAS_ROSBAG
@@ -110,6 +111,103 @@ Pose3d toPose(const geometry_msgs::Point& p, const geometry_msgs::Quaternion& q,
   return poseFromTranslationQuaternion(position, q.x, q.y, q.z, q.w);  // as logs' poses are made
 }
 
+// ROS's deserializer resizes a vector to the length a message declares before checking that the
+// message holds it (fuzz_bag: a 39 KB bag whose image declares 4 GiB of pixels allocated them).
+// So each message's serialized bytes are walked first for the six types read here: every string
+// and vector length must fit in what is left of the message. Layouts: the messages' .msg files.
+class MessageWalk {
+ public:
+  explicit MessageWalk(const std::vector<std::uint8_t>& bytes) : p_(bytes.data()), left_(bytes.size()) {}
+  bool ok() const { return ok_; }
+  void skip(std::size_t n) {
+    if (!ok_ || n > left_) {
+      ok_ = false;
+      return;
+    }
+    p_ += n;
+    left_ -= n;
+  }
+  std::uint32_t u32() {
+    std::uint32_t v = 0;
+    if (ok_ && left_ >= 4) std::memcpy(&v, p_, 4);
+    skip(4);
+    return v;
+  }
+  void string() { skip(u32()); }
+  void vector(std::size_t element_bytes) {
+    const std::uint64_t n = u32();
+    if (ok_ && n > left_ / element_bytes) ok_ = false;
+    skip(std::size_t(n) * element_bytes);
+  }
+  void header() {  // seq, stamp (sec, nsec), frame_id
+    skip(12);
+    string();
+  }
+  void poseStamped() {
+    header();
+    skip(7 * 8);
+  }
+
+ private:
+  const std::uint8_t* p_;
+  std::size_t left_;
+  bool ok_ = true;
+};
+
+void walk(MessageWalk& w, const sensor_msgs::Image*) {
+  w.header();
+  w.skip(4 + 4);   // height, width
+  w.string();      // encoding
+  w.skip(1 + 4);   // is_bigendian, step
+  w.vector(1);     // data
+}
+void walk(MessageWalk& w, const sensor_msgs::CameraInfo*) {
+  w.header();
+  w.skip(4 + 4);   // height, width
+  w.string();      // distortion_model
+  w.vector(8);     // D
+  w.skip((9 + 9 + 12) * 8 + 4 + 4 + 17);  // K, R, P, binning_x, binning_y, roi
+}
+void walk(MessageWalk& w, const geometry_msgs::PoseStamped*) { w.poseStamped(); }
+void walk(MessageWalk& w, const geometry_msgs::TransformStamped*) {
+  w.header();
+  w.string();      // child_frame_id
+  w.skip(7 * 8);   // translation, rotation
+}
+void walk(MessageWalk& w, const nav_msgs::Odometry*) {
+  w.header();
+  w.string();                       // child_frame_id
+  w.skip((7 + 36 + 6 + 36) * 8);    // pose with covariance, twist with covariance
+}
+void walk(MessageWalk& w, const nav_msgs::Path*) {
+  w.header();
+  const std::uint32_t n = w.u32();
+  for (std::uint32_t k = 0; k < n && w.ok(); ++k) w.poseStamped();  // each at least 72 bytes: bounded
+}
+
+/// m.instantiate<T>() once the message's lengths are known to fit in it. FileError when they do
+/// not, and when rosbag returns no message: it does so for a message whose connection names
+/// another type or MD5 than T's (fuzz_bag: a topic whose connections disagree on its type).
+template <class T>
+boost::shared_ptr<T> instantiateChecked(const rosbag::MessageInstance& m, const std::filesystem::path& bag) {
+  std::vector<std::uint8_t> bytes(m.size());  // bounded by its chunk (checkBagStructure)
+  ros::serialization::OStream out(bytes.data(), std::uint32_t(bytes.size()));
+  m.write(out);
+  MessageWalk w(bytes);
+  walk(w, static_cast<const T*>(nullptr));
+  // Topic, type and MD5 are the bag's text: control bytes escaped (errors.hpp).
+  const std::string where = "topic " + escapeControl(m.getTopic()) + " at " + stampText(m.getTime().toSec()) + ": ";
+  if (!w.ok())
+    fail(bag, where + "a " + escapeControl(m.getDataType()) + " message declares more data than its " +
+                  std::to_string(bytes.size()) + " bytes hold");
+  boost::shared_ptr<T> message = m.instantiate<T>();
+  if (!message)
+    fail(bag, where + "a message of type " + escapeControl(m.getDataType()) + " (MD5 " + escapeControl(m.getMD5Sum()) +
+                  ") where " + ros::message_traits::datatype<T>() + " (MD5 " + ros::message_traits::md5sum<T>() +
+                  ") was expected");
+  return message;
+}
+
 /// Every message of `topic` in bag order.
 std::vector<rosbag::MessageInstance> messages(const rosbag::Bag& bag, const std::string& topic) {
   std::vector<rosbag::MessageInstance> out;
@@ -126,15 +224,15 @@ std::vector<StampedPose> readPoses(const std::filesystem::path& bag_path, const 
     double t = 0.0;
     Pose3d T;
     if (type == kOdometry) {
-      const auto msg = m.instantiate<nav_msgs::Odometry>();
+      const auto msg = instantiateChecked<nav_msgs::Odometry>(m, bag_path);
       t = msg->header.stamp.toSec();
       T = toPose(msg->pose.pose.position, msg->pose.pose.orientation, bag_path, topic, t);
     } else if (type == kPoseStamped) {
-      const auto msg = m.instantiate<geometry_msgs::PoseStamped>();
+      const auto msg = instantiateChecked<geometry_msgs::PoseStamped>(m, bag_path);
       t = msg->header.stamp.toSec();
       T = toPose(msg->pose.position, msg->pose.orientation, bag_path, topic, t);
     } else {
-      const auto msg = m.instantiate<geometry_msgs::TransformStamped>();
+      const auto msg = instantiateChecked<geometry_msgs::TransformStamped>(m, bag_path);
       t = msg->header.stamp.toSec();
       geometry_msgs::Point p;
       p.x = msg->transform.translation.x;
@@ -154,7 +252,7 @@ std::vector<StampedPose> readPoses(const std::filesystem::path& bag_path, const 
 CameraIntrinsics readCamera(const std::filesystem::path& bag_path, const rosbag::Bag& bag, const std::string& topic) {
   const std::vector<rosbag::MessageInstance> all = messages(bag, topic);
   if (all.empty()) fail(bag_path, "topic " + topic + " holds no CameraInfo message");
-  const auto info = all.front().instantiate<sensor_msgs::CameraInfo>();
+  const auto info = instantiateChecked<sensor_msgs::CameraInfo>(all.front(), bag_path);
   const std::string model = info->distortion_model;
   const bool zero = std::all_of(info->D.begin(), info->D.end(), [](double d) { return d == 0.0; });
   if (!(model.empty() || model == "none" ||
@@ -233,7 +331,7 @@ class RosBagSource final : public FrameSource {
     f.is_depth = true;
     const std::lock_guard<std::mutex> lock(mutex_);  // rosbag's reader is not thread-safe
     try {
-      const auto img = depth_[i].instantiate<sensor_msgs::Image>();
+      const auto img = instantiateChecked<sensor_msgs::Image>(depth_[i], root());
       f.depth = decodeDepth(*img, K_, root(), topic_);
     } catch (const FileError& e) {
       throw BadFrameError(i, e.what());
@@ -281,6 +379,35 @@ void checkBagStructure(const std::filesystem::path& path) {
   std::vector<std::uint64_t> index_positions, chunk_positions;
   std::uint64_t pos = kMagic.size();
   std::string header;
+  // A header (of a record, of a record inside a chunk, or a connection record's data): fields of
+  // a uint32 length, then "name=value". ros::Header::parse checks a length against 1e6 only, not
+  // against the header (fuzz_bag: heap-buffer-overflow), so every one is checked here.
+  const auto headerFields = [&](const std::string& bytes, const std::string& at) {
+    std::map<std::string, std::string> fields;
+    for (std::size_t f = 0; f < bytes.size();) {
+      if (bytes.size() - f < 4) fail(path, "corrupt bag: a header field length is cut off" + at);
+      const std::uint32_t field_len = u32(bytes.data() + f);
+      f += 4;
+      if (field_len > bytes.size() - f) fail(path, "corrupt bag: a header field runs past its header" + at);
+      const std::string field = bytes.substr(f, field_len);
+      f += field_len;
+      const std::size_t eq = field.find('=');
+      if (eq == std::string::npos) fail(path, "corrupt bag: a header field has no '='" + at);
+      fields[field.substr(0, eq)] = field.substr(eq + 1);
+    }
+    return fields;
+  };
+  // Reads `n` bytes at `at_byte` (n already checked against the file).
+  const auto readAt = [&](std::uint64_t at_byte, std::uint64_t n, const std::string& at) {
+    std::string bytes(n, '\0');
+    in.seekg(std::streamoff(at_byte));
+    if (!in.read(bytes.data(), std::streamsize(n))) fail(path, "cannot read the bag" + at);
+    return bytes;
+  };
+  // The last chunk: index records after it point into it.
+  bool have_chunk = false, chunk_plain = false;
+  std::uint32_t chunk_size = 0;
+  std::set<std::uint32_t> chunk_records;
   while (pos < file_size) {
     const std::string at = " (record at byte " + std::to_string(pos) + ")";
     char len[4];
@@ -290,19 +417,7 @@ void checkBagStructure(const std::filesystem::path& path) {
       fail(path, "corrupt bag: record header length " + std::to_string(header_len) + " runs past the end of the file" + at);
     header.resize(header_len);
     if (!in.read(header.data(), std::streamsize(header_len))) fail(path, "cannot read the bag" + at);
-    // Fields: uint32 length, then "name=value".
-    std::map<std::string, std::string> fields;
-    for (std::size_t f = 0; f < header.size();) {
-      if (header.size() - f < 4) fail(path, "corrupt bag: a header field length is cut off" + at);
-      const std::uint32_t field_len = u32(header.data() + f);
-      f += 4;
-      if (field_len > header.size() - f) fail(path, "corrupt bag: a header field runs past its header" + at);
-      const std::string field = header.substr(f, field_len);
-      f += field_len;
-      const std::size_t eq = field.find('=');
-      if (eq == std::string::npos) fail(path, "corrupt bag: a header field has no '='" + at);
-      fields[field.substr(0, eq)] = field.substr(eq + 1);
-    }
+    const std::map<std::string, std::string> fields = headerFields(header, at);
     const std::uint64_t data_len_pos = pos + 4 + header_len;
     if (file_size - data_len_pos < 4 || !in.read(len, 4)) fail(path, "truncated bag: a record data length runs past the end" + at);
     const std::uint32_t data_len = u32(len);
@@ -325,15 +440,52 @@ void checkBagStructure(const std::filesystem::path& path) {
       if (size > kMaxBagChunkBytes)
         fail(path, "chunk of " + std::to_string(size) + " bytes uncompressed, more than the " +
                        std::to_string(kMaxBagChunkBytes) + " bytes read" + at);
+      // Its records, where the index records after it point (rosbag_storage reads a record header
+      // at each offset without checking it against the chunk: fuzz_bag, SEGV). An uncompressed
+      // chunk is walked like the file; a compressed one's offsets are only checked against its size.
+      chunk_size = size;
+      const auto compression = fields.find("compression");
+      chunk_plain = compression != fields.end() && compression->second == "none";
+      chunk_records.clear();
+      have_chunk = true;
+      if (chunk_plain) {
+        if (size != data_len) fail(path, "corrupt bag: an uncompressed chunk's size differs from its data" + at);
+        for (std::uint64_t o = 0; o < data_len;) {
+          char lengths[4];
+          in.seekg(std::streamoff(data_len_pos + 4 + o));
+          if (data_len - o < 8 || !in.read(lengths, 4)) fail(path, "corrupt bag: a record in a chunk is cut off" + at);
+          const std::uint64_t inner_header = u32(lengths);
+          if (inner_header > data_len - o - 8) fail(path, "corrupt bag: a record in a chunk runs past it" + at);
+          headerFields(readAt(data_len_pos + 4 + o + 4, inner_header, at), at);
+          in.seekg(std::streamoff(data_len_pos + 4 + o + 4 + inner_header));
+          if (!in.read(lengths, 4)) fail(path, "cannot read the bag" + at);
+          const std::uint64_t inner_data = u32(lengths);
+          if (inner_data > data_len - o - 8 - inner_header) fail(path, "corrupt bag: a record in a chunk runs past it" + at);
+          chunk_records.insert(std::uint32_t(o));
+          o += 8 + inner_header + inner_data;
+        }
+      }
     } else if (op == 0x06) {  // chunk info: where its chunk is, and count (connection, count) pairs
       std::uint64_t chunk_pos;
       std::memcpy(&chunk_pos, field("chunk_pos", 8).data(), 8);
       chunk_positions.push_back(chunk_pos);
       if (std::uint64_t(u32(field("count", 4).data())) * 8 != data_len)
         fail(path, "corrupt bag: a chunk info's count does not match its data" + at);
-    } else if (op == 0x04) {  // index data: count (time, offset) pairs
+    } else if (op == 0x07) {  // connection: its data is a header too (topic, type, md5sum, ...)
+      if (data_len > kMaxBagHeaderBytes) fail(path, "corrupt bag: a connection of " + std::to_string(data_len) + " bytes" + at);
+      headerFields(readAt(data_len_pos + 4, data_len, at), at);
+    } else if (op == 0x04) {  // index data: count (time, offset) pairs into the chunk before it
       if (std::uint64_t(u32(field("count", 4).data())) * 12 != data_len)
         fail(path, "corrupt bag: an index record's count does not match its data" + at);
+      if (!have_chunk) fail(path, "corrupt bag: an index record before any chunk" + at);
+      const std::string entries = readAt(data_len_pos + 4, data_len, at);
+      for (std::size_t k = 0; k + 12 <= entries.size(); k += 12) {
+        const std::uint32_t offset = u32(entries.data() + k + 8);
+        const bool ok = chunk_plain ? chunk_records.count(offset) != 0 : std::uint64_t(offset) + 8 <= chunk_size;
+        if (!ok)
+          fail(path, "corrupt bag: an index entry points to byte " + std::to_string(offset) +
+                         " of its chunk, where no message record starts" + at);
+      }
     }
     pos = data_len_pos + 4 + data_len;
     in.seekg(std::streamoff(pos));
@@ -412,7 +564,7 @@ std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& path, const
     std::size_t outside = 0;
     std::string encoding;
     for (const rosbag::MessageInstance& m : messages(*bag, depth_topic)) {
-      const auto img = m.instantiate<sensor_msgs::Image>();
+      const auto img = instantiateChecked<sensor_msgs::Image>(m, path);
       const double t = img->header.stamp.toSec();
       if (encoding.empty()) encoding = img->encoding;
       if (img->encoding != "16UC1" && img->encoding != "mono16" && img->encoding != "32FC1")
@@ -443,7 +595,7 @@ std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& path, const
     std::size_t events_skipped = 0, poses_left_out = 0;
     if (!corrections_topic.empty()) {
       for (const rosbag::MessageInstance& m : messages(*bag, corrections_topic)) {
-        const auto path_msg = m.instantiate<nav_msgs::Path>();
+        const auto path_msg = instantiateChecked<nav_msgs::Path>(m, path);
         const double t_event = path_msg->header.stamp.isZero() ? m.getTime().toSec() : path_msg->header.stamp.toSec();
         const auto after = std::upper_bound(c.records.begin(), c.records.end(), t_event,
                                             [](double t, const FrameRecord& r) { return t < r.timestamp_s; });
