@@ -65,6 +65,22 @@ class Walker {
   std::uint64_t end_ = 0, pos_ = 0;
 };
 
+/// The value size OpenVDB reads for its fixed-size metadata types; 0 for the others.
+std::uint32_t fixedMetadataBytes(const std::string& type) {
+  if (type == "bool") return 1;
+  if (type == "int32" || type == "float") return 4;
+  if (type == "int64" || type == "double") return 8;
+  if (type == "vec2i" || type == "vec2s") return 8;
+  if (type == "vec2d") return 16;
+  if (type == "vec3i" || type == "vec3s") return 12;
+  if (type == "vec3d") return 24;
+  if (type == "vec4i" || type == "vec4s") return 16;
+  if (type == "vec4d") return 32;
+  if (type == "mat4s") return 64;
+  if (type == "mat4d") return 128;
+  return 0;
+}
+
 /// A MetaMap: count, then per entry its name, type name and sized value.
 void walkMetadata(Walker& w, const std::string& where) {
   const auto count = w.get<std::int32_t>(where + " metadata count");
@@ -75,8 +91,13 @@ void walkMetadata(Walker& w, const std::string& where) {
   for (std::int32_t k = 0; k < count; ++k) {
     const std::string entry = where + " metadata entry " + std::to_string(k);
     const std::string name = w.string(entry + " name");
-    w.string(entry + " ('" + name + "') type");
+    const std::string type = w.string(entry + " ('" + name + "') type");
     const auto bytes = w.get<std::uint32_t>(entry + " ('" + name + "') value size");
+    // OpenVDB reads sizeof(T) for its fixed-size types, whatever size the entry declares.
+    const std::uint32_t fixed = fixedMetadataBytes(type);
+    if (fixed != 0 && bytes != fixed)
+      w.fail(entry + " ('" + name + "') of type " + type + " declares " + std::to_string(bytes) + " bytes, not " +
+             std::to_string(fixed));
     w.skip(bytes, entry + " ('" + name + "') value");
   }
 }
@@ -90,7 +111,9 @@ void checkVdbFileStructure(const std::filesystem::path& path) {
   Walker w(path, size);
   if (w.get<std::uint64_t>("the header") != kMagic) w.fail("no OpenVDB header (not a .vdb file)");
   const auto version = w.get<std::uint32_t>("the file version");
-  if (version < kOldestCheckedVersion) return;
+  if (version < kOldestCheckedVersion)
+    w.fail("OpenVDB file version " + std::to_string(version) + ", older than the " +
+           std::to_string(kOldestCheckedVersion) + " this build checks and reads (vdbmap writes 224)");
   w.get<std::uint32_t>("the library version");
   w.get<std::uint32_t>("the library version");
   const bool has_offsets = w.get<char>("the grid offsets flag") != 0;
@@ -99,7 +122,8 @@ void checkVdbFileStructure(const std::filesystem::path& path) {
   const auto grids = w.get<std::int32_t>("the grid count");
   if (grids < 0 || std::uint64_t(grids) > w.left() / 36)
     w.fail("declares " + std::to_string(grids) + " grids, more than " + std::to_string(w.left()) + " bytes can hold");
-  if (!has_offsets) return;  // grids follow their descriptors directly; OpenVDB reads them in order
+  // Without offsets the grids follow their descriptors unchecked; OpenVDB writes offsets since 212.
+  if (!has_offsets) w.fail("no grid offsets (written by an OpenVDB older than this build checks)");
   for (std::int32_t g = 0; g < grids; ++g) {
     const std::string grid = "grid " + std::to_string(g);
     const std::string name = w.string(grid + " name");

@@ -8,7 +8,8 @@
 namespace vdbmap::internal {
 
 /// Throws FileError naming the file, the entry and the declared size when a length or offset
-/// reaches beyond the file. Files of a format older than OpenVDB's 220 are left to OpenVDB.
+/// reaches beyond the file, a fixed-size metadata value declares another size than OpenVDB reads,
+/// or the file is older than OpenVDB's format 220 or has no grid offsets (neither can be checked).
 void checkVdbFileStructure(const std::filesystem::path& path);
 
 }  // namespace vdbmap::internal
