@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace vdbmap {
@@ -23,9 +24,9 @@ namespace {
 constexpr int kFormatVersion = 4;
 constexpr const char* kUnitIdKey = "vdbmap_unit_id";
 /// The fields a companion must share with its map (beyond the unit id, which older files lack).
-constexpr const char* kSharedFields[] = {"voxel_size_m", "truncation_vox", "weighting",  "min_weight",
-                                         "occupancy_threshold_vox", "min_range_m", "max_range_m",
-                                         "ray_mode", "frames_integrated"};
+constexpr const char* kSharedFields[] = {
+    "voxel_size_m", "truncation_vox", "weighting", "min_weight",       "occupancy_threshold_vox",
+    "min_range_m",  "max_range_m",    "ray_mode",  "frames_integrated"};
 constexpr int kOldestReadableVersion = 2;
 
 openvdb::MetaMap configMetadata(const TsdfConfig& c, const IntegratorConfig& in, std::size_t frames) {
@@ -89,7 +90,8 @@ void checkMapFormatVersion(const openvdb::MetaMap& meta, const std::filesystem::
 
 void checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMap& exact_meta,
                          const std::filesystem::path& map_path, const std::filesystem::path& exact_path) {
-  const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(exact_meta, "vdbmap_format_version", exact_path);
+  const int version =
+      requireMeta<openvdb::Int32Metadata, openvdb::Int32>(exact_meta, "vdbmap_format_version", exact_path);
   if (version < kOldestReadableVersion || version > kFormatVersion)
     throw vdbmap::FileError(exact_path.string() + ": exact state of format version " + std::to_string(version) +
                             ", this build reads versions " + std::to_string(kOldestReadableVersion) + " to " +
@@ -100,8 +102,8 @@ void checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMa
   const std::string map_id = unitIdOf(map_meta), exact_id = unitIdOf(exact_meta);
   if (map_id != exact_id)
     throw vdbmap::FileError(exact_path.string() + " belongs to another save than " + map_path.string() + " (unit id " +
-                            (exact_id.empty() ? "none" : exact_id) + ", the map's " + (map_id.empty() ? "none" : map_id) +
-                            ")" + hint);
+                            (exact_id.empty() ? "none" : exact_id) + ", the map's " +
+                            (map_id.empty() ? "none" : map_id) + ")" + hint);
   for (const char* field : kSharedFields) {
     const openvdb::Metadata::ConstPtr a = map_meta[field], b = exact_meta[field];
     if (!a || !b || a->str() != b->str())
@@ -149,7 +151,7 @@ void TsdfVolume::save(const std::filesystem::path& path) const {
 void TsdfVolume::stageSave(const std::filesystem::path& path, AtomicFileSet& files) const {
   if (path.has_parent_path() && !std::filesystem::is_directory(path.parent_path()))
     throw vdbmap::FileError("cannot write " + path.string() + ": folder " + path.parent_path().string() +
-                        " does not exist");
+                            " does not exist");
   if (std::error_code ec; std::filesystem::is_directory(path, ec))
     throw vdbmap::FileError("cannot write " + path.string() + ": it is a folder (give a file name)");
   if (isExactStatePath(path))
@@ -164,7 +166,8 @@ void TsdfVolume::stageSave(const std::filesystem::path& path, AtomicFileSet& fil
     nlohmann::json registry = nlohmann::json::array();
     for (const auto& [id, rec] : frames_) {
       const auto& m = rec.T_W_S.matrix();
-      registry.push_back({{"id", id}, {"fingerprint", std::to_string(rec.fingerprint)},
+      registry.push_back({{"id", id},
+                          {"fingerprint", std::to_string(rec.fingerprint)},
                           {"T_W_S", std::vector<double>(m.data(), m.data() + 16)}});
     }
     openvdb::MetaMap exact_meta = meta;
@@ -185,15 +188,25 @@ void TsdfVolume::stageSave(const std::filesystem::path& path, AtomicFileSet& fil
 }
 
 TsdfVolume TsdfVolume::fromWeightedSums(const TsdfConfig& config, const IntegratorConfig& integrator,
-                                         const openvdb::FloatGrid& weight, const openvdb::FloatGrid& weighted_tsdf) {
+                                        const openvdb::FloatGrid& weight, const openvdb::FloatGrid& weighted_tsdf) {
   TsdfVolume volume(config, integrator);
   auto wacc = volume.weight_q_->getAccessor();
   auto wdacc = volume.wsdf_q_->getAccessor();
   const double delta = config.truncation_m();
+  // Far above any weight rays give (a billion rays at 1 m), far below where wq * kSdfScale and
+  // the sums of later frames would overflow 64 bits.
+  constexpr double kMaxWeight = double(1 << 30);
   for (auto it = weight.cbeginValueOn(); it; ++it) {
-    const std::int64_t wq = std::llround(double(*it) * kWeightScale);
+    const double w = double(*it), w_sdf = double(weighted_tsdf.tree().getValue(it.getCoord()));
+    if (!std::isfinite(w) || w > kMaxWeight || !std::isfinite(w_sdf)) {
+      std::ostringstream msg;  // the stream's precision: 1e+38, not 39 digits
+      msg << "voxel " << it.getCoord() << " has weight " << w << " and weighted tsdf " << w_sdf
+          << ": weights must be finite and at most 2^30, sums finite";
+      throw std::invalid_argument(msg.str());
+    }
+    const std::int64_t wq = std::llround(w * kWeightScale);
     if (wq <= 0) continue;
-    const double sdf = std::clamp(double(weighted_tsdf.tree().getValue(it.getCoord())) / double(*it), -delta, delta);
+    const double sdf = std::clamp(w_sdf / w, -delta, delta);
     wacc.setValue(it.getCoord(), wq);
     wdacc.setValue(it.getCoord(), wq * std::llround(sdf / delta * kSdfScale));
   }
@@ -203,7 +216,8 @@ TsdfVolume TsdfVolume::fromWeightedSums(const TsdfConfig& config, const Integrat
 
 TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
   initializeOpenVdb();
-  if (!std::filesystem::is_regular_file(path)) throw vdbmap::FileError("cannot open map " + path.string() + ": no such file");
+  if (!std::filesystem::is_regular_file(path))
+    throw vdbmap::FileError("cannot open map " + path.string() + ": no such file");
   try {
     internal::checkVdbFileStructure(path);
     openvdb::io::File file(path.string());
@@ -212,43 +226,61 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
     detail::checkMapFormatVersion(*meta, path);
     TsdfConfig c;
     IntegratorConfig in;
-    c.voxel_size_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "voxel_size_m", path);
-    c.truncation_vox = requireMeta<openvdb::DoubleMetadata, double>(*meta, "truncation_vox", path);
-    c.weighting = parseWeighting(requireMeta<openvdb::StringMetadata, std::string>(*meta, "weighting", path));
-    c.min_weight = requireMeta<openvdb::DoubleMetadata, double>(*meta, "min_weight", path);
-    c.occupancy_threshold_vox = requireMeta<openvdb::DoubleMetadata, double>(*meta, "occupancy_threshold_vox", path);
-    in.min_range_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "min_range_m", path);
-    in.max_range_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "max_range_m", path);
-    in.ray_mode = parseRayMode(requireMeta<openvdb::StringMetadata, std::string>(*meta, "ray_mode", path));
+    try {  // settings out of range in a file are damage, not misuse
+      c.voxel_size_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "voxel_size_m", path);
+      c.truncation_vox = requireMeta<openvdb::DoubleMetadata, double>(*meta, "truncation_vox", path);
+      c.weighting = parseWeighting(requireMeta<openvdb::StringMetadata, std::string>(*meta, "weighting", path));
+      c.min_weight = requireMeta<openvdb::DoubleMetadata, double>(*meta, "min_weight", path);
+      c.occupancy_threshold_vox = requireMeta<openvdb::DoubleMetadata, double>(*meta, "occupancy_threshold_vox", path);
+      in.min_range_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "min_range_m", path);
+      in.max_range_m = requireMeta<openvdb::DoubleMetadata, double>(*meta, "max_range_m", path);
+      in.ray_mode = parseRayMode(requireMeta<openvdb::StringMetadata, std::string>(*meta, "ray_mode", path));
+      c.validate();
+      in.validate();
+    } catch (const std::invalid_argument& e) {
+      throw vdbmap::FileError(path.string() + ": bad map settings: " + e.what());
+    }
     TsdfVolume volume(c, in);
 
     const std::filesystem::path exact = exactStatePath(path);
     if (std::filesystem::is_regular_file(exact)) {
-      internal::checkVdbFileStructure(exact);
-      openvdb::io::File ef(exact.string());
-      ef.open(/*delayLoad=*/false);
-      const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
-      detail::checkExactCompanion(*meta, *emeta, path, exact);
-      const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(*emeta, "vdbmap_format_version", exact);
-      auto w = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("weight_q"));
-      auto wd = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("wsdf_q"));
-      if (!w || !wd) throw vdbmap::FileError(exact.string() + ": grids weight_q / wsdf_q missing or not Int64");
-      volume.weight_q_->setTree(w->treePtr());
-      volume.wsdf_q_->setTree(wd->treePtr());
-      if (version >= 3) {
-        auto hits = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("hits"));
-        if (!hits) throw vdbmap::FileError(exact.string() + ": grid hits is not Int64");
-        volume.hits_->setTree(hits->treePtr());
-      }
-      const auto registry =
-          nlohmann::json::parse(requireMeta<openvdb::StringMetadata, std::string>(*emeta, "frames_json", exact));
-      for (const auto& f : registry) {
-        FrameRecord rec;
-        rec.fingerprint = std::stoull(f.at("fingerprint").get<std::string>());
-        const auto m = f.at("T_W_S").get<std::vector<double>>();
-        if (m.size() != 16) throw vdbmap::FileError(exact.string() + ": frame pose must have 16 numbers");
-        std::copy(m.begin(), m.end(), rec.T_W_S.matrix().data());
-        volume.frames_[f.at("id").get<FrameId>()] = rec;
+      // Errors from here on name the companion, the file they are in.
+      const auto readExactState = [&] {
+        internal::checkVdbFileStructure(exact);
+        openvdb::io::File ef(exact.string());
+        ef.open(/*delayLoad=*/false);
+        const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
+        detail::checkExactCompanion(*meta, *emeta, path, exact);
+        const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(*emeta, "vdbmap_format_version", exact);
+        auto w = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("weight_q"));
+        auto wd = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("wsdf_q"));
+        if (!w || !wd) throw vdbmap::FileError(exact.string() + ": grids weight_q / wsdf_q missing or not Int64");
+        volume.weight_q_->setTree(w->treePtr());
+        volume.wsdf_q_->setTree(wd->treePtr());
+        if (version >= 3) {
+          auto hits = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("hits"));
+          if (!hits) throw vdbmap::FileError(exact.string() + ": grid hits is not Int64");
+          volume.hits_->setTree(hits->treePtr());
+        }
+        const auto registry =
+            nlohmann::json::parse(requireMeta<openvdb::StringMetadata, std::string>(*emeta, "frames_json", exact));
+        for (const auto& f : registry) {
+          FrameRecord rec;
+          rec.fingerprint = std::stoull(f.at("fingerprint").get<std::string>());
+          const auto m = f.at("T_W_S").get<std::vector<double>>();
+          if (m.size() != 16) throw vdbmap::FileError(exact.string() + ": frame pose must have 16 numbers");
+          std::copy(m.begin(), m.end(), rec.T_W_S.matrix().data());
+          volume.frames_[f.at("id").get<FrameId>()] = rec;
+        }
+      };
+      try {
+        readExactState();
+      } catch (const openvdb::Exception& e) {
+        throw vdbmap::FileError("cannot read exact state " + exact.string() + ": " + e.what());
+      } catch (const nlohmann::json::exception& e) {
+        throw vdbmap::FileError("cannot read exact state " + exact.string() + ": bad frame registry: " + e.what());
+      } catch (const std::logic_error& e) {  // std::stoull of a fingerprint
+        throw vdbmap::FileError("cannot read exact state " + exact.string() + ": bad frame registry: " + e.what());
       }
       return volume;
     }
@@ -259,7 +291,11 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
     if (!tsdf || !weight) throw vdbmap::FileError(path.string() + ": grids tsdf / weight missing or not float");
     auto weighted = weight->deepCopy();
     for (auto it = weighted->beginValueOn(); it; ++it) it.setValue(*it * tsdf->tree().getValue(it.getCoord()));
-    return fromWeightedSums(c, in, *weight, *weighted);
+    try {
+      return fromWeightedSums(c, in, *weight, *weighted);
+    } catch (const std::invalid_argument& e) {
+      throw vdbmap::FileError(path.string() + ": " + e.what());
+    }
   } catch (const openvdb::Exception& e) {
     throw vdbmap::FileError("cannot read map " + path.string() + ": " + e.what());
   } catch (const nlohmann::json::exception& e) {

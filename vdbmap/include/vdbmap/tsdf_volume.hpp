@@ -146,7 +146,9 @@ class TsdfVolume {
   static std::string savedUnitId(const std::filesystem::path& path);
   /// A map rebuilt from float sums: `weight` (ray units) and `weighted_tsdf` (weight x tsdf in
   /// metres) on the same voxels, e.g. the fusion of submaps. The state is approximate (quantized
-  /// from floats, hasExactState() false) and the frame registry is empty.
+  /// from floats, hasExactState() false) and the frame registry is empty. Throws
+  /// std::invalid_argument naming the voxel when a weight is not finite or above 2^30, or a sum
+  /// is not finite.
   static TsdfVolume fromWeightedSums(const TsdfConfig& config, const IntegratorConfig& integrator,
                                      const openvdb::FloatGrid& weight, const openvdb::FloatGrid& weighted_tsdf);
   /// `map.vdb` -> `map.exact.vdb`.
