@@ -185,6 +185,20 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("keep_target", &ExplorationParams::keep_target,
                      "periodic and frame-shift replans keep flying to the current target while it is live "
                      "(off: the tour's first target wins every replan, as in FUEL)")
+      .def_readwrite("initial_turn_parts", &ExplorationParams::initial_turn_parts,
+                     "parts of the initial turn, each under half a turn; [3, 36]")
+      .def_readwrite("risk_check_spacing_vox", &ExplorationParams::risk_check_spacing_vox,
+                     "spacing of the collision-risk check along the trajectory, voxels; (0, 10]")
+      .def_readwrite("flown_positions_kept", &ExplorationParams::flown_positions_kept,
+                     "flown positions kept for retreats (one voxel apart); [1, 1e6]")
+      .def_readwrite("retreat_reach_m", &ExplorationParams::retreat_reach_m,
+                     "how far back along the way flown a retreat goes; [0, 100]")
+      .def_readwrite("max_chained_escapes", &ExplorationParams::max_chained_escapes,
+                     "straight escapes in a row before giving up; [0, 100]")
+      .def_readwrite("escape_reach_m", &ExplorationParams::escape_reach_m,
+                     "how far a straight escape looks for a clear point; (0, 10]")
+      .def_readwrite("max_chained_backtracks", &ExplorationParams::max_chained_backtracks,
+                     "goings back the way flown in a row after every target failed; [0, 100]")
       .def("validate", &ExplorationParams::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::enum_<ExplorationStatus> status(m, "ExplorationStatus", "What one exploration update decided.");

@@ -179,6 +179,13 @@ class ExplorationParams:
     final_min_cluster_size: int
     max_targets_per_replan: int
     keep_target: bool
+    initial_turn_parts: int
+    risk_check_spacing_vox: float
+    flown_positions_kept: int
+    retreat_reach_m: float
+    max_chained_escapes: int
+    escape_reach_m: float
+    max_chained_backtracks: int
     def __init__(self, **kwargs: Any) -> None: ...
     def validate(self) -> None: ...
     def __copy__(self) -> ExplorationParams: ...

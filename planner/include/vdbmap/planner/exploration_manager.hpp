@@ -1,53 +1,25 @@
 // The exploration manager: FUEL's finite-state logic (Zhou et al. 2021, exploration_fsm), on the
 // planner's building blocks, knowing nothing of where the map and the vehicle state come from.
+// docs/exploration.md ("The manager") describes each decision and why it is made.
 //
 // The caller feeds it, once per map update (e.g. per integrated depth frame), the map (a MapQuery
-// valid for that call only: re-create TsdfMapQuery every cycle), the region the map reports as
-// changed, the vehicle's estimated state and the time. The manager then
-//  1. refreshes frontiers in that region (FrontierMap::update) and the viewpoints of the clusters
-//     that changed (computeViewpoints);
-//  2. decides whether to replan, for one of FUEL's reasons:
-//     - the current trajectory is nearly done (less than replan_time_left_s to go; FUEL thresh1),
-//     - the target cluster is covered (more than covered_fraction of its frontier voxels are no
-//       longer frontier) and the trajectory has run replan_covered_after_s (FUEL thresh2),
-//     - periodically, replan_period_s into a trajectory (FUEL thresh3),
-//     - collision risk: the rest of the trajectory no longer keeps collision_radius_m of
-//       known-free space around it in the new map (checked every update),
-//     - a frame shift (shiftFrame: a loop closure moved the estimate), or a failed replan to retry;
-//     periodic and frame-shift replans keep the current target (keep_target);
-//  3. replans: the global tour over the best viewpoint of every live cluster (planGlobalTour), local
-//     refinement over the next clusters' top viewpoints (refineLocalTour), a path to the chosen
-//     viewpoint (PathPlanner) and a trajectory along it (planTrajectory). When the first target
-//     fails (no path, no trajectory) the next ones of the tour are tried, up to
-//     max_targets_per_replan;
-//  4. counts failures per target and blacklists targets that keep failing: a failure is a failed
-//     path or trajectory to it, or a visit (the trajectory to it ended) after which most of the
-//     frontier its viewpoint saw when planned is still frontier (it cannot be observed from
-//     there; a large cluster, seen only in part from any viewpoint, is judged by that part, so a
-//     visit that uncovers it is progress, not a failure). Failures are kept per
-//     frontier voxel, because a cluster changes its id whenever its voxels change: a cluster counts
-//     the median failure count of its voxels, and is blacklisted at max_failures. When no target
-//     is left but clusters are (blacklisted, or without a viewpoint), every blacklisted cluster
-//     gets one more try and every cluster's viewpoints are computed again in the map as it is now
-//     (revisit_rounds). Before that, with final_min_cluster_size set, the frontier's min cluster
-//     size drops once, so that the small clusters are visited in a final sweep;
-//  5. with active loop closure on (alc_enabled; active_loop_closure.hpp), every global replan also
-//     asks ActiveLoopClosure::decide, with the frontier tour's matrix, whether to fly first to a
-//     nearby loop-closing cluster of old viewpoints; on such a detour, local refinement picks
-//     among the cluster's viewpoints (alcRefinementLayers) and the vehicle flies there. The caller
-//     reports detected loop closures (notifyLoopClosure); a detour ends with a loop closure, or
-//     is given up after its timeout (a replan is triggered then, LoopDetourTimeout);
-//  5b. a start blocked by occupied voxels within the clearance (a correction moved the map, or
-//     thin structure shows up as the vehicle comes near) is left by retreating along the way
-//     flown (up to 3 m back, to the newest flown position that is clear); without one, by a
-//     straight move away from the voxels (at most 3 in a row). The target flown to gets a failure.
-//     When every target tried fails from a clear start, the vehicle goes back along the way flown
-//     to the farthest clear flown position within 3 m (at most twice without a plan in between):
-//     it came in that way, and the map may have narrowed it since (thin structure seen on the way);
-//  6. finishes when no target is left (no cluster with a viewpoint that is not blacklisted) and the
-//     vehicle has come to rest: no reachable frontier is left.
-// Before exploring, the vehicle turns once on the spot (initial_turn; FUEL's simulations start
-// by looking around too), so that its zero-pitch camera sees all round the start.
+// valid for that call only), the region the map reports as changed, the vehicle's estimated state
+// and the time. Each update
+//  1. refreshes frontiers in that region and the viewpoints of the clusters that changed;
+//  2. decides whether to replan (ReplanReason: FUEL's three triggers, collision risk on the rest
+//     of the trajectory, a frame shift, a failed replan, an ALC detour that timed out);
+//  3. replans: the global tour over the best viewpoint of every target, with ALC the choice of a
+//     loop-closing detour, local refinement, a path and a trajectory to the first target that
+//     can be reached (up to max_targets_per_replan), counting failures against targets and
+//     blacklisting those that keep failing; a start blocked by occupied voxels is left by
+//     retreating along the way flown or, without one, by a short straight escape; when every
+//     target fails from a clear start, the vehicle goes back the way it came;
+//  4. finishes when no target is left and the vehicle has come to rest.
+//
+// Its state is explicit: the phase of the run (ExplorationPhase: the turn on the spot at take-off,
+// exploring, the final sweep of small clusters), what the current trajectory is for (FlightKind:
+// hold, turn, to a target, loop detour, escape, retreat), and the events waiting for the next
+// update (a frame shift, a failed replan, a loop closure). activity() reads them for reporting.
 //
 // The vehicle is expected to follow command(t) (the current trajectory, in the frame of the
 // vehicle's estimate); update() plans from the given state, which should be that command's state
@@ -55,9 +27,8 @@
 // map through an AssumeFreeMap with a box around the start position, where unknown reads as free
 // (the camera cannot see there at take-off).
 //
-// Expected outcomes are statuses, never exceptions: Planned, Continue (keep flying), NoFrontier
-// (no target now, trajectory still running), Failed (a replan failed; it is retried on the next
-// update while the old trajectory, or a hold, continues) and Finished.
+// Expected outcomes are statuses, never exceptions: Planned, Continue, NoFrontier, Failed (retried
+// on the next update while the old trajectory, or a hold, continues) and Finished.
 //
 // Determinism: with the same inputs and no time limit hit (OMPL, ATSP), the decisions repeat.
 // Planner times (planner_ms) are measured wall times.
@@ -65,9 +36,11 @@
 
 #include "vdbmap/planner/active_loop_closure.hpp"
 #include "vdbmap/planner/cost.hpp"
+#include "vdbmap/planner/escape_planner.hpp"
 #include "vdbmap/planner/frontier.hpp"
 #include "vdbmap/planner/local_refinement.hpp"
 #include "vdbmap/planner/path_planner.hpp"
+#include "vdbmap/planner/target_book.hpp"
 #include "vdbmap/planner/tour.hpp"
 #include "vdbmap/planner/trajectory.hpp"
 #include "vdbmap/planner/vehicle_state.hpp"
@@ -133,29 +106,38 @@ struct ExplorationParams {
   /// Times per run that, when no target is left but frontier clusters are (blacklisted, or with
   /// no viewpoint when they were last computed), every blacklisted cluster gets one more try
   /// (its failures drop to max_failures - 1) and every cluster's viewpoints are computed again
-  /// in the current map: a cluster that failed or had no viewpoint
-  /// early, in a half-known map, is often observable from the viewpoints the finished map
-  /// allows. Off by default: in the warehouse one round added 30 % flight time for 0.2 % of
-  /// coverage. 0: exploration finishes the first time no target is left; [0, 100]
+  /// in the current map. 0: exploration finishes the first time no target is left; [0, 100]
   int revisit_rounds = 0;
   /// The final sweep: the first time no target is left, the frontier's min cluster size drops
   /// to this (when smaller than frontier.min_cluster_size), so that the small unknown pockets
   /// FUEL's cluster_min ignores (between shelves, behind posts) are visited once, in one tour,
-  /// at the end. Cheaper than a smaller min cluster size throughout, whose small clusters come
-  /// and go while the map grows. In the warehouse it raised coverage from 0.94 to 0.96 for about
-  /// 200 s of flight; in the house it adds 5 s. 0: off; [0, 1e8]
+  /// at the end. 0: off; [0, 1e8]
   int final_min_cluster_size = 30;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
   /// Periodic and frame-shift replans keep the current target first while it is a live target
   /// (its cluster, or the cluster re-made from most of its voxels; not covered, not blacklisted):
   /// the tour and the path are planned anew, but the vehicle flies on to where it was going until
-  /// the visit is over and judged. Off, as in FUEL, the tour's first target wins every replan. In
-  /// one warehouse run the vehicle then swung between clusters by the south wall for ten minutes,
-  /// with a loop closure (and a re-integration re-making the clusters near it) every 5 s, and no
-  /// visit ever ended: no failure was counted, nothing was blacklisted, and the run hit its time
-  /// limit.
+  /// the visit is over and judged. Off, as in FUEL, the tour's first target wins every replan.
   bool keep_target = true;
+
+  /// Parts of the initial turn: 360 deg in this many turns, each shorter than half a turn so
+  /// that the trajectory's shortest-way yaw profile turns the intended way; [3, 36]
+  int initial_turn_parts = 3;
+  /// Spacing of the collision-risk check along the rest of the trajectory, in voxels; (0, 10]
+  double risk_check_spacing_vox = 0.5;
+  /// Flown positions kept for retreats (one voxel apart); [1, 1e6]
+  int flown_positions_kept = 100;
+  /// How far back along the way flown a retreat goes; [0, 100]
+  double retreat_reach_m = 3.0;
+  /// Straight escapes in a row (without a plan from a clear start in between) before giving up:
+  /// a chain of them creeps wherever the map's errors push it; [0, 100]
+  int max_chained_escapes = 3;
+  /// How far a straight escape looks for a clear point; (0, 10]
+  double escape_reach_m = 1.0;
+  /// Goings back the way flown in a row (without a plan in between) after every target failed
+  /// from a clear start; [0, 100]
+  int max_chained_backtracks = 2;
 
   /// Active loop closure (active_loop_closure.hpp). Off by default, so that the manager is plain
   /// FUEL; alc.unreachable_cost_s is set from cost.unreachable_cost_s by the manager.
@@ -186,11 +168,31 @@ enum class ReplanReason {
   TargetCovered,
   Periodic,
   CollisionRisk,
-  FrameShift,     ///< shiftFrame() was called
-  Retry,          ///< the previous replan failed
+  FrameShift,         ///< shiftFrame() was called
+  Retry,              ///< the previous replan failed
   LoopDetourTimeout,  ///< the loop-closure detour in progress ran out of time without a loop
 };
 const char* toString(ReplanReason r);
+
+/// The phase of a run. InitialTurn -> Exploring -> FinalSweep, never back; a run without an
+/// initial turn starts Exploring, one without a final sweep never leaves it.
+enum class ExplorationPhase {
+  InitialTurn,  ///< turning on the spot at take-off (initial_turn)
+  Exploring,    ///< flying to frontier targets
+  FinalSweep,   ///< the small clusters (final_min_cluster_size) became targets
+};
+const char* toString(ExplorationPhase p);
+
+/// What the current trajectory is for.
+enum class FlightKind {
+  Hold,        ///< at rest where the vehicle was (the start, or after a hold)
+  Turn,        ///< a part of the initial turn on the spot
+  ToTarget,    ///< to a frontier target's viewpoint (or on along a trajectory whose detour ended)
+  LoopDetour,  ///< to a loop-closing viewpoint (ALC); no periodic replans on the way
+  Escape,      ///< straight out of a start blocked by occupied voxels; no replans but at its end
+  Retreat,     ///< back along the way flown; no replans but at its end
+};
+const char* toString(FlightKind k);
 
 /// What the vehicle is doing at a moment: how a run's time is accounted (coverage.csv and
 /// summary.json's activity_time_s).
@@ -224,15 +226,15 @@ struct ExplorationStep {
 /// Counters over the manager's life.
 struct ExplorationCounters {
   std::size_t updates = 0;
-  std::size_t replans = 0;          ///< attempted (including the initial turn's parts)
+  std::size_t replans = 0;  ///< attempted (including the initial turn's parts)
   std::size_t replans_failed = 0;
-  std::size_t collision_risks = 0;  ///< replans triggered by collision risk
-  std::size_t target_failures = 0;  ///< failures counted against targets
-  std::size_t blacklisted = 0;      ///< clusters skipped as blacklisted at the last replan
-  std::size_t holds = 0;            ///< times the vehicle was stopped by a hold
-  std::size_t escapes = 0;          ///< moves out of a start blocked by occupied voxels (retreats included)
-  std::size_t retreats = 0;         ///< escapes back along the way flown
-  std::size_t revisit_rounds = 0;   ///< ExplorationParams::revisit_rounds done
+  std::size_t collision_risks = 0;       ///< replans triggered by collision risk
+  std::size_t target_failures = 0;       ///< failures counted against targets
+  std::size_t blacklisted = 0;           ///< clusters skipped as blacklisted at the last replan
+  std::size_t holds = 0;                 ///< times the vehicle was stopped by a hold
+  std::size_t escapes = 0;               ///< moves out of a start blocked by occupied voxels (retreats included)
+  std::size_t retreats = 0;              ///< escapes back along the way flown
+  std::size_t revisit_rounds = 0;        ///< ExplorationParams::revisit_rounds done
   std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
 };
 
@@ -248,8 +250,7 @@ class ExplorationManager {
   /// One cycle: refresh frontiers and viewpoints from `map` in `dirty` (the region changed since
   /// the last call; the first call scans the whole map), then decide and maybe replan from
   /// `vehicle` at time t_s (not before the previous call). `map` is read during the call only.
-  ExplorationStep update(const MapQuery& map, const openvdb::CoordBBox& dirty, const VehicleState& vehicle,
-                         double t_s);
+  ExplorationStep update(const MapQuery& map, const openvdb::CoordBBox& dirty, const VehicleState& vehicle, double t_s);
 
   /// The commanded state at t_s: the current trajectory (held at its end), in the estimate frame.
   TrajectoryState command(double t_s) const;
@@ -275,18 +276,21 @@ class ExplorationManager {
   /// ALC's counters up to the last update (zero without ALC).
   AlcStats alcStats() const { return alc_ ? alc_->stats(last_t_) : AlcStats{}; }
   /// True while the current trajectory flies a loop-closure detour.
-  bool onLoopDetour() const { return on_detour_; }
+  bool onLoopDetour() const { return flight_ == FlightKind::LoopDetour; }
 
   const FrontierMap& frontiers() const { return frontiers_; }
   /// The viewpoints of every live cluster (best first), by cluster id.
   const std::map<ClusterId, std::vector<Viewpoint>>& viewpoints() const { return views_; }
   /// Failures counted against a cluster (the median over its voxels).
-  int failures(const FrontierCluster& cluster) const;
-  bool isBlacklisted(const FrontierCluster& cluster) const { return failures(cluster) >= params_.max_failures; }
+  int failures(const FrontierCluster& cluster) const { return book_.failures(cluster); }
+  bool isBlacklisted(const FrontierCluster& cluster) const { return book_.isBlacklisted(cluster); }
   /// The cluster the current trajectory flies to (0: none).
-  ClusterId target() const { return target_; }
+  ClusterId target() const { return book_.target(); }
   /// True once the initial turn's last part has been flown (seen at the update after it).
-  bool initialTurnDone() const { return !turning_; }
+  bool initialTurnDone() const { return phase_ != ExplorationPhase::InitialTurn; }
+  ExplorationPhase phase() const { return phase_; }
+  /// What the current trajectory is for.
+  FlightKind flight() const { return flight_; }
   /// What the current trajectory makes the vehicle do at t_s (not before the last update).
   ExplorationActivity activity(double t_s) const;
   const ExplorationCounters& counters() const { return counters_; }
@@ -296,90 +300,89 @@ class ExplorationManager {
     ClusterId cluster;
     const std::vector<Viewpoint>* views;
   };
-  enum class PlanOutcome { Ok, Failed, StartBlocked };
-  struct CoordHash {
-    std::size_t operator()(const openvdb::Coord& c) const noexcept {
-      return std::size_t(c.x()) * 73856093u ^ std::size_t(c.y()) * 19349663u ^ std::size_t(c.z()) * 83492791u;
-    }
+  /// A replan's choice over the targets: the tour, ALC's decision, the order targets are tried in
+  /// and the refined viewpoints of the first ones.
+  struct TourChoice {
+    std::optional<AlcDecision> decision;  ///< when ALC is on
+    bool detour = false;                  ///< fly to a loop-closing viewpoint first
+    std::vector<std::size_t> order;       ///< indices into the targets, in the order they are tried
+    std::vector<std::vector<Viewpoint>> layers;
+    RefinementResult refined;
   };
+  enum class PlanOutcome { Ok, Failed, StartBlocked };
+  /// Events that wait for the next update.
+  struct Pending {
+    bool frame_shift = false;  ///< shiftFrame() was called: replan
+    bool retry = false;        ///< the last replan failed: replan
+    bool loop_closed = false;  ///< a loop closure was notified since the last ALC decision
+  };
+  // ---- frontiers, viewpoints, failures
   void refreshFrontiers(const MapQuery& map, const openvdb::CoordBBox& dirty);
   /// Forgets the viewpoints of the removed clusters and computes those of the added ones.
   void applyFrontierUpdate(const FrontierUpdate& u, const MapQuery& map);
   /// Computes the viewpoints of `clusters` in `map` (in parallel) and stores them in views_.
   void computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map);
+  std::vector<Target> liveTargets(const MapQuery& map);
+
+  // ---- decisions
   ReplanReason replanReason(const MapQuery& map, double t_s);
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
-  double targetCoveredFraction() const;
-  /// No target: target_ 0, its voxels and the samples its viewpoint saw cleared.
-  void clearTarget();
-  /// The index in `targets` of the current target: its cluster, or, when that was made anew
-  /// (the map changed around it), the cluster holding most of its frontier voxels; targets.size()
-  /// when there is none.
-  std::size_t currentTargetIndex(const std::vector<Target>& targets) const;
-  /// The fraction of target_promised_ no longer frontier (targetCoveredFraction when it is empty).
-  double promisedCoveredFraction() const;
-  void checkVisit();
-  std::vector<Target> liveTargets(const MapQuery& map);
+  /// The current trajectory is an escape or a retreat still being flown.
+  bool escaping(double t_s) const;
+  bool trajectoryMoves() const { return trajectory_.motionDuration() > 0.0; }
+
+  // ---- replanning, in the order replan() takes the steps
   ExplorationStatus replan(const MapQuery& map, const VehicleState& vehicle, double t_s, ExplorationStep& step);
-  PlanOutcome planTo(const MapQuery& map, const VehicleState& vehicle, const Viewpoint& view, double t_s);
-  /// The start is blocked by occupied voxels within the clearance (a correction moved the map,
-  /// drift brought the vehicle close to a wall, or voxels of thin structure flicker as it comes
-  /// near): gets out so that the next replan starts from a clear point. First back along the way
-  /// flown (retreat), else straight away from the occupied voxels to the nearest clear point within
-  /// kEscapeReach_m, at most kMaxChainedEscapes times in a row. False: neither was possible.
-  bool escape(const MapQuery& map, const VehicleState& vehicle, double t_s);
-  /// Flies back along flown_W_ to the newest flown position at least a voxel away that keeps the
-  /// path clearance in the current map (the farthest such within reach, with `farthest`), within
-  /// kRetreatReach_m of way. The vehicle flew that way, so the way's corridor reads free, occupied
-  /// voxels too; the map only vets the end.
-  bool retreat(const MapQuery& map, const VehicleState& vehicle, double t_s, bool farthest = false);
-  /// Moves straight away from the occupied voxels within the clearance to the nearest clear point
-  /// within kEscapeReach_m whose straight way crosses no occupied voxel.
-  bool escapeStraight(const MapQuery& map, const VehicleState& vehicle, double t_s);
-  /// Records the vehicle's position in flown_W_ (one voxel apart).
-  void recordFlown(const Vec3d& p_W, double voxel_m);
+  /// The live targets; when none is left, the final sweep's small clusters, then (revisit_rounds)
+  /// the blacklisted ones once more.
+  std::vector<Target> gatherTargets(const MapQuery& map);
+  /// No target is left: finish once at rest, else let the trajectory run out (NoFrontier).
+  ExplorationStatus finishOrWait(const MapQuery& map, const VehicleState& vehicle, double t_s, ExplorationStep& step);
+  TourChoice chooseTour(const MapQuery& map, const VehicleState& vehicle, double t_s,
+                        const std::vector<Target>& targets, ExplorationStep& step);
   std::optional<AlcDecision> decideLoopDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
                                               const std::vector<TourTarget>& tour_targets, const GlobalTour& global);
-  void startTrajectory(Trajectory trajectory, double t_s);
+  /// Flies ALC's detour; nullopt when no path to it was found (the targets are tried then).
+  std::optional<ExplorationStatus> flyDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
+                                             const TourChoice& choice, ExplorationStep& step);
+  /// Flies to the first target of choice.order that can be reached (up to max_targets_per_replan);
+  /// when every one fails from a clear start, back the way flown.
+  ExplorationStatus flyToTargets(const MapQuery& map, const VehicleState& vehicle, double t_s,
+                                 const std::vector<Target>& targets, const TourChoice& choice, ExplorationStep& step);
+  PlanOutcome planTo(const MapQuery& map, const VehicleState& vehicle, const Viewpoint& view, double t_s,
+                     FlightKind kind);
+  /// The start is blocked by occupied voxels within the clearance: gets out so that the next
+  /// replan starts from a clear point. First back along the way flown (a retreat), else straight
+  /// away from the occupied voxels, at most max_chained_escapes times in a row. False: neither
+  /// was possible.
+  bool escape(const MapQuery& map, const VehicleState& vehicle, double t_s);
+  void startTrajectory(Trajectory trajectory, double t_s, FlightKind kind);
   void hold(const VehicleState& vehicle, double t_s);
-  void addFailure(const FrontierCluster& cluster);
-  /// A failure against the current target (its voxels when it was planned); nothing without one.
-  void addTargetFailure();
 
   ExplorationParams params_;
   std::vector<Eigen::AlignedBox3d> free_boxes_;
-  /// The vehicle's positions at past updates, one voxel apart, newest last, at most kFlownKept;
-  /// in the current estimate frame (moved with it on a frame shift).
-  std::deque<Vec3d> flown_W_;
-  int chained_escapes_ = 0;  ///< escapes since the last plan that started clear
-  int chained_backtracks_ = 0;  ///< retreats after every target failed, since the last plan
-  /// The end of the escape (or retreat) being flown: until then no replan but at its end or for a
-  /// frame shift, and flown_W_ does not record
-  double escape_end_t_ = -std::numeric_limits<double>::infinity();
-  bool escape_is_retreat_ = false;  ///< the escape being flown goes back along the way flown
-  bool final_sweep_ = false;        ///< the final sweep's small clusters became targets
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
   std::unique_ptr<PairCostTable> table_;
-  std::unordered_map<openvdb::Coord, int, CoordHash> voxel_failures_;  ///< failures counted per frontier voxel
+  TargetBook book_;                         ///< failures, blacklist, the current target
+  EscapePlanner escapes_;                   ///< the way flown, and the ways out of a blocked start
+  std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
 
+  // The state machine.
+  ExplorationPhase phase_ = ExplorationPhase::Exploring;
+  FlightKind flight_ = FlightKind::Hold;
+  Pending pending_;
+  int turns_left_ = 0;          ///< parts of the initial turn still to plan
+  int chained_escapes_ = 0;     ///< escapes since the last plan that started clear
+  int chained_backtracks_ = 0;  ///< retreats after every target failed, since the last plan
+
+  // The current trajectory.
   Trajectory trajectory_;
   double trajectory_t0_ = 0.0;
-  Eigen::Isometry3d shift_ = Eigen::Isometry3d::Identity();  ///< applied to trajectory_ (frame shifts since it was planned)
-  ClusterId target_ = 0;
-  std::vector<openvdb::Coord> target_voxels_;  ///< the target's frontier voxels when it was planned
-  /// The target's frontier samples that the viewpoint flown to saw when it was planned: what a
-  /// visit is judged by (checkVisit). A large cluster is seen in part from any one viewpoint.
-  std::vector<openvdb::Coord> target_promised_;
-  int turns_left_ = 0;                         ///< parts of the initial turn still to plan
-  bool turning_ = false;                       ///< the initial turn is not over
-  bool first_update_ = true;
-  bool shift_requested_ = false;
-  bool failed_last_ = false;
-  bool was_moving_ = false;  ///< the current trajectory moves (not a hold or a turn on the spot)
-  std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
-  bool loop_closed_ = false;                ///< a loop closure was notified since the last ALC decision
-  bool on_detour_ = false;                  ///< the current trajectory flies to a loop-closing cluster
+  Eigen::Isometry3d shift_ =
+      Eigen::Isometry3d::Identity();  ///< applied to trajectory_ (frame shifts since it was planned)
+
+  bool first_update_ = true;  ///< the first update scans the whole map
   double last_t_ = 0.0;
   ExplorationCounters counters_;
 };

@@ -1,0 +1,60 @@
+// Ways out of a start that no path may leave (occupied voxels within the clearance: a correction
+// moved the map, drift brought the vehicle close to a wall, or thin structure shows up as the
+// vehicle comes near): back along the way flown, or straight away from the occupied voxels.
+// The exploration manager decides when to use them; this unit only finds the trajectories.
+#pragma once
+
+#include "vdbmap/planner/map_query.hpp"
+#include "vdbmap/planner/trajectory.hpp"
+#include "vdbmap/planner/vehicle_state.hpp"
+
+#include <Eigen/Geometry>
+
+#include <deque>
+#include <optional>
+
+namespace vdbmap::planner {
+
+struct EscapeParams {
+  /// Ends stay inside this box (world frame). Required (non-empty).
+  Eigen::AlignedBox3d box_W;
+  /// The clearance paths keep (an end must keep it in the current map); [0, 10]
+  double clearance_m = 0.3;
+  /// Flown positions kept (one voxel apart); [1, 1e6]
+  int flown_positions_kept = 100;
+  /// How far back along the way flown a retreat goes; [0, 100]
+  double retreat_reach_m = 3.0;
+  /// How far a straight escape looks for a clear point; (0, 10]
+  double escape_reach_m = 1.0;
+  TrajectoryParams trajectory;
+  /// Throws std::invalid_argument naming the field and its allowed range.
+  void validate() const;
+};
+
+class EscapePlanner {
+ public:
+  /// Throws std::invalid_argument for invalid params.
+  explicit EscapePlanner(const EscapeParams& params);
+
+  /// Records the vehicle's position (kept when a voxel or more from the last one recorded).
+  void recordFlown(const Vec3d& p_W, double voxel_m);
+  /// The estimate frame moved: a position p is now shift * p.
+  void shiftFrame(const Eigen::Isometry3d& shift);
+
+  /// A trajectory back along the way flown to the newest flown position at least a voxel away
+  /// that keeps the clearance in `map` (with `farthest`, the farthest such), within
+  /// retreat_reach_m of way, from rest. The vehicle flew that way, so the way's corridor reads
+  /// free, occupied voxels too; the map only vets the end. On success the positions flown after
+  /// the end are forgotten, so that a retreat from there goes on backwards.
+  std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest);
+  /// A trajectory straight away from the occupied voxels within the clearance to the nearest
+  /// clear point within escape_reach_m (preferring the away direction) whose straight way
+  /// crosses no occupied voxel.
+  std::optional<Trajectory> straightEscape(const MapQuery& map, const VehicleState& vehicle) const;
+
+ private:
+  EscapeParams params_;
+  std::deque<Vec3d> flown_W_;  ///< one voxel apart, newest last, in the current estimate frame
+};
+
+}  // namespace vdbmap::planner
