@@ -132,12 +132,25 @@ void bindAlcParams(py::module_& m) {
       .def_readwrite("loop_quiet_s", &AlcParams::loop_quiet_s, "ALC is off this long after any loop closure")
       .def_readwrite("max_failures_per_cluster", &AlcParams::max_failures_per_cluster,
                      "given up this often, a cluster is never chosen again")
-      .def_readwrite("unreachable_cost_s", &AlcParams::unreachable_cost_s, "legs at or above this are left out of both sums")
+      .def_readwrite("unreachable_cost_s", &AlcParams::unreachable_cost_s,
+                     "legs at or above this are left out of both sums")
       .def_readwrite("tour", &AlcParams::tour, "TourParams of both tours")
       .def("validate", &AlcParams::validate, "Raises ValueError naming the field and its allowed range.");
 }
 
 void bindExplorationParams(py::module_& m) {
+  py::class_<EscapeParams> esc(m, "EscapeParams",
+                               "Retreats and straight escapes out of a blocked start (bounds, clearance and trajectory "
+                               "are set by the exploration manager).");
+  addStructProtocol(esc);
+  esc.def_readwrite("flown_positions_kept", &EscapeParams::flown_positions_kept,
+                    "flown positions kept for retreats (one voxel apart); [1, 1e6]")
+      .def_readwrite("retreat_reach_m", &EscapeParams::retreat_reach_m,
+                     "how far back along the way flown a retreat goes; [0, 100]")
+      .def_readwrite("escape_reach_m", &EscapeParams::escape_reach_m,
+                     "how far a straight escape looks for a clear point; (0, 10]")
+      .def("validate", &EscapeParams::validate, "Raises ValueError naming the field and its allowed range.");
+
   py::class_<ExplorationParams> e(m, "ExplorationParams",
                                   "The exploration manager (FUEL-style). box_W is required; the pieces' bounds are "
                                   "set from it. Nested structs are edited in place.");
@@ -189,14 +202,9 @@ void bindExplorationParams(py::module_& m) {
                      "parts of the initial turn, each under half a turn; [3, 36]")
       .def_readwrite("risk_check_spacing_vox", &ExplorationParams::risk_check_spacing_vox,
                      "spacing of the collision-risk check along the trajectory, voxels; (0, 10]")
-      .def_readwrite("flown_positions_kept", &ExplorationParams::flown_positions_kept,
-                     "flown positions kept for retreats (one voxel apart); [1, 1e6]")
-      .def_readwrite("retreat_reach_m", &ExplorationParams::retreat_reach_m,
-                     "how far back along the way flown a retreat goes; [0, 100]")
+      .def_readwrite("escape", &ExplorationParams::escape, "EscapeParams")
       .def_readwrite("max_chained_escapes", &ExplorationParams::max_chained_escapes,
                      "straight escapes in a row before giving up; [0, 100]")
-      .def_readwrite("escape_reach_m", &ExplorationParams::escape_reach_m,
-                     "how far a straight escape looks for a clear point; (0, 10]")
       .def_readwrite("max_chained_backtracks", &ExplorationParams::max_chained_backtracks,
                      "goings back the way flown in a row after every target failed; [0, 100]")
       .def("validate", &ExplorationParams::validate, "Raises ValueError naming the field and its allowed range.");

@@ -22,8 +22,8 @@ std::vector<Eigen::AlignedBox3d> corridorAround(const std::vector<Vec3d>& way, d
 
 void EscapeParams::validate() const {
   const FieldCheck check("EscapeParams");
-  if (box_W.isEmpty() || !box_W.min().allFinite() || !box_W.max().allFinite())
-    check.fail("box_W", "non-empty finite boxes");
+  if (bounds_W && (bounds_W->isEmpty() || !bounds_W->min().allFinite() || !bounds_W->max().allFinite()))
+    check.fail("bounds_W", "non-empty finite boxes");
   check.inRange("clearance_m", clearance_m, 0.0, 10.0);
   if (flown_positions_kept < 1 || flown_positions_kept > 1000000) check.fail("flown_positions_kept", "[1, 1e6]");
   check.inRange("retreat_reach_m", retreat_reach_m, 0.0, 100.0);
@@ -57,7 +57,7 @@ std::optional<Trajectory> EscapePlanner::retreat(const MapQuery& map, const Vehi
     if (step < 1e-3) continue;
     length += step;
     way.push_back(q);
-    if (length >= vs && params_.box_W.contains(q) && probe.isClear(q, r)) {
+    if (length >= vs && inBounds(q) && probe.isClear(q, r)) {
       keep = i + 1;
       way_end = way.size() - 1;
       if (!farthest) break;
@@ -113,7 +113,7 @@ std::optional<Trajectory> EscapePlanner::straightEscape(const MapQuery& map, con
   for (double d = vs; d <= params_.escape_reach_m + 1e-9; d += vs) {
     for (const Vec3d& u : dirs) {
       const Vec3d q = p + u * d;
-      if (!params_.box_W.contains(q) || !probe.isClear(q, r) || !wayFree(q)) continue;
+      if (!inBounds(q) || !probe.isClear(q, r) || !wayFree(q)) continue;
       // The move was checked here: let the trajectory pass the voxels near the start.
       const AssumeFreeMap escape_map(map, corridorAround({p, q}, r + vs), /*occupied_too=*/true);
       TrajectoryResult traj = planTrajectory({p, q}, vehicle, vehicle.yaw_rad, escape_map, params_.trajectory);

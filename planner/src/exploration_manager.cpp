@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -28,20 +27,13 @@ ExplorationParams derivedParams(ExplorationParams p) {
   p.cost_path.bounds_W = p.box_W;
   p.trajectory.clearance_m = p.path.clearance_m;
   p.trajectory.check_step_m = p.path.check_step_m;
+  p.escape.bounds_W = p.box_W;
+  p.escape.clearance_m = p.path.clearance_m;
+  p.escape.trajectory = p.trajectory;
   if (p.alc_enabled) p.alc.unreachable_cost_s = p.cost.unreachable_cost_s;  // ALC's sums skip the legs M_frt marks so
   return p;
 }
 
-EscapeParams escapeParams(const ExplorationParams& p) {
-  EscapeParams e;
-  e.box_W = p.box_W;
-  e.clearance_m = p.path.clearance_m;
-  e.flown_positions_kept = p.flown_positions_kept;
-  e.retreat_reach_m = p.retreat_reach_m;
-  e.escape_reach_m = p.escape_reach_m;
-  e.trajectory = p.trajectory;
-  return e;
-}
 }  // namespace
 
 const char* toString(ExplorationStatus s) {
@@ -130,6 +122,7 @@ void ExplorationParams::validate() const {
   tour.validate();
   refinement.validate();
   trajectory.validate();
+  escape.validate();
   for (int a = 0; a < 3; ++a)
     if (!(start_free_half_size_m[a] >= 0.0 && start_free_half_size_m[a] <= 10.0))
       check.fail("start_free_half_size_m", "[0, 10] per axis");
@@ -149,16 +142,13 @@ void ExplorationParams::validate() const {
   if (initial_turn_parts < 3 || initial_turn_parts > 36) check.fail("initial_turn_parts", "[3, 36]");
   if (!(risk_check_spacing_vox > 0.0 && risk_check_spacing_vox <= 10.0))
     check.fail("risk_check_spacing_vox", "(0, 10]");
-  if (flown_positions_kept < 1 || flown_positions_kept > 1000000) check.fail("flown_positions_kept", "[1, 1e6]");
-  check.inRange("retreat_reach_m", retreat_reach_m, 0.0, 100.0);
   if (max_chained_escapes < 0 || max_chained_escapes > 100) check.fail("max_chained_escapes", "[0, 100]");
-  if (!(escape_reach_m > 0.0 && escape_reach_m <= 10.0)) check.fail("escape_reach_m", "(0, 10]");
   if (max_chained_backtracks < 0 || max_chained_backtracks > 100) check.fail("max_chained_backtracks", "[0, 100]");
   if (alc_enabled) alc.validate();
 }
 
 ExplorationManager::ExplorationManager(const ExplorationParams& params, const VehicleState& start, double t_s)
-    : params_(derivedParams(params)), book_(params_.max_failures), escapes_(escapeParams(params_)) {
+    : params_(derivedParams(params)), book_(params_.max_failures), escapes_(params_.escape) {
   if (!params_.box_W.contains(start.position_W))
     throw std::invalid_argument("ExplorationManager: the start position lies outside the exploration box");
   free_boxes_.push_back(boxAround(start.position_W, params_.start_free_half_size_m));

@@ -21,7 +21,7 @@ DenseMap room() { return makeRoom(Eigen::Vector3i(60, 20, 20)); }
 
 EscapeParams roomEscape() {
   EscapeParams p;
-  p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(6, 2, 2));
+  p.bounds_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(6, 2, 2));
   return p;
 }
 

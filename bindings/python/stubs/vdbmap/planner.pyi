@@ -153,6 +153,16 @@ class AlcParams:
     def __copy__(self) -> AlcParams: ...
     def __deepcopy__(self, memo: dict[Any, Any]) -> AlcParams: ...
 
+class EscapeParams:
+    """Retreats and straight escapes out of a blocked start."""
+    flown_positions_kept: int
+    retreat_reach_m: float
+    escape_reach_m: float
+    def __init__(self, **kwargs: Any) -> None: ...
+    def validate(self) -> None: ...
+    def __copy__(self) -> EscapeParams: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> EscapeParams: ...
+
 class ExplorationParams:
     """The exploration manager (FUEL-style); box_W is required."""
     box_W: _BoxF
@@ -181,10 +191,8 @@ class ExplorationParams:
     keep_target: bool
     initial_turn_parts: int
     risk_check_spacing_vox: float
-    flown_positions_kept: int
-    retreat_reach_m: float
+    escape: EscapeParams
     max_chained_escapes: int
-    escape_reach_m: float
     max_chained_backtracks: int
     def __init__(self, **kwargs: Any) -> None: ...
     def validate(self) -> None: ...

@@ -15,9 +15,11 @@
 
 namespace vdbmap::planner {
 
+/// In ExplorationParams::escape the manager sets bounds_W, clearance_m and trajectory from its own
+/// box, path clearance and trajectory parameters.
 struct EscapeParams {
-  /// Ends stay inside this box (world frame). Required (non-empty).
-  Eigen::AlignedBox3d box_W;
+  /// Ends stay inside this box (world frame); none: anywhere.
+  std::optional<Eigen::AlignedBox3d> bounds_W;
   /// The clearance paths keep (an end must keep it in the current map); [0, 10]
   double clearance_m = 0.3;
   /// Flown positions kept (one voxel apart); [1, 1e6]
@@ -53,6 +55,8 @@ class EscapePlanner {
   std::optional<Trajectory> straightEscape(const MapQuery& map, const VehicleState& vehicle) const;
 
  private:
+  bool inBounds(const Vec3d& p_W) const { return !params_.bounds_W || params_.bounds_W->contains(p_W); }
+
   EscapeParams params_;
   std::deque<Vec3d> flown_W_;  ///< one voxel apart, newest last, in the current estimate frame
 };

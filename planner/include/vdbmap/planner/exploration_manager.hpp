@@ -49,13 +49,10 @@
 #include <Eigen/Geometry>
 
 #include <cstdint>
-#include <deque>
 #include <functional>
-#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
-#include <unordered_map>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -126,15 +123,12 @@ struct ExplorationParams {
   int initial_turn_parts = 3;
   /// Spacing of the collision-risk check along the rest of the trajectory, in voxels; (0, 10]
   double risk_check_spacing_vox = 0.5;
-  /// Flown positions kept for retreats (one voxel apart); [1, 1e6]
-  int flown_positions_kept = 100;
-  /// How far back along the way flown a retreat goes; [0, 100]
-  double retreat_reach_m = 3.0;
+  /// Retreats and straight escapes out of a blocked start: how many flown positions are kept and
+  /// how far each reaches (bounds_W, clearance_m and trajectory are set by the manager).
+  EscapeParams escape;
   /// Straight escapes in a row (without a plan from a clear start in between) before giving up:
   /// a chain of them creeps wherever the map's errors push it; [0, 100]
   int max_chained_escapes = 3;
-  /// How far a straight escape looks for a clear point; (0, 10]
-  double escape_reach_m = 1.0;
   /// Goings back the way flown in a row (without a plan in between) after every target failed
   /// from a clear start; [0, 100]
   int max_chained_backtracks = 2;
