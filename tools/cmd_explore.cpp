@@ -83,9 +83,9 @@ void runExplore(const ExploreOptions& o) {
   config.planner.final_min_cluster_size = o.final_min_cluster_size;
   if (!o.box.empty())
     config.planner.box_W = Eigen::AlignedBox3d(Vec3d(o.box[0], o.box[1], o.box[2]), Vec3d(o.box[3], o.box[4], o.box[5]));
-  config.start.p_W = o.start.empty() ? sim::defaultStartPosition(world, config.planner.box_W)
+  config.start.position_W = o.start.empty() ? sim::defaultStartPosition(world, config.planner.box_W)
                                      : Vec3d(o.start[0], o.start[1], o.start[2]);
-  config.start.yaw = o.start_yaw;
+  config.start.yaw_rad = o.start_yaw;
 
   std::string description = "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " +
                             std::to_string(o.seed) + " --mode " + o.mode + " --min-cluster-size " +
@@ -96,7 +96,7 @@ void runExplore(const ExploreOptions& o) {
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
                o.world.c_str(), world.stats().triangles, b.min().x(), b.min().y(), b.min().z(), b.max().x(),
-               b.max().y(), b.max().z(), config.start.p_W.x(), config.start.p_W.y(), config.start.p_W.z());
+               b.max().y(), b.max().z(), config.start.position_W.x(), config.start.position_W.y(), config.start.position_W.z());
 
   sim::ExplorationRunOptions ro;
   ro.overwrite = o.overwrite;

@@ -34,8 +34,8 @@ void runSimulate(const SimulateOptions& o) {
   config.camera.noise_sigma_m = o.depth_noise_m;
   config.camera.noise_seed = o.seed;
 
-  std::vector<sim::Waypoint> waypoints;
-  sim::Trajectory trajectory;
+  std::vector<sim::FlatPose> waypoints;
+  sim::SampledTrajectory trajectory;
   if (!o.trajectory.empty()) {
     waypoints = sim::readWaypoints(o.trajectory);
     trajectory = sim::timeParametrize(waypoints, sim::MotionLimits{});

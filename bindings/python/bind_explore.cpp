@@ -61,12 +61,12 @@ void bindConfig(py::module_& m) {
       .def_readwrite("mapper", &ExplorationConfig::mapper, "vdbmap.MapperConfig (keyframes mode by default)")
       .def_readwrite("planner", &ExplorationConfig::planner, "vdbmap.planner.ExplorationParams")
       .def_property(
-          "start", [](const ExplorationConfig& self) { return toArray(self.start.p_W); },
-          [](ExplorationConfig& self, py::handle p) { self.start.p_W = toVec3(p, "start"); },
+          "start", [](const ExplorationConfig& self) { return toArray(self.start.position_W); },
+          [](ExplorationConfig& self, py::handle p) { self.start.position_W = toVec3(p, "start"); },
           "(3,) start position in the world (true and estimated poses agree there at t = 0)")
       .def_property(
-          "start_yaw", [](const ExplorationConfig& self) { return self.start.yaw; },
-          [](ExplorationConfig& self, double yaw) { self.start.yaw = yaw; }, "start yaw in radians")
+          "start_yaw", [](const ExplorationConfig& self) { return self.start.yaw_rad; },
+          [](ExplorationConfig& self, double yaw) { self.start.yaw_rad = yaw; }, "start yaw in radians")
       .def_readwrite("max_time_s", &ExplorationConfig::max_time_s, "simulated time limit; (0, 1e5]")
       .def_readwrite("vehicle_radius_m", &ExplorationConfig::vehicle_radius_m,
                      "a collision: the true position closer than this to a surface; [0, 10]")
@@ -108,7 +108,7 @@ void bindConfig(py::module_& m) {
           [](const World& world, double start_height_m, double start_clearance_m) {
             ExplorationConfig config;
             config.planner.box_W = defaultExplorationBox(world);
-            config.start.p_W = defaultStartPosition(world, config.planner.box_W, start_height_m, start_clearance_m);
+            config.start.position_W = defaultStartPosition(world, config.planner.box_W, start_height_m, start_clearance_m);
             return config;
           },
           py::arg("world"), py::arg("start_height_m") = 1.0, py::arg("start_clearance_m") = 0.6,

@@ -18,14 +18,14 @@ namespace {
 using namespace vdbmap::sim;
 
 /// (N, 4) [x, y, z, yaw] waypoints.
-std::vector<Waypoint> toWaypoints(py::handle waypoints, const char* arg) {
+std::vector<FlatPose> toWaypoints(py::handle waypoints, const char* arg) {
   const py::array a = py::module_::import("numpy").attr("asarray")(waypoints, "float64");
   if (a.ndim() != 2 || a.shape(1) != 4 || a.shape(0) == 0)
     throw py::value_error(std::string(arg) +
                           ": expected an (N, 4) array of [x, y, z, yaw] rows with N >= 1, got shape " +
                           std::string(py::str(a.attr("shape"))));
   const auto w = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a).unchecked<2>();
-  std::vector<Waypoint> out(std::size_t(w.shape(0)));
+  std::vector<FlatPose> out(std::size_t(w.shape(0)));
   for (py::ssize_t i = 0; i < w.shape(0); ++i) out[std::size_t(i)] = {Vec3d(w(i, 0), w(i, 1), w(i, 2)), w(i, 3)};
   return out;
 }
@@ -321,7 +321,7 @@ void bindFlight(py::module_& m) {
         // As `vdbmap simulate`: the given waypoints flown stop and go within the limits, or the
         // world's built-in coverage pattern.
         const bool coverage = waypoints.is_none();
-        const std::vector<Waypoint> path = coverage ? std::vector<Waypoint>{} : toWaypoints(waypoints, "waypoints");
+        const std::vector<FlatPose> path = coverage ? std::vector<FlatPose>{} : toWaypoints(waypoints, "waypoints");
         FlightOptions options;
         options.overwrite = overwrite;
         options.description = description;
@@ -331,7 +331,7 @@ void bindFlight(py::module_& m) {
           if (progress) progress(done, total);
         };
         py::gil_scoped_release nogil;
-        const Trajectory trajectory =
+        const SampledTrajectory trajectory =
             coverage ? planCoverage(world, CoverageConfig{}).trajectory : timeParametrize(path, limits);
         return simulateFlight(world, trajectory, config, log_dir, options);
       },

@@ -94,7 +94,7 @@ bool ActiveLoopClosure::addFlownPose(const Vec3d& position_W, double yaw_rad, do
   return history_.offer(position_W, yaw_rad, stamp_s);
 }
 
-void ActiveLoopClosure::correctHistory(const std::function<PoseTarget(const FlownViewpoint&)>& corrected) {
+void ActiveLoopClosure::correctHistory(const std::function<FlatPose(const FlownViewpoint&)>& corrected) {
   history_.correct(corrected);
   clusters_.refresh(history_);
 }
@@ -206,7 +206,7 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
   std::vector<TourTarget> centres;
   for (const LoopClusterId id : ids) {
     const FlownViewpoint& c = history_[clusters_[id].centre];
-    centres.push_back(TourTarget{id, PoseTarget{c.position_W, c.yaw_rad}});
+    centres.push_back(TourTarget{id, FlatPose{c.position_W, c.yaw_rad}});
   }
   const std::vector<LegCost> to_centres = priced(leg_costs, vehicle, centres);
   std::optional<std::size_t> best;

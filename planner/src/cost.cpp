@@ -35,7 +35,7 @@ CostEvaluator::CostEvaluator(const MapQuery& map, const CostParams& cost, const 
   params_.validate();
 }
 
-LegCost CostEvaluator::cost(const VehicleState& from, const PoseTarget& to, std::uint64_t query_seed) {
+LegCost CostEvaluator::cost(const VehicleState& from, const FlatPose& to, std::uint64_t query_seed) {
   LegCost leg;
   leg.path = planner_.plan(from.position_W, to.position_W, query_seed);
   leg.reachable = leg.path.ok();
@@ -53,7 +53,7 @@ LegCost CostEvaluator::cost(const VehicleState& from, const PoseTarget& to, std:
   return leg;
 }
 
-LegCost CostEvaluator::cost(const PoseTarget& from, const PoseTarget& to, std::uint64_t query_seed) {
+LegCost CostEvaluator::cost(const FlatPose& from, const FlatPose& to, std::uint64_t query_seed) {
   VehicleState rest;
   rest.position_W = from.position_W;
   rest.yaw_rad = from.yaw_rad;
@@ -67,9 +67,9 @@ PairCostTable::PairCostTable(const CostParams& cost, const PathParams& path) : c
 
 std::size_t PairCostTable::update(const MapQuery& map, const std::vector<TourTarget>& targets) {
   // Forget targets that are gone or whose pose changed.
-  std::map<ClusterId, PoseTarget> now;
+  std::map<ClusterId, FlatPose> now;
   for (const TourTarget& t : targets) now[t.cluster] = t.pose;
-  auto same = [](const PoseTarget& a, const PoseTarget& b) {
+  auto same = [](const FlatPose& a, const FlatPose& b) {
     return a.position_W == b.position_W && a.yaw_rad == b.yaw_rad;
   };
   for (auto it = pairs_.begin(); it != pairs_.end();) {

@@ -166,8 +166,8 @@ ExplorationManager::~ExplorationManager() = default;
 
 // ---- the commanded trajectory ------------------------------------------------------------------
 
-TrajectoryState ExplorationManager::command(double t_s) const {
-  TrajectoryState s = trajectory_.sample(t_s - trajectory_t0_);
+VehicleState ExplorationManager::command(double t_s) const {
+  VehicleState s = trajectory_.sample(t_s - trajectory_t0_);
   s.position_W = shift_ * s.position_W;
   s.velocity_W = shift_.linear() * s.velocity_W;
   s.acceleration_W = shift_.linear() * s.acceleration_W;
@@ -182,7 +182,7 @@ void ExplorationManager::shiftFrame(const Eigen::Isometry3d& shift) {
 }
 
 void ExplorationManager::notifyLoopClosure(double t_s,
-                                           const std::function<PoseTarget(const FlownViewpoint&)>& corrected) {
+                                           const std::function<FlatPose(const FlownViewpoint&)>& corrected) {
   if (!std::isfinite(t_s)) throw std::invalid_argument("ExplorationManager::notifyLoopClosure: t_s must be finite");
   if (!alc_) return;
   pending_.loop_closed = true;

@@ -99,13 +99,13 @@ LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
     for (std::size_t i = r.begin(); i < r.end(); ++i) {
       const Edge& e = edges[i];
       const Viewpoint& head = layers[e.layer][e.j];
-      const PoseTarget to{head.position_W, head.yaw_rad};
+      const FlatPose to{head.position_W, head.yaw_rad};
       const std::uint64_t seed = (std::uint64_t(e.layer) << 40) ^ (std::uint64_t(e.k) << 20) ^ e.j;
       if (e.layer == 0) {
         values[i] = evaluator.cost(vehicle, to, seed).cost_s;
       } else {
         const Viewpoint& tail = layers[e.layer - 1][e.k];
-        values[i] = evaluator.cost(PoseTarget{tail.position_W, tail.yaw_rad}, to, seed).cost_s;
+        values[i] = evaluator.cost(FlatPose{tail.position_W, tail.yaw_rad}, to, seed).cost_s;
       }
     }
   });

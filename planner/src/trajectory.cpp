@@ -101,8 +101,8 @@ void Trajectory::sampleYaw(double t, double& yaw, double& rate) const {
   rate = sign * w;
 }
 
-TrajectoryState Trajectory::sample(double t_s) const {
-  TrajectoryState st;
+VehicleState Trajectory::sample(double t_s) const {
+  VehicleState st;
   const double t = std::clamp(t_s, 0.0, duration_s_);
   sampleYaw(t, st.yaw_rad, st.yaw_rate_rad_s);
   if (pieces_.empty() || t >= motion_s_) {

@@ -37,12 +37,12 @@ std::vector<std::size_t> ViewpointHistory::withinRadius(const Vec3d& p_W, double
   return index_.withinRadius(p_W, radius_m);
 }
 
-void ViewpointHistory::correct(const std::function<PoseTarget(const FlownViewpoint&)>& corrected) {
+void ViewpointHistory::correct(const std::function<FlatPose(const FlownViewpoint&)>& corrected) {
   std::vector<FlownViewpoint> moved = viewpoints_;
   std::vector<Vec3d> positions;
   positions.reserve(moved.size());
   for (FlownViewpoint& v : moved) {
-    const PoseTarget pose = corrected(v);
+    const FlatPose pose = corrected(v);
     if (!pose.position_W.allFinite() || !std::isfinite(pose.yaw_rad))
       throw std::invalid_argument("ViewpointHistory::correct: non-finite corrected pose for the viewpoint at t = " +
                                   std::to_string(v.stamp_s));

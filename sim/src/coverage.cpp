@@ -180,8 +180,8 @@ std::vector<Vec3d> shorten(const World& world, const std::vector<Vec3d>& path, d
 }
 
 /// Stop-and-go waypoints with yaw sweeps along the polyline, after a full turn at its start.
-std::vector<Waypoint> withYaw(const std::vector<Vec3d>& polyline, const CoverageConfig& c) {
-  std::vector<Waypoint> out;
+std::vector<FlatPose> withYaw(const std::vector<Vec3d>& polyline, const CoverageConfig& c) {
+  std::vector<FlatPose> out;
   double yaw = c.start_yaw;
   out.push_back({polyline.front(), yaw});
   auto spin = [&](const Vec3d& p) {

@@ -33,7 +33,7 @@ DriftConfig DriftConfig::preset(const std::string& level, std::uint64_t seed) {
 DriftingOdometry::DriftingOdometry(const DriftConfig& config, const FlatPose& start, double t0_s)
     : config_(config), rng_(config.seed), unit_(0.0, 1.0) {
   config_.validate();
-  if (!start.p_W.allFinite() || !std::isfinite(start.yaw) || !std::isfinite(t0_s))
+  if (!start.position_W.allFinite() || !std::isfinite(start.yaw_rad) || !std::isfinite(t0_s))
     throw std::invalid_argument("DriftingOdometry: non-finite start pose or time");
   sigma_xyz_ = std::sqrt(config_.sigma2_xyz_m2ps2);
   sigma_yaw_ = std::sqrt(config_.sigma2_yaw_rad2ps2);
@@ -53,30 +53,30 @@ namespace {
 /// `from` and replayed in the odometry's own body frame.
 FlatPose replayMotion(const FlatPose& odom, const FlatPose& from, const FlatPose& to, const Vec3d& extra_B,
                       double extra_yaw) {
-  const Vec3d dp_B = Eigen::AngleAxisd(-from.yaw, Vec3d::UnitZ()) * (to.p_W - from.p_W);
+  const Vec3d dp_B = Eigen::AngleAxisd(-from.yaw_rad, Vec3d::UnitZ()) * (to.position_W - from.position_W);
   FlatPose out;
-  out.p_W = odom.p_W + Eigen::AngleAxisd(odom.yaw, Vec3d::UnitZ()) * (dp_B + extra_B);
-  out.yaw = odom.yaw + angleDifference(to.yaw, from.yaw) + extra_yaw;
+  out.position_W = odom.position_W + Eigen::AngleAxisd(odom.yaw_rad, Vec3d::UnitZ()) * (dp_B + extra_B);
+  out.yaw_rad = odom.yaw_rad + angleDifference(to.yaw_rad, from.yaw_rad) + extra_yaw;
   return out;
 }
 }  // namespace
 
 FlatPose DriftingOdometry::advance(double t_s, const FlatPose& truth) {
-  if (!std::isfinite(t_s) || !truth.p_W.allFinite() || !std::isfinite(truth.yaw))
+  if (!std::isfinite(t_s) || !truth.position_W.allFinite() || !std::isfinite(truth.yaw_rad))
     throw std::invalid_argument("DriftingOdometry::advance: non-finite time or pose");
   if (t_s < t_)
     throw std::invalid_argument("DriftingOdometry::advance: time " + std::to_string(t_s) + " is before " +
                                 std::to_string(t_));
   const double dt = 1.0 / config_.rate_hz;
   const double span = t_s - t_;
-  const double dyaw_span = angleDifference(truth.yaw, truth_.yaw);
+  const double dyaw_span = angleDifference(truth.yaw_rad, truth_.yaw_rad);
   // Whole steps up to t_s, at times t0 + k dt (counted, not accumulated, so none is lost).
   while (t0_ + double(steps_ + 1) * dt <= t_s + 1e-9) {
     const double t_next = t0_ + double(steps_ + 1) * dt;
     const double w = span > 0.0 ? std::clamp((t_next - t_) / span, 0.0, 1.0) : 1.0;
     FlatPose truth_next;
-    truth_next.p_W = (1.0 - w) * truth_.p_W + w * truth.p_W;
-    truth_next.yaw = truth_.yaw + w * dyaw_span;
+    truth_next.position_W = (1.0 - w) * truth_.position_W + w * truth.position_W;
+    truth_next.yaw_rad = truth_.yaw_rad + w * dyaw_span;
     const DriftIncrement e = drawIncrement();
     odom_step_ = replayMotion(odom_step_, truth_step_, truth_next, e.v_B_mps * dt, e.w_radps * dt);
     truth_step_ = truth_next;

@@ -108,7 +108,7 @@ DriftBenchmarkResult runDriftBenchmark(const DriftBenchmarkConfig& config, const
     if (config.report) config.report(line);
   };
   const World world = World::load(config.world_mesh, config.world);
-  Trajectory trajectory;
+  SampledTrajectory trajectory;
   if (!config.trajectory_file.empty()) {
     trajectory = timeParametrize(readWaypoints(config.trajectory_file), config.limits, config.coverage.dt_s);
   } else {

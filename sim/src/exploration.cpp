@@ -42,7 +42,7 @@ void ExplorationConfig::validate() const {
   simulator.validate();
   mapper.validate();
   planner.validate();
-  if (!start.p_W.allFinite() || !std::isfinite(start.yaw)) check.fail("start", "finite values");
+  if (!start.position_W.allFinite() || !std::isfinite(start.yaw_rad)) check.fail("start", "finite values");
   if (!(max_time_s > 0.0 && max_time_s <= 1e5)) check.fail("max_time_s", "(0, 1e5]");
   if (!(vehicle_radius_m >= 0.0 && vehicle_radius_m <= 10.0)) check.fail("vehicle_radius_m", "[0, 10]");
 }
@@ -61,11 +61,11 @@ class Vehicle {
   /// The true pose at t: the commanded pose (estimate frame) through the offset of the last step.
   FlatPose truthAt(double t) {
     const FlatPose offset = compose(sim_.bodyTrue(), inverse(sim_.bodyEstimate()));
-    const planner::TrajectoryState cmd = manager_.command(t);
+    const planner::VehicleState cmd = manager_.command(t);
     FlatPose truth = compose(offset, FlatPose{cmd.position_W, cmd.yaw_rad});
-    truth.yaw = last_.yaw + angleDifference(truth.yaw, last_.yaw);  // continuous yaw
-    checkCollision(truth.p_W);
-    path_length_m_ += (truth.p_W - last_.p_W).norm();
+    truth.yaw_rad = last_.yaw_rad + angleDifference(truth.yaw_rad, last_.yaw_rad);  // continuous yaw
+    checkCollision(truth.position_W);
+    path_length_m_ += (truth.position_W - last_.position_W).norm();
     last_ = truth;
     return truth;
   }
@@ -86,10 +86,10 @@ class Vehicle {
   double path_length_m_ = 0.0;
 };
 
-planner::VehicleState vehicleState(const FlatPose& estimate, const planner::TrajectoryState& command) {
+planner::VehicleState vehicleState(const FlatPose& estimate, const planner::VehicleState& command) {
   planner::VehicleState s;
-  s.position_W = estimate.p_W;
-  s.yaw_rad = planner::wrapAngle(estimate.yaw);
+  s.position_W = estimate.position_W;
+  s.yaw_rad = planner::wrapAngle(estimate.yaw_rad);
   s.velocity_W = command.velocity_W;
   return s;
 }
@@ -103,15 +103,15 @@ std::map<FrameId, Pose3d> byFrameId(const CorrectionEvent& event) {
 /// The corrected body pose of a viewpoint the manager recorded: the manager is updated once per
 /// frame with the frame's time, so a viewpoint's stamp names its frame (the nearest frame time).
 /// Viewpoints of frames the event does not list keep their pose.
-std::function<planner::PoseTarget(const planner::FlownViewpoint&)> correctedViewpoints(
+std::function<planner::FlatPose(const planner::FlownViewpoint&)> correctedViewpoints(
     const CorrectionEvent& event, const std::vector<double>& frame_times, const Pose3d& T_B_S) {
   return [&event, &frame_times, T_S_B = T_B_S.inverse()](const planner::FlownViewpoint& v) {
     auto it = std::lower_bound(frame_times.begin(), frame_times.end(), v.stamp_s);
     if (it == frame_times.end() || (it != frame_times.begin() && v.stamp_s - *(it - 1) < *it - v.stamp_s)) --it;
     const auto pose = event.T_W_S_by_frame.find(std::size_t(it - frame_times.begin()));
-    if (it == frame_times.end() || pose == event.T_W_S_by_frame.end()) return planner::PoseTarget{v.position_W, v.yaw_rad};
+    if (it == frame_times.end() || pose == event.T_W_S_by_frame.end()) return planner::FlatPose{v.position_W, v.yaw_rad};
     const Pose3d T_W_B = pose->second * T_S_B;
-    return planner::PoseTarget{T_W_B.translation(), std::atan2(T_W_B.linear()(1, 0), T_W_B.linear()(0, 0))};
+    return planner::FlatPose{T_W_B.translation(), std::atan2(T_W_B.linear()(1, 0), T_W_B.linear()(0, 0))};
   };
 }
 
@@ -128,7 +128,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   if (!(options.coverage_period_s > 0.0 && options.coverage_period_s <= 1e4))
     throw std::invalid_argument("ExplorationOptions.coverage_period_s must be in (0, 1e4]");
   const Stopwatch wall;
-  if (!world.isClear(config.start.p_W, config.vehicle_radius_m))
+  if (!world.isClear(config.start.position_W, config.vehicle_radius_m))
     throw std::invalid_argument("runExploration: the start position is within vehicle_radius_m of a surface");
 
   Simulator sim(world, config.simulator, config.start, 0.0);
@@ -140,7 +140,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   Mapper& mapper = *result.mapper;
   const auto K = std::make_shared<const CameraIntrinsics>(sim.camera().intrinsics());
 
-  planner::ExplorationManager manager(config.planner, vehicleState(config.start, planner::TrajectoryState{}), 0.0);
+  planner::ExplorationManager manager(config.planner, vehicleState(config.start, planner::VehicleState{}), 0.0);
   Vehicle vehicle(world, sim, manager, config.vehicle_radius_m);
   std::unique_ptr<FlightRecorder> recorder;
   if (!options.log_dir.empty()) recorder = std::make_unique<FlightRecorder>(options.log_dir, sim, options.overwrite);
@@ -190,7 +190,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     }
     const FlatPose estimate = sim.bodyEstimate();
     mapper_watch.restart();
-    mapper.reintegrate(estimate.p_W);
+    mapper.reintegrate(estimate.position_W);
     mapper_ms_this_frame += mapper_watch.ms();
     integrate_ms_all.push_back(integrate_ms);
     mapper_ms.push_back(mapper_ms_this_frame);
@@ -244,7 +244,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
   while (!result.finished && sim.nextFrameTime() <= config.max_time_s + 1e-9)
     flyAlong(sim, truthAt, sim.nextFrameTime(), onFrame);
 
-  mapper.reintegrateAll(sim.bodyEstimate().p_W);
+  mapper.reintegrateAll(sim.bodyEstimate().position_W);
   if (options.observable && !result.trajectory_true.empty()) {  // the map as finally corrected
     if (!result.coverage_timeline.empty() && result.coverage_timeline.back().t_s >= prev_t)
       result.coverage_timeline.pop_back();
@@ -347,8 +347,8 @@ ExplorationConfig explorationConfigFor(const World& world, const std::string& dr
   config.planner.tour.seed = seed;
   config.planner.alc.tour.seed = seed;
   config.planner.box_W = defaultExplorationBox(world);
-  config.start.p_W = defaultStartPosition(world, config.planner.box_W);
-  config.start.yaw = 0.0;
+  config.start.position_W = defaultStartPosition(world, config.planner.box_W);
+  config.start.yaw_rad = 0.0;
   setBudgets(config, BudgetMode::Counted);
   return config;
 }
@@ -392,7 +392,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
                   {"tour_time_limit_s", c.planner.tour.time_limit_s},
                   {"reintegration_budget_frames", c.mapper.reintegration.budget_frames},
                   {"reintegration_budget_ms", c.mapper.reintegration.budget_ms}};
-  j["start"] = {c.start.p_W.x(), c.start.p_W.y(), c.start.p_W.z(), c.start.yaw};
+  j["start"] = {c.start.position_W.x(), c.start.position_W.y(), c.start.position_W.z(), c.start.yaw_rad};
   j["box"] = {{"min", {c.planner.box_W.min().x(), c.planner.box_W.min().y(), c.planner.box_W.min().z()}},
               {"max", {c.planner.box_W.max().x(), c.planner.box_W.max().y(), c.planner.box_W.max().z()}}};
   j["min_clearance_m"] = r.min_clearance_m;
@@ -483,7 +483,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   const planner::CameraFrustum& camera = config.planner.viewpoint.camera;
   cc.max_view_distance_m = camera.max_range_m;
   cc.half_fov_vertical_rad = std::atan(camera.tan_half_fov_y);
-  const ObservableSurface observable(world, config.planner.box_W, config.start.p_W, cc);
+  const ObservableSurface observable(world, config.planner.box_W, config.start.position_W, cc);
   report("observable surface: " + std::to_string(observable.stats().observable) + " of " +
          std::to_string(observable.stats().samples_in_box) + " samples in the box (" +
          std::to_string(int(observable.stats().observable_area_m2)) + " m^2)");

@@ -47,10 +47,10 @@ nlohmann::json describe(const SimulatorConfig& c) {
 }
 }  // namespace
 
-void flyAlong(Simulator& sim, const Trajectory& trajectory, double t_end_s,
+void flyAlong(Simulator& sim, const SampledTrajectory& trajectory, double t_end_s,
               const std::function<void(SimFrame&)>& on_frame) {
   if (trajectory.empty()) throw std::invalid_argument("flyAlong: empty trajectory");
-  flyAlong(sim, [&](double t) { return flatPose(trajectory.sample(t)); }, t_end_s, on_frame);
+  flyAlong(sim, [&](double t) { return trajectory.sample(t).pose(); }, t_end_s, on_frame);
 }
 
 void flyAlong(Simulator& sim, const std::function<FlatPose(double)>& truth_at, double t_end_s,
@@ -100,8 +100,8 @@ void FlightRecorder::record(const SimFrame& frame) {
     writer.addCorrection(frame.t_s, poses);
     result_.loop_closures.push_back(frame.correction->loop);
   }
-  const double odom_error = (frame.body_odometry.p_W - frame.body_true.p_W).norm();
-  const double estimate_error = (frame.body_estimate.p_W - frame.body_true.p_W).norm();
+  const double odom_error = (frame.body_odometry.position_W - frame.body_true.position_W).norm();
+  const double estimate_error = (frame.body_estimate.position_W - frame.body_true.position_W).norm();
   result_.odometry_error_max_m = std::max(result_.odometry_error_max_m, odom_error);
   result_.odometry_error_final_m = odom_error;
   result_.estimate_error_max_m = std::max(result_.estimate_error_max_m, estimate_error);
@@ -150,12 +150,12 @@ FlightResult FlightRecorder::finish(const SimulatorConfig& config, const std::st
   return result;
 }
 
-FlightResult simulateFlight(const World& world, const Trajectory& trajectory, const SimulatorConfig& config,
+FlightResult simulateFlight(const World& world, const SampledTrajectory& trajectory, const SimulatorConfig& config,
                             const std::filesystem::path& log_dir, const FlightOptions& options) {
   config.validate();
   if (trajectory.empty()) throw std::invalid_argument("simulateFlight: empty trajectory");
   const double t0 = trajectory.startTime(), t_end = trajectory.endTime();
-  Simulator sim(world, config, flatPose(trajectory.sample(t0)), t0);
+  Simulator sim(world, config, trajectory.sample(t0).pose(), t0);
   FlightRecorder recorder(log_dir, sim, options.overwrite);
   const std::size_t n_frames = std::size_t(std::floor((t_end - t0) / sim.camera().period_s() + 1e-9)) + 1;
   flyAlong(sim, trajectory, t_end, [&](SimFrame& frame) {

@@ -56,9 +56,9 @@ std::optional<LoopClosure> LoopDetector::addFrame(std::size_t frame, double t_s,
   for (std::size_t k = 0; k + 1 < history_.size(); ++k) {
     const Entry& e = history_[k];
     if (t_s - e.t_s < config_.min_age_s) break;  // history is in time order: the rest are younger
-    const double d = (e.truth.p_W - truth.p_W).norm();
+    const double d = (e.truth.position_W - truth.position_W).norm();
     if (d > config_.max_distance_m) continue;
-    if (std::abs(angleDifference(truth.yaw, e.truth.yaw)) > config_.max_yaw_rad) continue;
+    if (std::abs(angleDifference(truth.yaw_rad, e.truth.yaw_rad)) > config_.max_yaw_rad) continue;
     candidates.emplace_back(d, k);
   }
   std::sort(candidates.begin(), candidates.end());
@@ -69,7 +69,7 @@ std::optional<LoopClosure> LoopDetector::addFrame(std::size_t frame, double t_s,
     if (o < config_.min_view_overlap) continue;
     last_loop_t_s_ = t_s;
     ++detections_;
-    return LoopClosure{old.frame, frame, candidates[c].first, angleDifference(truth.yaw, old.truth.yaw), o};
+    return LoopClosure{old.frame, frame, candidates[c].first, angleDifference(truth.yaw_rad, old.truth.yaw_rad), o};
   }
   return std::nullopt;
 }

@@ -12,15 +12,15 @@ namespace vdbmap::sim {
 
 FlatPose relativePose(const FlatPose& a, const FlatPose& b) {
   FlatPose r;
-  r.p_W = Eigen::AngleAxisd(-a.yaw, Vec3d::UnitZ()) * (b.p_W - a.p_W);
-  r.yaw = angleDifference(b.yaw, a.yaw);
+  r.position_W = Eigen::AngleAxisd(-a.yaw_rad, Vec3d::UnitZ()) * (b.position_W - a.position_W);
+  r.yaw_rad = angleDifference(b.yaw_rad, a.yaw_rad);
   return r;
 }
 
 FlatPose compose(const FlatPose& a, const FlatPose& r) {
   FlatPose b;
-  b.p_W = a.p_W + Eigen::AngleAxisd(a.yaw, Vec3d::UnitZ()) * r.p_W;
-  b.yaw = a.yaw + r.yaw;
+  b.position_W = a.position_W + Eigen::AngleAxisd(a.yaw_rad, Vec3d::UnitZ()) * r.position_W;
+  b.yaw_rad = a.yaw_rad + r.yaw_rad;
   return b;
 }
 
@@ -32,7 +32,7 @@ void PoseGraphSolveOptions::validate() const {
 }
 
 std::size_t PoseGraph4Dof::addNode(const FlatPose& initial) {
-  if (!initial.p_W.allFinite() || !std::isfinite(initial.yaw))
+  if (!initial.position_W.allFinite() || !std::isfinite(initial.yaw_rad))
     throw std::invalid_argument("PoseGraph4Dof::addNode: non-finite pose for node " + std::to_string(nodes_.size()));
   nodes_.push_back(initial);
   fixed_.push_back(nodes_.size() == 1);
@@ -44,7 +44,7 @@ void PoseGraph4Dof::addEdge(const PoseGraphEdge& e) {
   if (e.from >= nodes_.size() || e.to >= nodes_.size()) throw std::invalid_argument(name + "unknown node");
   if (e.from == e.to) throw std::invalid_argument(name + "an edge must join two different nodes");
   if (!(e.sigma_m > 0.0) || !(e.sigma_yaw_rad > 0.0)) throw std::invalid_argument(name + "sigmas must be > 0");
-  if (!e.relative.p_W.allFinite() || !std::isfinite(e.relative.yaw))
+  if (!e.relative.position_W.allFinite() || !std::isfinite(e.relative.yaw_rad))
     throw std::invalid_argument(name + "non-finite measurement");
   edges_.push_back(e);
 }
@@ -66,10 +66,10 @@ struct EdgeResidual {
     using std::sin;
     const T c = cos(a[3]), s = sin(a[3]);
     const T dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
-    r[0] = (c * dx + s * dy - measured.p_W.x()) * inv_sigma_m;
-    r[1] = (-s * dx + c * dy - measured.p_W.y()) * inv_sigma_m;
-    r[2] = (dz - measured.p_W.z()) * inv_sigma_m;
-    r[3] = wrap(b[3] - a[3] - measured.yaw) * inv_sigma_yaw;
+    r[0] = (c * dx + s * dy - measured.position_W.x()) * inv_sigma_m;
+    r[1] = (-s * dx + c * dy - measured.position_W.y()) * inv_sigma_m;
+    r[2] = (dz - measured.position_W.z()) * inv_sigma_m;
+    r[3] = wrap(b[3] - a[3] - measured.yaw_rad) * inv_sigma_yaw;
     return true;
   }
   template <typename T>
@@ -86,7 +86,7 @@ PoseGraphSummary PoseGraph4Dof::optimize(const PoseGraphSolveOptions& options) {
   const Stopwatch solve;
   std::vector<std::array<double, 4>> x(nodes_.size());
   for (std::size_t i = 0; i < nodes_.size(); ++i)
-    x[i] = {nodes_[i].p_W.x(), nodes_[i].p_W.y(), nodes_[i].p_W.z(), nodes_[i].yaw};
+    x[i] = {nodes_[i].position_W.x(), nodes_[i].position_W.y(), nodes_[i].position_W.z(), nodes_[i].yaw_rad};
 
   ceres::Problem problem;
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
@@ -110,8 +110,8 @@ PoseGraphSummary PoseGraph4Dof::optimize(const PoseGraphSolveOptions& options) {
   ceres::Solve(solver, &problem, &summary);
 
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
-    nodes_[i].p_W = Vec3d(x[i][0], x[i][1], x[i][2]);
-    nodes_[i].yaw = x[i][3];
+    nodes_[i].position_W = Vec3d(x[i][0], x[i][1], x[i][2]);
+    nodes_[i].yaw_rad = x[i][3];
   }
   PoseGraphSummary out;
   out.converged = summary.termination_type == ceres::CONVERGENCE;

@@ -43,8 +43,8 @@ namespace {
 /// The 4-DOF transform C with C o b = a (b's frame re-anchored onto a).
 FlatPose anchorOnto(const FlatPose& a, const FlatPose& b) {
   FlatPose c;
-  c.yaw = a.yaw - b.yaw;
-  c.p_W = a.p_W - Eigen::AngleAxisd(c.yaw, Vec3d::UnitZ()) * b.p_W;
+  c.yaw_rad = a.yaw_rad - b.yaw_rad;
+  c.position_W = a.position_W - Eigen::AngleAxisd(c.yaw_rad, Vec3d::UnitZ()) * b.position_W;
   return c;
 }
 }  // namespace
@@ -130,8 +130,8 @@ CorrectionEvent Simulator::correct(const LoopClosure& loop, double t_s) {
     e.from = loop.old_frame;
     e.to = loop.new_frame;
     e.relative = relativePose(frames_true_[loop.old_frame], frames_true_[loop.new_frame]);
-    for (int a = 0; a < 3; ++a) e.relative.p_W[a] += config_.loop_sigma_m * unit(loop_noise_rng_);
-    e.relative.yaw += config_.loop_sigma_yaw_rad * unit(loop_noise_rng_);
+    for (int a = 0; a < 3; ++a) e.relative.position_W[a] += config_.loop_sigma_m * unit(loop_noise_rng_);
+    e.relative.yaw_rad += config_.loop_sigma_yaw_rad * unit(loop_noise_rng_);
     e.sigma_m = std::max(config_.loop_sigma_m, config_.odometry_sigma_floor);
     e.sigma_yaw_rad = std::max(config_.loop_sigma_yaw_rad, config_.odometry_sigma_floor);
     graph_.addEdge(e);

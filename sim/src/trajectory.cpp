@@ -12,10 +12,10 @@
 
 namespace vdbmap::sim {
 
-Pose3d bodyPose(const Vec3d& p_W, double yaw) {
+Pose3d bodyPose(const Vec3d& position_W, double yaw_rad) {
   Pose3d T = Pose3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Vec3d::UnitZ()).toRotationMatrix();
-  T.translation() = p_W;
+  T.linear() = Eigen::AngleAxisd(yaw_rad, Vec3d::UnitZ()).toRotationMatrix();
+  T.translation() = position_W;
   return T;
 }
 
@@ -40,66 +40,64 @@ bool TrajectoryMaxima::within(const MotionLimits& limits, double tol) const {
          yaw_rate_radps <= limits.yaw_rate_max_radps * (1 + tol);
 }
 
-void Trajectory::append(const FlatState& s) {
-  if (!std::isfinite(s.t_s) || !s.p_W.allFinite() || !s.v_W.allFinite() || !s.a_W.allFinite() ||
-      !std::isfinite(s.yaw) || !std::isfinite(s.yaw_rate))
-    throw std::invalid_argument("Trajectory::append: non-finite state at t = " + std::to_string(s.t_s));
-  if (!samples_.empty() && !(s.t_s > samples_.back().t_s))
-    throw std::invalid_argument("Trajectory::append: time " + std::to_string(s.t_s) + " does not follow " +
-                                std::to_string(samples_.back().t_s));
-  samples_.push_back(s);
+void SampledTrajectory::append(double t_s, const VehicleState& s) {
+  if (!std::isfinite(t_s) || !s.position_W.allFinite() || !s.velocity_W.allFinite() || !s.acceleration_W.allFinite() ||
+      !std::isfinite(s.yaw_rad) || !std::isfinite(s.yaw_rate_rad_s))
+    throw std::invalid_argument("SampledTrajectory::append: non-finite state at t = " + std::to_string(t_s));
+  if (!times_s_.empty() && !(t_s > times_s_.back()))
+    throw std::invalid_argument("SampledTrajectory::append: time " + std::to_string(t_s) + " does not follow " +
+                                std::to_string(times_s_.back()));
+  times_s_.push_back(t_s);
+  states_.push_back(s);
 }
 
-double Trajectory::startTime() const {
-  if (empty()) throw std::logic_error("Trajectory::startTime: empty trajectory");
-  return samples_.front().t_s;
+double SampledTrajectory::startTime() const {
+  if (empty()) throw std::logic_error("SampledTrajectory::startTime: empty trajectory");
+  return times_s_.front();
 }
-double Trajectory::endTime() const {
-  if (empty()) throw std::logic_error("Trajectory::endTime: empty trajectory");
-  return samples_.back().t_s;
+double SampledTrajectory::endTime() const {
+  if (empty()) throw std::logic_error("SampledTrajectory::endTime: empty trajectory");
+  return times_s_.back();
 }
 
-FlatState Trajectory::sample(double t) const {
-  if (empty()) throw std::logic_error("Trajectory::sample: empty trajectory");
-  auto hover = [t](FlatState s) {
-    s.t_s = t;
-    s.v_W.setZero();
-    s.a_W.setZero();
-    s.yaw_rate = 0.0;
+VehicleState SampledTrajectory::sample(double t) const {
+  if (empty()) throw std::logic_error("SampledTrajectory::sample: empty trajectory");
+  auto hover = [](VehicleState s) {
+    s.velocity_W.setZero();
+    s.acceleration_W.setZero();
+    s.yaw_rate_rad_s = 0.0;
     return s;
   };
-  if (t <= samples_.front().t_s) return t == samples_.front().t_s ? samples_.front() : hover(samples_.front());
-  if (t >= samples_.back().t_s) return t == samples_.back().t_s ? samples_.back() : hover(samples_.back());
-  const auto it = std::upper_bound(samples_.begin(), samples_.end(), t,
-                                   [](double time, const FlatState& s) { return time < s.t_s; });
-  const FlatState& b = *it;
-  const FlatState& a = *(it - 1);
-  const double w = (t - a.t_s) / (b.t_s - a.t_s);
-  FlatState s;
-  s.t_s = t;
-  s.p_W = (1 - w) * a.p_W + w * b.p_W;
-  s.v_W = (1 - w) * a.v_W + w * b.v_W;
-  s.a_W = (1 - w) * a.a_W + w * b.a_W;
-  s.yaw = (1 - w) * a.yaw + w * b.yaw;
-  s.yaw_rate = (1 - w) * a.yaw_rate + w * b.yaw_rate;
+  if (t <= times_s_.front()) return t == times_s_.front() ? states_.front() : hover(states_.front());
+  if (t >= times_s_.back()) return t == times_s_.back() ? states_.back() : hover(states_.back());
+  const std::size_t i = std::size_t(std::upper_bound(times_s_.begin(), times_s_.end(), t) - times_s_.begin());
+  const VehicleState& b = states_[i];
+  const VehicleState& a = states_[i - 1];
+  const double w = (t - times_s_[i - 1]) / (times_s_[i] - times_s_[i - 1]);
+  VehicleState s;
+  s.position_W = (1 - w) * a.position_W + w * b.position_W;
+  s.velocity_W = (1 - w) * a.velocity_W + w * b.velocity_W;
+  s.acceleration_W = (1 - w) * a.acceleration_W + w * b.acceleration_W;
+  s.yaw_rad = (1 - w) * a.yaw_rad + w * b.yaw_rad;
+  s.yaw_rate_rad_s = (1 - w) * a.yaw_rate_rad_s + w * b.yaw_rate_rad_s;
   return s;
 }
 
-double Trajectory::length_m() const {
+double SampledTrajectory::length_m() const {
   double length = 0.0;
-  for (std::size_t k = 1; k < samples_.size(); ++k) length += (samples_[k].p_W - samples_[k - 1].p_W).norm();
+  for (std::size_t k = 1; k < states_.size(); ++k) length += (states_[k].position_W - states_[k - 1].position_W).norm();
   return length;
 }
 
-TrajectoryMaxima Trajectory::maxima() const {
+TrajectoryMaxima SampledTrajectory::maxima() const {
   TrajectoryMaxima m;
   Vec3d v_prev = Vec3d::Zero();
   double dt_prev = 0.0;
-  for (std::size_t k = 1; k < samples_.size(); ++k) {
-    const double dt = samples_[k].t_s - samples_[k - 1].t_s;
-    const Vec3d v = (samples_[k].p_W - samples_[k - 1].p_W) / dt;
+  for (std::size_t k = 1; k < states_.size(); ++k) {
+    const double dt = times_s_[k] - times_s_[k - 1];
+    const Vec3d v = (states_[k].position_W - states_[k - 1].position_W) / dt;
     m.speed_mps = std::max(m.speed_mps, v.norm());
-    m.yaw_rate_radps = std::max(m.yaw_rate_radps, std::abs(samples_[k].yaw - samples_[k - 1].yaw) / dt);
+    m.yaw_rate_radps = std::max(m.yaw_rate_radps, std::abs(states_[k].yaw_rad - states_[k - 1].yaw_rad) / dt);
     if (k > 1) m.accel_mps2 = std::max(m.accel_mps2, (v - v_prev).norm() / (0.5 * (dt + dt_prev)));
     v_prev = v;
     dt_prev = dt;
@@ -116,7 +114,7 @@ struct Move {
   double length = 0.0, v_cruise = 0.0, accel = 0.0;
   double yaw0 = 0.0, dyaw = 0.0;
 
-  FlatState at(double t) const {
+  VehicleState at(double t) const {
     const double tau = std::clamp(t - t0, 0.0, duration);
     const double t_acc = accel > 0.0 ? v_cruise / accel : 0.0;
     double s = 0.0, v = 0.0, a = 0.0;
@@ -130,23 +128,22 @@ struct Move {
         s = length - 0.5 * accel * r * r, v = accel * r, a = -accel;
       }
     }
-    FlatState out;
-    out.t_s = t;
-    out.p_W = p0 + dir * std::min(s, length);
-    out.v_W = dir * v;
-    out.a_W = dir * a;
-    out.yaw = yaw0 + dyaw * (duration > 0.0 ? tau / duration : 1.0);
-    out.yaw_rate = duration > 0.0 ? dyaw / duration : 0.0;
+    VehicleState out;
+    out.position_W = p0 + dir * std::min(s, length);
+    out.velocity_W = dir * v;
+    out.acceleration_W = dir * a;
+    out.yaw_rad = yaw0 + dyaw * (duration > 0.0 ? tau / duration : 1.0);
+    out.yaw_rate_rad_s = duration > 0.0 ? dyaw / duration : 0.0;
     return out;
   }
 };
 
-Move planMove(const Waypoint& from, const Waypoint& to, double yaw0, double dyaw, double t0, const MotionLimits& lim) {
+Move planMove(const FlatPose& from, const FlatPose& to, double yaw0, double dyaw, double t0, const MotionLimits& lim) {
   Move m;
   m.t0 = t0;
-  m.p0 = from.p_W;
-  m.length = (to.p_W - from.p_W).norm();
-  if (m.length > 0.0) m.dir = (to.p_W - from.p_W) / m.length;
+  m.p0 = from.position_W;
+  m.length = (to.position_W - from.position_W).norm();
+  if (m.length > 0.0) m.dir = (to.position_W - from.position_W) / m.length;
   m.yaw0 = yaw0;
   m.dyaw = dyaw;
   const double v = lim.v_max_mps, a = lim.a_max_mps2;
@@ -161,31 +158,30 @@ Move planMove(const Waypoint& from, const Waypoint& to, double yaw0, double dyaw
 }
 }  // namespace
 
-Trajectory timeParametrize(const std::vector<Waypoint>& path, const MotionLimits& limits, double dt_s,
-                           double start_time_s, bool shortest_yaw) {
+SampledTrajectory timeParametrize(const std::vector<FlatPose>& path, const MotionLimits& limits, double dt_s,
+                                  double start_time_s, bool shortest_yaw) {
   limits.validate();
   if (path.empty()) throw std::invalid_argument("timeParametrize: empty path");
   if (!(dt_s > 0.0 && dt_s <= 1.0)) throw std::invalid_argument("timeParametrize: dt_s must be in (0, 1]");
-  for (const Waypoint& w : path)
-    if (!w.p_W.allFinite() || !std::isfinite(w.yaw))
+  for (const FlatPose& w : path)
+    if (!w.position_W.allFinite() || !std::isfinite(w.yaw_rad))
       throw std::invalid_argument("timeParametrize: non-finite waypoint");
   std::vector<Move> moves;
-  double t = start_time_s, yaw = path.front().yaw;
+  double t = start_time_s, yaw = path.front().yaw_rad;
   for (std::size_t i = 1; i < path.size(); ++i) {
-    const double dyaw = shortest_yaw ? angleDifference(path[i].yaw, yaw) : path[i].yaw - path[i - 1].yaw;
+    const double dyaw = shortest_yaw ? angleDifference(path[i].yaw_rad, yaw) : path[i].yaw_rad - path[i - 1].yaw_rad;
     const Move m = planMove(path[i - 1], path[i], yaw, dyaw, t, limits);
     if (m.duration <= 0.0) continue;  // the same waypoint twice
     moves.push_back(m);
     t += m.duration;
     yaw += dyaw;
   }
-  Trajectory trajectory;
+  SampledTrajectory trajectory;
   if (moves.empty()) {
-    FlatState only;
-    only.t_s = start_time_s;
-    only.p_W = path.front().p_W;
-    only.yaw = path.front().yaw;
-    trajectory.append(only);
+    VehicleState only;
+    only.position_W = path.front().position_W;
+    only.yaw_rad = path.front().yaw_rad;
+    trajectory.append(start_time_s, only);
     return trajectory;
   }
   // Samples on the dt grid, plus the exact end of every move, so the trajectory rests exactly
@@ -195,17 +191,17 @@ Trajectory timeParametrize(const std::vector<Waypoint>& path, const MotionLimits
     for (long k = long(std::ceil((m.t0 - start_time_s) / dt_s - 1e-9));; ++k) {
       const double tk = start_time_s + double(k) * dt_s;
       if (tk >= m_end - 1e-9) break;
-      if (trajectory.empty() || tk > trajectory.endTime() + 1e-9) trajectory.append(m.at(tk));
+      if (trajectory.empty() || tk > trajectory.endTime() + 1e-9) trajectory.append(tk, m.at(tk));
     }
-    trajectory.append(m.at(m_end));
+    trajectory.append(m_end, m.at(m_end));
   }
   return trajectory;
 }
 
-std::vector<Waypoint> readWaypoints(const std::filesystem::path& path) {
+std::vector<FlatPose> readWaypoints(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path.string() + ": cannot open the waypoint file");
-  std::vector<Waypoint> out;
+  std::vector<FlatPose> out;
   std::vector<bool> has_yaw;
   std::string line;
   for (std::size_t number = 1; std::getline(in, line); ++number) {
@@ -236,18 +232,19 @@ std::vector<Waypoint> readWaypoints(const std::filesystem::path& path) {
   double last_yaw = 0.0;
   for (std::size_t i = 0; i < out.size(); ++i) {
     if (!has_yaw[i]) {
-      const Vec3d d = i + 1 < out.size() ? Vec3d(out[i + 1].p_W - out[i].p_W) : Vec3d::Zero();
-      out[i].yaw = d.head<2>().norm() > 1e-9 ? std::atan2(d.y(), d.x()) : last_yaw;
+      const Vec3d d = i + 1 < out.size() ? Vec3d(out[i + 1].position_W - out[i].position_W) : Vec3d::Zero();
+      out[i].yaw_rad = d.head<2>().norm() > 1e-9 ? std::atan2(d.y(), d.x()) : last_yaw;
     }
-    last_yaw = out[i].yaw;
+    last_yaw = out[i].yaw_rad;
   }
   return out;
 }
 
-void writeWaypoints(const std::filesystem::path& path, const std::vector<Waypoint>& waypoints) {
+void writeWaypoints(const std::filesystem::path& path, const std::vector<FlatPose>& waypoints) {
   vdbmap::writeFileAtomically(path, [&](std::ostream& os) {
     os << "# x y z yaw (metres, radians)\n" << std::setprecision(9);
-    for (const Waypoint& w : waypoints) os << w.p_W.x() << " " << w.p_W.y() << " " << w.p_W.z() << " " << w.yaw << "\n";
+    for (const FlatPose& w : waypoints)
+      os << w.position_W.x() << " " << w.position_W.y() << " " << w.position_W.z() << " " << w.yaw_rad << "\n";
   });
 }
 

@@ -190,7 +190,7 @@ TEST_CASE("A flight's clusters keep their invariants; near() equals brute force;
 
   // A correction lifts every viewpoint by 1 m: centres follow, membership stays.
   const std::vector<LoopCluster> before = c.clusters();
-  h.correct([](const FlownViewpoint& v) { return PoseTarget{v.position_W + Vec3d(0, 0, 1), v.yaw_rad}; });
+  h.correct([](const FlownViewpoint& v) { return FlatPose{v.position_W + Vec3d(0, 0, 1), v.yaw_rad}; });
   c.refresh(h);
   for (LoopClusterId id = 0; id < c.size(); ++id) {
     CHECK(c[id].centre == before[id].centre);

@@ -210,7 +210,7 @@ TEST_CASE("M_loop, M_frt with row 0 from c*, equals the matrix built from scratc
 
   // From scratch: every entry by a fresh CostEvaluator, c* (its centre, at rest) as node 0.
   const FlownViewpoint& c = alc.history()[alc.clusters()[0].centre];
-  const PoseTarget centre{c.position_W, c.yaw_rad};
+  const FlatPose centre{c.position_W, c.yaw_rad};
   CHECK(centre.position_W == Vec3d(2.125, 1, 1.5));
   CostEvaluator eval(map, table.costParams(), table.pathParams());
   const std::size_t n = targets.size() + 1;

@@ -121,7 +121,7 @@ TEST_CASE("ViewpointHistory radius queries over a flight equal brute force, befo
   // A correction shifts everything recorded after t = 10 s by 0.5 m in y.
   const FlownViewpoint first = h[0], last = h[h.size() - 1];
   h.correct([](const FlownViewpoint& v) {
-    return PoseTarget{v.position_W + Vec3d(0, v.stamp_s > 10.0 ? 0.5 : 0.0, 0), v.yaw_rad};
+    return FlatPose{v.position_W + Vec3d(0, v.stamp_s > 10.0 ? 0.5 : 0.0, 0), v.yaw_rad};
   });
   CHECK(h[0].position_W == first.position_W);
   CHECK(h[h.size() - 1].position_W == last.position_W + Vec3d(0, 0.5, 0));
@@ -129,7 +129,7 @@ TEST_CASE("ViewpointHistory radius queries over a flight equal brute force, befo
   for (const Vec3d& c : {Vec3d(0, 0.5, 1.5), Vec3d(3, 2, 1.2)})
     for (const double r : {0.3, 1.0, 3.0}) CHECK(h.withinRadius(c, r) == bruteWithin(positions(), c, r));
   CHECK_THROWS_AS(h.correct([](const FlownViewpoint&) {
-    return PoseTarget{Vec3d(NAN, 0, 0), 0.0};
+    return FlatPose{Vec3d(NAN, 0, 0), 0.0};
   }),
                   std::invalid_argument);
   CHECK(h[h.size() - 1].position_W == last.position_W + Vec3d(0, 0.5, 0));  // a failed correction changes nothing

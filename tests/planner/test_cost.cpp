@@ -37,15 +37,15 @@ TEST_CASE("motionCost is FUEL's max of travel time (with the direction term) and
 TEST_CASE("CostEvaluator legs: straight, around a wall, moving, unreachable", "[planner][cost]") {
   const DenseMap map = costRoom();
   CostEvaluator eval(map);
-  const PoseTarget a{Vec3d(1, 1, 1), 0.0};
+  const FlatPose a{Vec3d(1, 1, 1), 0.0};
   SECTION("straight") {
-    const LegCost leg = eval.cost(a, PoseTarget{Vec3d(4, 5, 1), 0.0});
+    const LegCost leg = eval.cost(a, FlatPose{Vec3d(4, 5, 1), 0.0});
     REQUIRE(leg.reachable);
     CHECK(leg.path.status == PathStatus::Straight);
     CHECK(leg.cost_s == Approx(5.0 / 2.0));
   }
   SECTION("around the wall costs the path's length") {
-    const LegCost leg = eval.cost(a, PoseTarget{Vec3d(8, 1, 1), 0.0});
+    const LegCost leg = eval.cost(a, FlatPose{Vec3d(8, 1, 1), 0.0});
     REQUIRE(leg.reachable);
     CHECK(leg.path.status == PathStatus::Planned);
     CHECK(leg.cost_s == Approx(leg.path.length_m / 2.0));
@@ -55,11 +55,11 @@ TEST_CASE("CostEvaluator legs: straight, around a wall, moving, unreachable", "[
     VehicleState moving;
     moving.position_W = a.position_W;
     moving.velocity_W = Vec3d(0, -1.0, 0);  // away from the target at +x
-    const LegCost leg = eval.cost(moving, PoseTarget{Vec3d(4, 1, 1), 0.0});
+    const LegCost leg = eval.cost(moving, FlatPose{Vec3d(4, 1, 1), 0.0});
     CHECK(leg.cost_s == Approx(3.0 / 2.0 + 1.5 * M_PI / 2));
   }
   SECTION("a pose inside the closed room is unreachable: a large finite cost") {
-    const LegCost leg = eval.cost(a, PoseTarget{Vec3d(8, 4.7, 1.5), 0.0});
+    const LegCost leg = eval.cost(a, FlatPose{Vec3d(8, 4.7, 1.5), 0.0});
     CHECK_FALSE(leg.reachable);
     CHECK(leg.cost_s == eval.params().unreachable_cost_s);
     CHECK(leg.path.status == PathStatus::NoPath);

@@ -70,7 +70,7 @@ ExplorationStep replanAt(ExplorationManager& m, const DenseMap& map, const Vec3d
 bool endsAtLoopCluster(const ExplorationManager& m) {
   REQUIRE(m.alc() != nullptr);
   REQUIRE(m.alc()->detour());
-  const TrajectoryState end = m.command(m.trajectoryStartTime() + m.trajectory().duration());
+  const VehicleState end = m.command(m.trajectoryStartTime() + m.trajectory().duration());
   for (const Viewpoint& v : m.alc()->clusters().viewpoints(m.alc()->history(), m.alc()->detour()->cluster))
     if ((v.position_W - end.position_W).norm() < 1e-6 && yawDistance(v.yaw_rad, end.yaw_rad) < 1e-6) return true;
   return false;
@@ -177,7 +177,7 @@ TEST_CASE("A detour without a loop is given up at its timeout and its cluster wa
   }
   SECTION("a correction moves the history") {
     const Vec3d offset(0.0, 0.3, 0.0);
-    m.notifyLoopClosure(t + 0.1, [&](const FlownViewpoint& v) { return PoseTarget{v.position_W + offset, v.yaw_rad}; });
+    m.notifyLoopClosure(t + 0.1, [&](const FlownViewpoint& v) { return FlatPose{v.position_W + offset, v.yaw_rad}; });
     CHECK((m.alc()->history()[0].position_W - Vec3d(4.0, 3.3, 1.5)).norm() < 1e-9);
   }
 }
@@ -193,7 +193,7 @@ TEST_CASE("With ALC on, exploration of a room still finishes", "[planner][explor
   // The vehicle follows the commands exactly, at 4 Hz, for at most 500 s.
   for (int k = 0; k < 2000 && step.status != ExplorationStatus::Finished; ++k) {
     t += 0.25;
-    const TrajectoryState c = m.command(t);
+    const VehicleState c = m.command(t);
     VehicleState v = at(c.position_W, c.yaw_rad);
     v.velocity_W = c.velocity_W;
     step = m.update(map, CoordBBox(), v, t);

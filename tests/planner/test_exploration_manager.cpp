@@ -39,7 +39,7 @@ ExplorationParams roomParams(double length_m = 8.0) {
 
 /// The vehicle as the manager commands it at t (exactly on its trajectory).
 VehicleState onTrajectory(const ExplorationManager& m, double t) {
-  const TrajectoryState c = m.command(t);
+  const VehicleState c = m.command(t);
   VehicleState s;
   s.position_W = c.position_W;
   s.velocity_W = c.velocity_W;
@@ -126,7 +126,7 @@ TEST_CASE("The first plan flies a clear trajectory to a viewpoint of a frontier 
   const FrontierCluster* target = m.frontiers().find(step.target);
   REQUIRE(target != nullptr);
   // The trajectory ends at one of the target's viewpoints, looking at it.
-  const TrajectoryState end = m.command(m.trajectory().duration());
+  const VehicleState end = m.command(m.trajectory().duration());
   const std::vector<Viewpoint>& views = m.viewpoints().at(step.target);
   const bool at_viewpoint = std::any_of(views.begin(), views.end(), [&](const Viewpoint& v) {
     return (v.position_W - end.position_W).norm() < 1e-6 && yawDistance(v.yaw_rad, end.yaw_rad) < 1e-6;
@@ -179,12 +179,12 @@ TEST_CASE("Replan triggers: trajectory end, period, collision risk, target cover
   }
   SECTION("frame shift: the command keeps the world path and a replan follows") {
     const double t = t0 + 0.3;
-    const TrajectoryState before = m.command(t);
+    const VehicleState before = m.command(t);
     Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
     shift.linear() = Eigen::AngleAxisd(0.1, Vec3d::UnitZ()).toRotationMatrix();
     shift.translation() = Vec3d(0.2, -0.1, 0.05);
     m.shiftFrame(shift);
-    const TrajectoryState after = m.command(t);
+    const VehicleState after = m.command(t);
     CHECK((after.position_W - shift * before.position_W).norm() < 1e-9);
     CHECK((after.velocity_W - shift.linear() * before.velocity_W).norm() < 1e-9);
     CHECK(yawDistance(after.yaw_rad, before.yaw_rad + 0.1) < 1e-9);
@@ -318,7 +318,7 @@ TEST_CASE("A visit is judged by what its viewpoint saw: uncovering that part of 
   // What the camera sees at the viewpoint (the trajectory's end) becomes known: the unknown space
   // behind each frontier voxel it sees turns free, as integrating that view would make it.
   const double t_end = m.trajectoryStartTime() + m.trajectory().duration();
-  const TrajectoryState eye = m.command(t_end);
+  const VehicleState eye = m.command(t_end);
   MapProbe probe(map);
   const std::vector<Coord> seen = visibleVoxels(probe, eye.position_W, eye.yaw_rad, target->voxels, p.viewpoint.camera);
   const double seen_fraction = double(seen.size()) / double(target->voxels.size());

@@ -26,9 +26,9 @@ DenseMap wallRoom() {
 void checkTrajectory(const Trajectory& traj, const TrajectoryParams& p, const DenseMap* map) {
   const double dt = 1e-3;
   const double tol = 1e-9;
-  TrajectoryState prev = traj.sample(0.0);
+  VehicleState prev = traj.sample(0.0);
   for (double t = dt; t <= traj.duration() + 0.5 * dt; t += dt) {
-    const TrajectoryState s = traj.sample(t);
+    const VehicleState s = traj.sample(t);
     REQUIRE(s.velocity_W.norm() <= p.v_max_m_s * (1 + tol));
     REQUIRE(s.acceleration_W.norm() <= p.a_max_m_s2 * (1 + 1e-6));
     REQUIRE(std::abs(s.yaw_rate_rad_s) <= p.yaw_rate_max_rad_s * (1 + tol));
@@ -79,7 +79,7 @@ TEST_CASE("Along a planned path: limits at every sample, clear of the map, from 
   REQUIRE(r.status == TrajectoryStatus::Ok);
   const Trajectory& traj = r.trajectory;
   checkTrajectory(traj, tp, &map);
-  const TrajectoryState s0 = traj.sample(0.0), s1 = traj.sample(traj.duration());
+  const VehicleState s0 = traj.sample(0.0), s1 = traj.sample(traj.duration());
   CHECK(s0.position_W == start.position_W);
   CHECK(s0.velocity_W.norm() == 0.0);
   CHECK(s0.yaw_rad == Approx(0.3));

@@ -40,14 +40,14 @@ TEST_CASE("s1 odometry equals the ground truth along a curved flight", "[sim][dr
   for (int k = 1; k <= 200 * 30; ++k) {
     const double t = k / 200.0;
     const FlatPose o = odom.advance(t, truthAt(t));
-    max_p = std::max(max_p, (o.p_W - truthAt(t).p_W).norm());
-    max_yaw = std::max(max_yaw, std::abs(angleDifference(o.yaw, truthAt(t).yaw)));
+    max_p = std::max(max_p, (o.position_W - truthAt(t).position_W).norm());
+    max_yaw = std::max(max_yaw, std::abs(angleDifference(o.yaw_rad, truthAt(t).yaw_rad)));
   }
   for (int k = 1; k <= 15 * 30; ++k) {
     const double t = 30.0 + k / 15.0;
     const FlatPose o = odom.advance(t, truthAt(t));
-    max_p = std::max(max_p, (o.p_W - truthAt(t).p_W).norm());
-    max_yaw = std::max(max_yaw, std::abs(angleDifference(o.yaw, truthAt(t).yaw)));
+    max_p = std::max(max_p, (o.position_W - truthAt(t).position_W).norm());
+    max_yaw = std::max(max_yaw, std::abs(angleDifference(o.yaw_rad, truthAt(t).yaw_rad)));
   }
   CHECK(odom.steps() == 200 * 60);
   CHECK(max_p < 1e-9);
@@ -93,10 +93,10 @@ TEST_CASE("the velocity error acts in the body frame: a forward bias follows the
   Vec3d expected = Vec3d::Zero();
   for (int k = 0; k < 2000; ++k)
     expected += Eigen::AngleAxisd(w * k / 200.0, Vec3d::UnitZ()) * Vec3d(0.1, 0.1, 0.1) / 200.0;
-  CHECK((odom.pose().p_W - expected).norm() < 1e-9);
+  CHECK((odom.pose().position_W - expected).norm() < 1e-9);
   // In the world frame the same error would have moved it by (1, 1, 1): clearly different.
-  CHECK((odom.pose().p_W - Vec3d(1, 1, 1)).norm() > 0.3);
-  CHECK(odom.pose().yaw == Approx(M_PI / 2).margin(1e-9));
+  CHECK((odom.pose().position_W - Vec3d(1, 1, 1)).norm() > 0.3);
+  CHECK(odom.pose().yaw_rad == Approx(M_PI / 2).margin(1e-9));
 }
 
 TEST_CASE("drift is seeded: the same seed replays the same odometry, another seed does not", "[sim][drift]") {
@@ -105,8 +105,8 @@ TEST_CASE("drift is seeded: the same seed replays the same odometry, another see
     for (int k = 1; k <= 2000; ++k) odom.advance(k / 200.0, truthAt(k / 200.0));
     return odom.pose();
   };
-  CHECK((run(3).p_W - run(3).p_W).norm() == 0.0);
-  CHECK((run(3).p_W - run(4).p_W).norm() > 1e-4);
+  CHECK((run(3).position_W - run(3).position_W).norm() == 0.0);
+  CHECK((run(3).position_W - run(4).position_W).norm() > 1e-4);
   DriftingOdometry odom(DriftConfig::preset("s2"), FlatPose{}, 1.0);
   CHECK_THROWS_AS(odom.advance(0.5, FlatPose{}), std::invalid_argument);
 }

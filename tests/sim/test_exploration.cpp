@@ -44,7 +44,7 @@ ExplorationConfig twoRoomConfig(const std::string& drift) {
   c.simulator.drift = DriftConfig::preset(drift, 3);
   c.mapper.tsdf.voxel_size_m = 0.1;
   c.planner.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(8, 4, 2.5));
-  c.start.p_W = Vec3d(2.0, 2.0, 1.2);
+  c.start.position_W = Vec3d(2.0, 2.0, 1.2);
   c.max_time_s = 150.0;
   return c;
 }
@@ -65,7 +65,7 @@ TEST_CASE("Closed-loop exploration of two rooms finishes, covers them, and never
   CHECK(r.collisions == 0);
   CHECK(r.min_clearance_m >= config.vehicle_radius_m);
   CHECK(r.path_length_m > 4.0);  // it went through the door into the second room
-  const ObservableSurface observable(world, config.planner.box_W, config.start.p_W);
+  const ObservableSurface observable(world, config.planner.box_W, config.start.position_W);
   const double coverage = observable.coverage(planner::TsdfMapQuery(r.mapper->volume()));
   INFO("coverage " << coverage);
   CHECK(coverage >= 0.95);
@@ -124,7 +124,7 @@ TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", 
   for (std::size_t i = 0; i < r.trajectory_true.size(); ++i)
     max_gap = std::max(max_gap, (r.trajectory_true[i].T_W_S.translation() - r.trajectory_estimate[i].T_W_S.translation()).norm());
   CHECK(max_gap > 0.0);
-  const ObservableSurface observable(world, config.planner.box_W, config.start.p_W);
+  const ObservableSurface observable(world, config.planner.box_W, config.start.position_W);
   // Below s1's 0.95: corrections move keyframes, and pruning with 2-voxel cells releases some
   // floor and ceiling voxels that a level camera sees only at its frustum's edges.
   CHECK(observable.coverage(planner::TsdfMapQuery(r.mapper->volume())) >= 0.85);

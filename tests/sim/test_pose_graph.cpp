@@ -13,10 +13,10 @@ using namespace vdbmap::sim;
 TEST_CASE("relativePose and compose are inverse, across the yaw wrap", "[sim][pose_graph]") {
   const FlatPose a{Vec3d(1, 2, 3), 3.0}, b{Vec3d(-2, 0.5, 1), -3.0};
   const FlatPose r = relativePose(a, b);
-  CHECK(std::abs(r.yaw) < M_PI);  // the short way round: 2 pi - 6 rad
+  CHECK(std::abs(r.yaw_rad) < M_PI);  // the short way round: 2 pi - 6 rad
   const FlatPose b2 = compose(a, r);
-  CHECK((b2.p_W - b.p_W).norm() < 1e-12);
-  CHECK(std::abs(angleDifference(b2.yaw, b.yaw)) < 1e-12);
+  CHECK((b2.position_W - b.position_W).norm() < 1e-12);
+  CHECK(std::abs(angleDifference(b2.yaw_rad, b.yaw_rad)) < 1e-12);
 }
 
 TEST_CASE("a perfect loop edge removes most of the end-point error of a drifted square loop", "[sim][pose_graph]") {
@@ -40,32 +40,32 @@ TEST_CASE("a perfect loop edge removes most of the end-point error of a drifted 
   graph.addNode(odom);
   for (std::size_t i = 1; i < truth.size(); ++i) {
     FlatPose step = relativePose(truth[i - 1], truth[i]);
-    step.p_W += Vec3d(noise_t(rng), noise_t(rng), noise_t(rng));
-    step.yaw += 0.004 + noise_yaw(rng);  // a yaw bias, as s3/s4 drift has
+    step.position_W += Vec3d(noise_t(rng), noise_t(rng), noise_t(rng));
+    step.yaw_rad += 0.004 + noise_yaw(rng);  // a yaw bias, as s3/s4 drift has
     odom = compose(odom, step);
     graph.addNode(odom);
     graph.addEdge({i - 1, i, step, 0.01, 0.005});
   }
   const std::size_t last = truth.size() - 1;
-  const double error_before = (graph.pose(last).p_W - truth[last].p_W).norm();
+  const double error_before = (graph.pose(last).position_W - truth[last].position_W).norm();
   REQUIRE(error_before > 1.0);
   // The loop closure: the true relative pose of the last node seen from the first.
   graph.addEdge({0, last, relativePose(truth[0], truth[last]), 0.001, 0.0005});
   const PoseGraphSummary s = graph.optimize();
   CHECK(s.final_cost < s.initial_cost);
-  const double error_after = (graph.pose(last).p_W - truth[last].p_W).norm();
+  const double error_after = (graph.pose(last).position_W - truth[last].position_W).norm();
   CHECK(error_after < 0.05 * error_before);
-  CHECK(std::abs(angleDifference(graph.pose(last).yaw, truth[last].yaw)) < 0.01);
+  CHECK(std::abs(angleDifference(graph.pose(last).yaw_rad, truth[last].yaw_rad)) < 0.01);
   // The rest of the loop improves too: the worst position error drops by more than half.
   double worst_before = 0.0, worst_after = 0.0;
   FlatPose o = truth[0];
   for (std::size_t i = 1; i < truth.size(); ++i) {
     o = compose(o, graph.edges()[i - 1].relative);
-    worst_before = std::max(worst_before, (o.p_W - truth[i].p_W).norm());
-    worst_after = std::max(worst_after, (graph.pose(i).p_W - truth[i].p_W).norm());
+    worst_before = std::max(worst_before, (o.position_W - truth[i].position_W).norm());
+    worst_after = std::max(worst_after, (graph.pose(i).position_W - truth[i].position_W).norm());
   }
   CHECK(worst_after < 0.5 * worst_before);
-  CHECK((graph.pose(0).p_W - truth[0].p_W).norm() == 0.0);  // node 0 is held fixed
+  CHECK((graph.pose(0).position_W - truth[0].position_W).norm() == 0.0);  // node 0 is held fixed
 }
 
 TEST_CASE("pose graph misuse throws", "[sim][pose_graph][bad-input]") {

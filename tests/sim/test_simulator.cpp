@@ -106,10 +106,10 @@ TEST_CASE("online simulator: a revisit closes a loop and corrects every frame so
 TEST_CASE("flying in pieces (as a replanning planner does) gives the same frames as one flight", "[sim][simulator]") {
   const World world(test::roomWithBox());
   const SimulatorConfig config = smallConfig("s3", LoopClosureMode::PoseGraph);
-  Trajectory circle_traj;
+  SampledTrajectory circle_traj;
   for (int k = 0; k <= 22 * 200; ++k) {
     const FlatPose p = circle(k / 200.0);
-    circle_traj.append({k / 200.0, p.p_W, Vec3d::Zero(), Vec3d::Zero(), p.yaw, 0.0});
+    circle_traj.append(k / 200.0, VehicleState{p.position_W, Vec3d::Zero(), Vec3d::Zero(), p.yaw_rad, 0.0});
   }
   const Run stepped = runOnline(world, config, 22.0);
   Simulator sim(world, config, circle(0.0), 0.0);
@@ -135,11 +135,11 @@ TEST_CASE("flying in pieces (as a replanning planner does) gives the same frames
 TEST_CASE("simulate -> integrate: a drifting flight with loop closure replays, and correction helps the map",
           "[sim][flight]") {
   const World world(test::roomWithBox());
-  Trajectory trajectory;
+  SampledTrajectory trajectory;
   for (int k = 0; k <= 12 * 200; ++k) {
     const double t = k / 200.0;
     const FlatPose p = circle(t);
-    trajectory.append({t, p.p_W, Vec3d::Zero(), Vec3d::Zero(), p.yaw, 0.0});
+    trajectory.append(t, VehicleState{p.position_W, Vec3d::Zero(), Vec3d::Zero(), p.yaw_rad, 0.0});
   }
   SimulatorConfig config = smallConfig("s4", LoopClosureMode::PoseGraph);
   config.camera.intrinsics = {160, 120, 96.8, 96.8, 80.0, 60.0};

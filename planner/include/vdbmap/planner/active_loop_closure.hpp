@@ -144,7 +144,7 @@ class ActiveLoopClosure {
 
   /// After a pose-graph correction: moves the recorded viewpoints (see ViewpointHistory::correct)
   /// and the clusters' centres with them.
-  void correctHistory(const std::function<PoseTarget(const FlownViewpoint&)>& corrected);
+  void correctHistory(const std::function<FlatPose(const FlownViewpoint&)>& corrected);
 
   /// The decision at a global replan. `targets` and `frontier_costs` are the frontier tour's
   /// (frontier_costs = buildTourCostMatrix(costs from `vehicle`, targets, table)); `frontier_tour`

@@ -48,9 +48,9 @@ class CostEvaluator {
   CostEvaluator(const MapQuery& map, const CostParams& cost = {}, const PathParams& path = {});
 
   /// From the vehicle's state (the direction term applies when it moves).
-  LegCost cost(const VehicleState& from, const PoseTarget& to, std::uint64_t query_seed = 0);
+  LegCost cost(const VehicleState& from, const FlatPose& to, std::uint64_t query_seed = 0);
   /// Between two poses at rest.
-  LegCost cost(const PoseTarget& from, const PoseTarget& to, std::uint64_t query_seed = 0);
+  LegCost cost(const FlatPose& from, const FlatPose& to, std::uint64_t query_seed = 0);
 
   PathPlanner& planner() { return planner_; }
   const CostParams& params() const { return params_; }
@@ -63,7 +63,7 @@ class CostEvaluator {
 /// A tour target: one cluster and the pose it is visited from (usually its best viewpoint).
 struct TourTarget {
   ClusterId cluster = 0;
-  PoseTarget pose;
+  FlatPose pose;
 };
 
 /// Costs between the targets of the global tour, kept across replanning: FUEL recomputes only the
@@ -92,7 +92,7 @@ class PairCostTable {
   };
   CostParams cost_;
   PathParams path_;
-  std::map<ClusterId, PoseTarget> poses_;
+  std::map<ClusterId, FlatPose> poses_;
   std::map<std::pair<ClusterId, ClusterId>, Entry> pairs_;  ///< key (low id, high id)
 };
 

@@ -247,7 +247,7 @@ class ExplorationManager {
   ExplorationStep update(const MapQuery& map, const openvdb::CoordBBox& dirty, const VehicleState& vehicle, double t_s);
 
   /// The commanded state at t_s: the current trajectory (held at its end), in the estimate frame.
-  TrajectoryState command(double t_s) const;
+  VehicleState command(double t_s) const;
   /// The current trajectory and when it started.
   const Trajectory& trajectory() const { return trajectory_; }
   double trajectoryStartTime() const { return trajectory_t0_; }
@@ -263,7 +263,7 @@ class ExplorationManager {
   /// the next replan). `corrected`, when given, maps a recorded viewpoint (stamped with the t_s of
   /// the update() that fed it) to its corrected pose in the estimate frame after the correction;
   /// the viewpoint history moves with it. Without ALC, nothing happens.
-  void notifyLoopClosure(double t_s, const std::function<PoseTarget(const FlownViewpoint&)>& corrected = {});
+  void notifyLoopClosure(double t_s, const std::function<FlatPose(const FlownViewpoint&)>& corrected = {});
 
   /// Active loop closure (null when alc_enabled is false).
   const ActiveLoopClosure* alc() const { return alc_.get(); }

@@ -55,15 +55,6 @@ struct TrajectoryParams {
   void validate() const;
 };
 
-/// The commanded state at one instant (world frame; yaw about +z).
-struct TrajectoryState {
-  Vec3d position_W = Vec3d::Zero();
-  Vec3d velocity_W = Vec3d::Zero();
-  Vec3d acceleration_W = Vec3d::Zero();
-  double yaw_rad = 0.0;
-  double yaw_rate_rad_s = 0.0;
-};
-
 /// A time-parametrised trajectory: sample(t) for t in [0, duration()] (clamped outside).
 class Trajectory {
  public:
@@ -73,7 +64,8 @@ class Trajectory {
   static Trajectory hold(const Vec3d& p_W, double yaw_rad);
 
   double duration() const { return duration_s_; }
-  TrajectoryState sample(double t_s) const;
+  /// The commanded state at t_s (world frame).
+  VehicleState sample(double t_s) const;
 
   /// Time spent moving (the rest of duration() is turning in place at the goal).
   double motionDuration() const { return motion_s_; }

@@ -55,7 +55,7 @@ class ViewpointHistory {
 
   /// Moves every recorded viewpoint to `corrected(v)` (e.g. its pose after a pose-graph
   /// correction, looked up by stamp) and rebuilds the KD-tree; stamps and indices stay.
-  void correct(const std::function<PoseTarget(const FlownViewpoint&)>& corrected);
+  void correct(const std::function<FlatPose(const FlownViewpoint&)>& corrected);
 
   const ViewpointHistoryParams& params() const { return params_; }
 

@@ -54,8 +54,8 @@ struct CoverageConfig {
 };
 
 struct CoveragePlan {
-  std::vector<Waypoint> waypoints;  ///< the stop-and-go path with yaws (unwrapped)
-  Trajectory trajectory;
+  std::vector<FlatPose> waypoints;  ///< the stop-and-go path with yaws (unwrapped)
+  SampledTrajectory trajectory;
   std::vector<Vec3d> targets;       ///< lane targets in visiting order
   std::size_t free_cells = 0;       ///< grid cells free of the world
   std::size_t reachable_cells = 0;  ///< of them, reachable from the start

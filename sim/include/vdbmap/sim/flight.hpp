@@ -48,7 +48,7 @@ struct FlightResult {
 /// handing each to `on_frame`. The building block of simulateFlight and of closed-loop flights (a
 /// planner calls it with its newest trajectory, then replans). Throws std::invalid_argument for an
 /// empty trajectory.
-void flyAlong(Simulator& sim, const Trajectory& trajectory, double t_end_s,
+void flyAlong(Simulator& sim, const SampledTrajectory& trajectory, double t_end_s,
               const std::function<void(SimFrame&)>& on_frame);
 
 /// The same with the true pose given per step by `truth_at(t)`, called once per drift step (and
@@ -90,7 +90,7 @@ class FlightRecorder {
 /// Flies `trajectory` and writes the log to `log_dir`. Throws std::invalid_argument for an empty
 /// trajectory or an invalid config, std::runtime_error when `log_dir` holds a log and overwrite
 /// is false or a file cannot be written.
-FlightResult simulateFlight(const World& world, const Trajectory& trajectory, const SimulatorConfig& config,
+FlightResult simulateFlight(const World& world, const SampledTrajectory& trajectory, const SimulatorConfig& config,
                             const std::filesystem::path& log_dir, const FlightOptions& options = {});
 
 }  // namespace vdbmap::sim

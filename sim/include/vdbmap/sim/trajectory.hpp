@@ -1,11 +1,12 @@
 // Time-parametrised vehicle trajectories: position and yaw as functions of time.
 //
-// The vehicle is flat: a position p_W and a yaw about world z (the heading of the body x axis);
-// roll and pitch stay zero, as for a multicopter flying slowly. The body frame B is x forward,
-// y left, z up; the camera is mounted on it (see flight.hpp). A Trajectory is a densely sampled
-// record of FlatStates (by default every 5 ms, the drift model's 200 Hz), linearly interpolated
-// between samples; yaw is unwrapped (continuous, not limited to [-pi, pi]). Any planner can hand
-// one over: sample its own representation into a Trajectory.
+// The vehicle speaks the planner's vocabulary (planner/vehicle_state.hpp): a FlatPose (position
+// and yaw about world z, the heading of the body x axis; roll and pitch stay zero) and a
+// VehicleState. The body frame B is x forward, y left, z up; the camera is mounted on it (see
+// flight.hpp). A SampledTrajectory is a dense record of VehicleStates in time (by default every
+// 5 ms, the drift model's 200 Hz), linearly interpolated between samples; yaw is unwrapped
+// (continuous, not limited to [-pi, pi]). Any planner can hand one over: sample its own
+// representation (e.g. planner::Trajectory::sample) into a SampledTrajectory.
 //
 // timeParametrize turns a path of waypoints into a trajectory that stops at every waypoint and
 // moves along straight segments with a trapezoidal speed profile (|a| <= a_max, |v| <= v_max), its
@@ -13,6 +14,7 @@
 // move is slowed to last as long.
 #pragma once
 
+#include "vdbmap/planner/vehicle_state.hpp"
 #include "vdbmap/types.hpp"
 
 #include <filesystem>
@@ -20,27 +22,13 @@
 
 namespace vdbmap::sim {
 
-/// The vehicle's state at a time.
-struct FlatState {
-  double t_s = 0.0;
-  Vec3d p_W = Vec3d::Zero();
-  Vec3d v_W = Vec3d::Zero();
-  Vec3d a_W = Vec3d::Zero();
-  double yaw = 0.0;       ///< radians, unwrapped
-  double yaw_rate = 0.0;  ///< rad/s
-};
-
-/// A flat body pose: position and yaw (what drift, loop closure and the pose graph act on).
-struct FlatPose {
-  Vec3d p_W = Vec3d::Zero();
-  double yaw = 0.0;
-};
+using planner::FlatPose;
+using planner::VehicleState;
 
 /// The body pose T_W_B of a flat state (rotation about z by yaw).
-Pose3d bodyPose(const Vec3d& p_W, double yaw);
-inline Pose3d bodyPose(const FlatState& s) { return bodyPose(s.p_W, s.yaw); }
-inline Pose3d bodyPose(const FlatPose& p) { return bodyPose(p.p_W, p.yaw); }
-inline FlatPose flatPose(const FlatState& s) { return {s.p_W, s.yaw}; }
+Pose3d bodyPose(const Vec3d& position_W, double yaw_rad);
+inline Pose3d bodyPose(const FlatPose& p) { return bodyPose(p.position_W, p.yaw_rad); }
+inline Pose3d bodyPose(const VehicleState& s) { return bodyPose(s.position_W, s.yaw_rad); }
 
 /// The paper's simulated vehicle: 2.0 m/s, 2.0 m/s^2, 0.9 rad/s.
 struct MotionLimits {
@@ -59,49 +47,47 @@ struct TrajectoryMaxima {
   bool within(const MotionLimits& limits, double relative_tolerance = 1e-3) const;
 };
 
-class Trajectory {
+class SampledTrajectory {
  public:
-  /// Appends a state; throws std::invalid_argument when a value is not finite or t_s is not
-  /// greater than the last one's.
-  void append(const FlatState& state);
-  bool empty() const { return samples_.empty(); }
+  /// Appends the state at t_s; throws std::invalid_argument when a value is not finite or t_s is
+  /// not greater than the last one's.
+  void append(double t_s, const VehicleState& state);
+  bool empty() const { return states_.empty(); }
   double startTime() const;
   double endTime() const;
   double duration() const { return empty() ? 0.0 : endTime() - startTime(); }
   /// The state at time t: linear interpolation between samples; before the start or after the end
   /// the first or last state with zero velocity, acceleration and yaw rate (hovering). Throws
   /// std::logic_error on an empty trajectory.
-  FlatState sample(double t) const;
-  const std::vector<FlatState>& samples() const { return samples_; }
+  VehicleState sample(double t_s) const;
+  /// The samples: their times (increasing) and states, index by index.
+  const std::vector<double>& times() const { return times_s_; }
+  const std::vector<VehicleState>& states() const { return states_; }
   /// Path length in metres (sum of distances between consecutive samples).
   double length_m() const;
   TrajectoryMaxima maxima() const;
 
  private:
-  std::vector<FlatState> samples_;
+  std::vector<double> times_s_;
+  std::vector<VehicleState> states_;
 };
 
-/// A point of a path: where to go and which way to face there.
-struct Waypoint {
-  Vec3d p_W = Vec3d::Zero();
-  double yaw = 0.0;
-};
-
-/// Stop-and-go time parametrisation of a path (see the file comment), sampled every dt_s from
+/// Stop-and-go time parametrisation of a path of poses (where to go, which way to face there; see
+/// the file comment), sampled every dt_s from
 /// t = start_time_s and at the exact time of every stop. Consecutive waypoints may coincide (a turn on the spot). Yaw
 /// moves the short way round unless the waypoints' yaws are unwrapped on purpose (a difference beyond pi turns the long
 /// way, so 2 pi is a full turn). Throws std::invalid_argument for an empty path, invalid limits or dt_s outside (0, 1].
-Trajectory timeParametrize(const std::vector<Waypoint>& path, const MotionLimits& limits, double dt_s = 0.005,
-                           double start_time_s = 0.0, bool shortest_yaw = true);
+SampledTrajectory timeParametrize(const std::vector<FlatPose>& path, const MotionLimits& limits, double dt_s = 0.005,
+                                  double start_time_s = 0.0, bool shortest_yaw = true);
 
 /// Reads a waypoint file: one waypoint a line, "x y z" or "x y z yaw" (metres, radians), '#'
 /// starts a comment, blank lines are skipped. A missing yaw faces the next waypoint (the last one
 /// keeps the previous yaw). Throws std::runtime_error "<file>:<line>: ..." on a malformed line or
 /// a file with no waypoint.
-std::vector<Waypoint> readWaypoints(const std::filesystem::path& path);
+std::vector<FlatPose> readWaypoints(const std::filesystem::path& path);
 
 /// Writes waypoints as readWaypoints reads them (with yaw).
-void writeWaypoints(const std::filesystem::path& path, const std::vector<Waypoint>& waypoints);
+void writeWaypoints(const std::filesystem::path& path, const std::vector<FlatPose>& waypoints);
 
 /// The shortest signed angle from `from` to `to`, in (-pi, pi].
 double angleDifference(double to, double from);
