@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
   for (int i = 0; i < frames; ++i) {
     const double a = 4 * M_PI * i / frames;
     const Pose3d T = vdbmap::lookingPose({5.0 * std::cos(a), 3.5 * std::sin(a), 1.3}, a + M_PI / 2, 0.1);
-    mapper.addDepthFrame(i, 0.1 * i, scene.renderDepth(*K, T, 6.0), K, T);
+    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(scene.renderDepth(*K, T, 6.0), K), T);
     // A correction that grows along the path, as after a loop closure, and moves every frame beyond
     // the gates (1 cm, 0.5 deg), so that all N are re-integrated.
     const double g = 0.5 + 0.5 * double(i) / frames;

@@ -87,25 +87,26 @@ void bindFrames(py::module_& m) {
       .def_readonly("timestamp_s", &io::Frame::timestamp_s, "seconds")
       .def_property_readonly(
           "T_W_S", [](const io::Frame& x) { return toArray(x.T_W_S); }, "(4, 4) float64")
-      .def_readonly("is_depth", &io::Frame::is_depth, "a depth image (else points)")
+      .def_property_readonly(
+          "is_depth", [](const io::Frame& x) { return x.data.isDepth(); }, "a depth image (else points)")
       .def_property_readonly(
           "depth",
           [](const io::Frame& x) -> py::object {
-            if (!x.is_depth) return py::none();
-            return toArray(x.depth);
+            if (!x.data.isDepth()) return py::none();
+            return toArray(x.data.depthImage());
           },
           "(H, W) float32 metres (0 = invalid) for depth frames, else None")
       .def_property_readonly(
           "points_S",
           [](const io::Frame& x) -> py::object {
-            if (x.is_depth) return py::none();
-            return toArray(x.points_S);
+            if (x.data.isDepth()) return py::none();
+            return toArray(x.data.points_S());
           },
           "(N, 3) float32 in the sensor frame for point frames, else None")
       .def("__repr__", [](const io::Frame& x) {
         return "Frame(index=" + std::to_string(x.index) +
                ", timestamp_s=" + std::string(py::repr(py::float_(x.timestamp_s))) +
-               ", is_depth=" + (x.is_depth ? "True" : "False") + ")";
+               ", is_depth=" + (x.data.isDepth() ? "True" : "False") + ")";
       });
 
   py::class_<io::CorrectionEvent> c(m, "CorrectionEvent",

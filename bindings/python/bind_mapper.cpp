@@ -76,10 +76,10 @@ void bindMapperClass(py::module_& m) {
        "add_depth_frame",
        [](Mapper& self, FrameId id, double timestamp, py::handle depth, const CameraIntrinsics& K, py::handle T_W_S,
           std::optional<double> depth_scale) {
-         const DepthImage d = toDepth(depth, depth_scale, "depth");
+         const SensorFrame frame =
+             SensorFrame::depth(toDepth(depth, depth_scale, "depth"), std::make_shared<const CameraIntrinsics>(K));
          const Pose3d T = toPose(T_W_S, "T_W_S");
-         auto intrinsics = std::make_shared<const CameraIntrinsics>(K);
-         return withLock(&self, Access::Write, [&] { return self.addDepthFrame(id, timestamp, d, intrinsics, T); });
+         return withLock(&self, Access::Write, [&] { return self.addFrame(id, timestamp, frame, T); });
        },
        py::arg("frame_id"), py::arg("timestamp"), py::arg("depth"), py::arg("intrinsics"), py::arg("T_W_S"),
        py::arg("depth_scale") = py::none(),
@@ -89,9 +89,9 @@ void bindMapperClass(py::module_& m) {
       .def(
           "add_point_frame",
           [](Mapper& self, FrameId id, double timestamp, py::handle points_S, py::handle T_W_S) {
-            const PointCloud p = toPoints(points_S, "points_S");
+            const SensorFrame frame = SensorFrame::points(toPoints(points_S, "points_S"));
             const Pose3d T = toPose(T_W_S, "T_W_S");
-            return withLock(&self, Access::Write, [&] { return self.addPointFrame(id, timestamp, p, T); });
+            return withLock(&self, Access::Write, [&] { return self.addFrame(id, timestamp, frame, T); });
           },
           py::arg("frame_id"), py::arg("timestamp"), py::arg("points_S"), py::arg("T_W_S"),
           "Same for points (N, 3) in the sensor frame.")

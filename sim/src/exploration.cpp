@@ -169,8 +169,9 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     result.trajectory_true.push_back({frame.t_s, frame.T_W_S_true});
     result.trajectory_estimate.push_back({frame.t_s, frame.T_W_S_estimate});
     frame_times.push_back(frame.t_s);
+    const SensorFrame data = SensorFrame::depth(std::move(frame.depth), K);  // the frame is not used after this
     Stopwatch mapper_watch;  // the mapper's own work only: integration, correction, background cycle
-    mapper.addDepthFrame(FrameId(frame.index), frame.t_s, frame.depth, K, frame.T_W_S_estimate);
+    mapper.addFrame(FrameId(frame.index), frame.t_s, data, frame.T_W_S_estimate);
     const double integrate_ms = mapper_watch.ms();
     double mapper_ms_this_frame = integrate_ms;
     if (frame.correction) {

@@ -59,8 +59,7 @@ TEST_CASE("vdbmap reintegrate corrects a saved map exactly as integrating at the
   mc.integrator.min_range_m = sensor.min_range_m;
   mc.integrator.max_range_m = sensor.max_range_m;
   Mapper scratch(mc);
-  const auto K = std::make_shared<const CameraIntrinsics>(sensor.intrinsics);
-  for (std::size_t i = 0; i < source->size(); ++i) scratch.addDepthFrame(i, odom[i].timestamp_s, source->load(i).depth, K, corrected[i]);
+  for (std::size_t i = 0; i < source->size(); ++i) scratch.addFrame(i, odom[i].timestamp_s, source->load(i).data, corrected[i]);
   CHECK(TsdfVolume::load(dir / "fixed.vdb").exactlyEquals(scratch.volume()));
   CHECK_FALSE(TsdfVolume::load(dir / "map.vdb").exactlyEquals(scratch.volume()));  // the correction did something
 

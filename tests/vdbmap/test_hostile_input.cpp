@@ -490,11 +490,11 @@ TEST_CASE("a pose far beyond the range of the map is refused before any work and
   Pose3d beyond_cells = Pose3d::Identity();
   beyond_cells.translation() = Vec3d(0.0, 20000.0, 0.0);
   const auto camera = std::make_shared<const CameraIntrinsics>(K);
-  CHECK_THROWS_WITH(mapper.addDepthFrame(5, 0.0, depth, camera, beyond_cells),
+  CHECK_THROWS_WITH(mapper.addFrame(5, 0.0, SensorFrame::depth(depth, camera), beyond_cells),
                     Catch::Contains("frame 5") && Catch::Contains("frame pruning"));
   CHECK(mapper.volume().frameCount() == 0);
   CHECK(mapper.keyframes().size() == 0);
-  mapper.addDepthFrame(6, 0.1, depth, camera, Pose3d::Identity());
+  mapper.addFrame(6, 0.1, SensorFrame::depth(depth, camera), Pose3d::Identity());
   CHECK_THROWS_WITH(mapper.updatePoses({{6, beyond_cells}}), Catch::Contains("frame 6") && Catch::Contains("frame pruning"));
   CHECK(mapper.queuedFrames() == 0);
 }

@@ -35,7 +35,7 @@ double reprojectionAgreement(const FrameSource& src, std::size_t i, std::size_t 
   const Frame a = src.load(i), b = src.load(j);
   CameraIntrinsics K = src.sensor().intrinsics;
   if (wrong_convention == 2) K.fy = -K.fy;
-  const PointCloud pts = backProject(a.depth, K, kReprojectionStride);
+  const PointCloud pts = backProject(a.data.depthImage(), K, kReprojectionStride);
   const Pose3d T_b_a = wrong_convention == 1 ? Pose3d(b.T_W_S * a.T_W_S.inverse()) : Pose3d(b.T_W_S.inverse() * a.T_W_S);
   std::size_t in_view = 0, agree = 0;
   for (const Vec3f& p : pts) {
@@ -45,7 +45,7 @@ double reprojectionAgreement(const FrameSource& src, std::size_t i, std::size_t 
     const int u = int(std::lround(K.fx * q.x() / q.z() + K.cx));
     const int v = int(std::lround(K.fy * q.y() / q.z() + K.cy));
     if (u < 0 || v < 0 || u >= K.width || v >= K.height) continue;
-    const float d = b.depth.at(u, v);
+    const float d = b.data.depthImage().at(u, v);
     if (!(d > 0.0f)) continue;
     ++in_view;
     if (std::abs(double(d) - q.z()) < kAgreementDistance_m) ++agree;
@@ -78,8 +78,8 @@ TEST_CASE("7-Scenes importer (tsdf-fusion-python layout)", "[io][importers][shar
   CHECK(src->record(1).timestamp_s == Approx(2.0 / 30.0));
   const Frame f = src->load(0);
   checkPose(f.T_W_S, {-0.34045634, 0.016469818, 0.29656917}, {0.9093129, 0.27262229, -0.31422433});
-  CHECK(std::abs(f.depth.at(320, 240) - 1.382) < kDepthTolerance_m);
-  CHECK(f.depth.at(100, 50) == 0.0f);
+  CHECK(std::abs(f.data.depthImage().at(320, 240) - 1.382) < kDepthTolerance_m);
+  CHECK(f.data.depthImage().at(100, 50) == 0.0f);
   // PROVENANCE.md: frames 0 -> 50 agree 91 % within 3 cm (2-5 % with inverted poses).
   CHECK(reprojectionAgreement(*src, 0, 25) > 0.8);
   CHECK(reprojectionAgreement(*src, 0, 25, /*inverted poses*/ 1) < 0.3);
@@ -96,7 +96,7 @@ TEST_CASE("3DMatch importer (nvblox test data)", "[io][importers][shared]") {
     CHECK(src->record(3).file.filename() == "frame-000116.depth.png");
     const Frame f = src->load(0);
     checkPose(f.T_W_S, {1.973046, 1.125734, 0.309820}, {0.313181, 0.309473, -0.897856});
-    CHECK(std::abs(f.depth.at(320, 240) - 2.485) < kDepthTolerance_m);
+    CHECK(std::abs(f.data.depthImage().at(320, 240) - 2.485) < kDepthTolerance_m);
   }
   // PROVENANCE.md: frame 0 -> 1 agree 74 % within 3 cm.
   CHECK(reprojectionAgreement(*openDataset(sharedData("nvblox_testdata/3dmatch")), 0, 1) > 0.6);
@@ -113,7 +113,7 @@ TEST_CASE("ICL-NUIM importer (slambook2 layout, fy < 0)", "[io][importers][share
   const Frame f = src->load(0);
   const Pose3d ref = poseFromTranslationQuaternion({0.000466347, 0.00895357, -2.24935}, -0.00101358, 0.00052453, -0.000231475, 0.999999);
   CHECK((f.T_W_S.matrix() - ref.matrix()).cwiseAbs().maxCoeff() < kPoseTolerance);
-  CHECK(std::abs(f.depth.at(320, 240) - 16890.0 / 5000.0) < kDepthTolerance_m);
+  CHECK(std::abs(f.data.depthImage().at(320, 240) - 16890.0 / 5000.0) < kDepthTolerance_m);
   // PROVENANCE.md: 1 -> 3 agree 82-92 % (<= 34 % with fy = +480 or inverted poses).
   CHECK(reprojectionAgreement(*src, 0, 2) > 0.7);
   CHECK(reprojectionAgreement(*src, 0, 2, /*fy = +480*/ 2) < 0.4);
@@ -131,7 +131,7 @@ TEST_CASE("Redwood importer (Open3D test data)", "[io][importers][shared]") {
     const Frame f = src->load(0);
     checkPose(f.T_W_S, {-0.31057997014702826, 0.5730122438481298, 2.1264800183565487},
               {-0.2739592186924325, 0.021819345900466677, -0.9614937663021573});
-    CHECK(std::abs(f.depth.at(320, 240) - 2.195) < kDepthTolerance_m);
+    CHECK(std::abs(f.data.depthImage().at(320, 240) - 2.195) < kDepthTolerance_m);
     // PROVENANCE.md: consecutive frames agree 97.7-98.4 %.
     CHECK(reprojectionAgreement(*src, 0, 1) > 0.9);
   }
@@ -149,7 +149,7 @@ TEST_CASE("Replica importer (nvblox test data)", "[io][importers][shared]") {
     const Frame f = src->load(0);
     checkPose(f.T_W_S, {-0.3569159214564542, -0.6602722315763628, 0.8192365926179191},
               {0.9062491181555123, -0.2954311239679593, 0.3023788796086531});
-    CHECK(std::abs(f.depth.at(320, 240) - 15126.0 / 6553.5) < kDepthTolerance_m);
+    CHECK(std::abs(f.data.depthImage().at(320, 240) - 15126.0 / 6553.5) < kDepthTolerance_m);
     CHECK(reprojectionAgreement(*src, 0, 1) > 0.8);
   }
 }
@@ -188,7 +188,7 @@ TEST_CASE("TUM RGB-D importer on a small synthetic sequence", "[io][importers]")
   CHECK(f.timestamp_s == Approx(t).margin(1e-6));
   CHECK(f.T_W_S.translation().x() == Approx(t - 100.0).margin(1e-6));  // interpolated
   CHECK(Eigen::AngleAxisd(f.T_W_S.linear()).angle() == Approx(0.5 * (t - 100.0)).margin(1e-6));
-  CHECK(f.depth.at(5, 5) == Approx(2.5f));
+  CHECK(f.data.depthImage().at(5, 5) == Approx(2.5f));
   CHECK(src->groundTruth().size() == 21);
   VDBMAP_REQUIRE_THROWS_MENTIONING(src->load(4), "frame 4", "depth.txt:6", "ground-truth");
   // A sensor.json beside depth.txt overrides the default intrinsics.

@@ -70,13 +70,13 @@ TEST_CASE("LogWriter then openDataset round trip (depth)", "[io][log]") {
   CHECK(s.max_range_m == 6.0);
   for (std::size_t i = 0; i < 4; ++i) {
     const Frame f = src->load(i);
-    CHECK(f.is_depth);
+    CHECK(f.data.isDepth());
     CHECK(f.timestamp_s == Approx(10.0 + 0.1 * double(i)).margin(1e-9));
     CHECK((f.T_W_S.matrix() - poseAt(int(i)).matrix()).cwiseAbs().maxCoeff() < kPoseTolerance);
     const DepthImage ref = depthAt(int(i));
-    REQUIRE(f.depth.depth_m.size() == ref.depth_m.size());
+    REQUIRE(f.data.depthImage().depth_m.size() == ref.depth_m.size());
     double max_err = 0;
-    for (std::size_t k = 0; k < ref.depth_m.size(); ++k) max_err = std::max(max_err, std::abs(double(f.depth.depth_m[k] - ref.depth_m[k])));
+    for (std::size_t k = 0; k < ref.depth_m.size(); ++k) max_err = std::max(max_err, std::abs(double(f.data.depthImage().depth_m[k] - ref.depth_m[k])));
     CHECK(max_err <= 0.5 * 0.0005 + 1e-6);
   }
   REQUIRE(src->corrections().size() == 1);
@@ -117,9 +117,9 @@ TEST_CASE("LogWriter then openDataset round trip (points)", "[io][log]") {
     CHECK(src->sensor().max_range_m == 30.0);
     REQUIRE(src->size() == 2);
     const Frame f = src->load(0);
-    CHECK_FALSE(f.is_depth);
-    CHECK(f.points_S == PointCloud{Vec3f(1, 2, 3), Vec3f(4, 5, 6)});
-    CHECK(src->load(1).points_S.size() == 1);
+    CHECK_FALSE(f.data.isDepth());
+    CHECK(f.data.points_S() == PointCloud{Vec3f(1, 2, 3), Vec3f(4, 5, 6)});
+    CHECK(src->load(1).data.points_S().size() == 1);
   }
 }
 
@@ -297,7 +297,7 @@ TEST_CASE("openDataset rejects bad logs naming the file and line", "[io][log][ba
   SECTION("absolute frame paths are accepted") {
     writeText(log / "frames.csv", header + "10.0," + (log / "depth" / "000000.png").string() + ",0,0,0,0,0,0,1\n");
     std::filesystem::remove_all(log / "corrections");
-    CHECK(openDataset(log)->load(0).depth.width == 32);
+    CHECK(openDataset(log)->load(0).data.depthImage().width == 32);
   }
   CHECK(csv.rfind(header, 0) == 0);
 }

@@ -54,11 +54,11 @@ TEST_CASE("re-integrating a frame at pose B equals integrating it at B in a fres
   for (const ConsistencyMode mode : {ConsistencyMode::All, ConsistencyMode::Keyframes}) {
     INFO("mode " << toString(mode));
     Mapper mapper(config(mode));
-    mapper.addDepthFrame(0, 0.0, depth, K, A);
+    mapper.addFrame(0, 0.0, SensorFrame::depth(depth, K), A);
     REQUIRE(mapper.updatePoses({{0, B}}) == 1);
     mapper.reintegrateAll(B.translation());
     Mapper fresh(config(mode));
-    fresh.addDepthFrame(0, 0.0, depth, K, B);
+    fresh.addFrame(0, 0.0, SensorFrame::depth(depth, K), B);
     CHECK(mapper.volume().exactlyEquals(fresh.volume()));
     CHECK(mapper.stats().reintegrated_frames == 1);
     CHECK(mapper.keyframes().at(0).T_W_S_integrated.isApprox(B));
@@ -75,13 +75,13 @@ TEST_CASE("a frame corrected twice ends identical to integrating it once at the 
   const DepthImage d1 = kScene.renderDepth(*K, A1, 5.0);
 
   Mapper fresh(config(ConsistencyMode::All));
-  fresh.addDepthFrame(0, 0.0, d0, K, C);
-  fresh.addDepthFrame(1, 0.1, d1, K, A1);
+  fresh.addFrame(0, 0.0, SensorFrame::depth(d0, K), C);
+  fresh.addFrame(1, 0.1, SensorFrame::depth(d1, K), A1);
 
   SECTION("re-integrated after each correction") {
     Mapper mapper(config(ConsistencyMode::All));
-    mapper.addDepthFrame(0, 0.0, d0, K, A);
-    mapper.addDepthFrame(1, 0.1, d1, K, A1);
+    mapper.addFrame(0, 0.0, SensorFrame::depth(d0, K), A);
+    mapper.addFrame(1, 0.1, SensorFrame::depth(d1, K), A1);
     mapper.updatePoses({{0, B}});
     mapper.reintegrateAll(Vec3d::Zero());
     mapper.updatePoses({{0, C}});
@@ -91,8 +91,8 @@ TEST_CASE("a frame corrected twice ends identical to integrating it once at the 
   }
   SECTION("both corrections arrive before the frame's turn") {
     Mapper mapper(config(ConsistencyMode::All));
-    mapper.addDepthFrame(0, 0.0, d0, K, A);
-    mapper.addDepthFrame(1, 0.1, d1, K, A1);
+    mapper.addFrame(0, 0.0, SensorFrame::depth(d0, K), A);
+    mapper.addFrame(1, 0.1, SensorFrame::depth(d1, K), A1);
     mapper.updatePoses({{0, B}});
     mapper.updatePoses({{0, C}});
     CHECK(mapper.queuedFrames() == 1);
@@ -107,14 +107,14 @@ TEST_CASE("pose changes below the gate are not re-integrated; none mode ignores 
   const Pose3d A = lookingPose({0, 0, 1.2}, 0.0, 0.2);
   const DepthImage depth = kScene.renderDepth(*K, A, 5.0);
   Mapper all(config(ConsistencyMode::All));
-  all.addDepthFrame(0, 0.0, depth, K, A);
+  all.addFrame(0, 0.0, SensorFrame::depth(depth, K), A);
   CHECK(all.updatePoses({{0, moved(A, {0.005, 0, 0}, 0.0)}}) == 0);           // 5 mm < 1 cm
   CHECK(all.updatePoses({{0, moved(A, {0, 0, 0}, 0.3 * M_PI / 180)}}) == 0);  // 0.3 deg < 0.5 deg
   CHECK(all.updatePoses({{0, moved(A, {0.02, 0, 0}, 0.0)}}) == 1);
   CHECK(all.updatePoses({{42, A}}) == 0);  // an unknown frame is skipped
 
   Mapper none(config(ConsistencyMode::None));
-  none.addDepthFrame(0, 0.0, depth, K, A);
+  none.addFrame(0, 0.0, SensorFrame::depth(depth, K), A);
   CHECK(none.updatePoses({{0, moved(A, {0.5, 0, 0}, 0.2)}}) == 0);
   CHECK(none.queuedFrames() == 0);
   CHECK(none.keyframesKept() == 0);
@@ -130,7 +130,7 @@ TEST_CASE("each cycle keeps to its budget and takes the frames nearest the robot
   std::map<FrameId, Pose3d> corrected;
   for (int i = 0; i < 6; ++i) {
     const Pose3d T = lookingPose({-3.0 + 1.2 * i, 0.0, 1.2}, 0.5 * i, 0.2);
-    mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*K, T, 5.0), K, T);
+    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*K, T, 5.0), K), T);
     corrected[i] = moved(T, {0.05, 0.05, 0}, 0.02);
   }
   REQUIRE(mapper.updatePoses(corrected) == 6);
@@ -161,7 +161,7 @@ TEST_CASE("a solve dropping many frames de-integrates them in background cycles 
   for (int i = 0; i < n; ++i) {
     poses.push_back(lookingPose({0.3, 0.1, 1.2}, 0.4, 0.2));
     depths.push_back(kScene.renderDepth(*K, poses.back(), 5.0));
-    mapper.addDepthFrame(i, 0.1 * i, depths.back(), K, poses.back());
+    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(depths.back(), K), poses.back());
   }
   REQUIRE(mapper.stats().pruning_solves == 1);
   const std::size_t dropped = mapper.queuedFrames();
@@ -188,7 +188,7 @@ TEST_CASE("a solve dropping many frames de-integrates them in background cycles 
   const std::size_t kept = mapper.keyframesKept();
   CHECK(kept == std::size_t(n) - dropped);
   Mapper only_kept(config(ConsistencyMode::All));
-  for (const auto& [id, kf] : mapper.keyframes()) only_kept.addDepthFrame(id, kf.timestamp, depths[id], K, poses[id]);
+  for (const auto& [id, kf] : mapper.keyframes()) only_kept.addFrame(id, kf.timestamp, SensorFrame::depth(depths[id], K), poses[id]);
   CHECK(mapper.volume().exactlyEquals(only_kept.volume()));
 }
 
@@ -201,7 +201,7 @@ TEST_CASE("after a correction the pruner's cells of a re-integrated frame equal 
   const Pose3d A = lookingPose({0.5, 0.2, 1.2}, 0.3, 0.2);
   const Pose3d B = moved(A, {0.4, -0.3, 0.05}, 0.5);
   const DepthImage depth = kScene.renderDepth(*K, A, 5.0);
-  mapper.addDepthFrame(7, 0.0, depth, K, A);
+  mapper.addFrame(7, 0.0, SensorFrame::depth(depth, K), A);
   // The pruner's cells are those of the frame as the mapper stores it (depth quantized to
   // depth_unit_m), seen from where the map holds it.
   const DepthImage stored = EncodedFrame::fromDepth(depth, K, c.depth_unit_m).decodeDepth();
@@ -227,7 +227,7 @@ TEST_CASE("the mapper reports the region it changed", "[mapper][dirty]") {
   Mapper mapper(config(ConsistencyMode::All));
   CHECK(mapper.takeDirtyRegion().empty());
   const Pose3d A = lookingPose({0, 0, 1.2}, 0.0, 0.2);
-  mapper.addDepthFrame(0, 0.0, kScene.renderDepth(*K, A, 5.0), K, A);
+  mapper.addFrame(0, 0.0, SensorFrame::depth(kScene.renderDepth(*K, A, 5.0), K), A);
   const openvdb::CoordBBox box = mapper.takeDirtyRegion();
   REQUIRE_FALSE(box.empty());
   CHECK(box.isInside(mapper.volume().activeBoundingBox()));
@@ -249,8 +249,8 @@ TEST_CASE("submap mode moves rigid submaps by their anchors and fuses them", "[m
   for (int i = 0; i < 8; ++i) {
     const Pose3d odom = i < 4 ? truth[i] : drift * truth[i];
     const DepthImage depth = kScene.renderDepth(*K, truth[i], 5.0);
-    submap.addDepthFrame(i, 0.1 * i, depth, K, odom);
-    none.addDepthFrame(i, 0.1 * i, depth, K, odom);
+    submap.addFrame(i, 0.1 * i, SensorFrame::depth(depth, K), odom);
+    none.addFrame(i, 0.1 * i, SensorFrame::depth(depth, K), odom);
     corrections[i] = truth[i];
   }
   CHECK(submap.stats().submaps == 2);

@@ -119,10 +119,9 @@ TEST_CASE("a replayed log whose correction lists every other frame equals integr
   const std::vector<Pose3d> corrected = io::applyCorrection(listed_odometry, source->corrections()[0].poses);
   mc.mode = ConsistencyMode::None;
   Mapper scratch(mc);
-  auto K = std::make_shared<const CameraIntrinsics>(sensor.intrinsics);
   for (std::size_t i = 0; i < source->size(); ++i) {
     const io::Frame f = source->load(i);
-    scratch.addDepthFrame(i, f.timestamp_s, f.depth, K, corrected[i]);
+    scratch.addFrame(i, f.timestamp_s, f.data, corrected[i]);
   }
   CHECK(replayed.volume().exactlyEquals(scratch.volume()));
   // The frames between keyframes moved too (not only the listed ones), toward the truth.

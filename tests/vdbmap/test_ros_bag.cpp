@@ -100,7 +100,7 @@ TEST_CASE("a bag with a keyframe Path gives the same map as the equivalent folde
       io::LogWriter thin(dir / (std::string("thin_") + encoding), sensor);
       for (std::size_t i = 0; i < folder->size(); ++i) {
         const io::Frame f = folder->load(i);
-        thin.addDepthFrame(f.timestamp_s, f.depth, f.T_W_S);
+        thin.addDepthFrame(f.timestamp_s, f.data.depthImage(), f.T_W_S);
       }
       std::vector<io::StampedPose> every_other;
       for (std::size_t k = 0; k < folder->corrections()[0].poses.size(); k += 2) every_other.push_back(folder->corrections()[0].poses[k]);

@@ -52,8 +52,8 @@ constexpr int kFrames = 8;
 TEST_CASE("a keyframe store saved and loaded holds the same frames, poses and data", "[mapper][saved]") {
   const fs::path dir = test::freshDir("vdbmap_saved_store");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 3; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
-  mapper.addPointFrame(7, 0.5, {Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}, test::circleOdometry(7));
+  for (int i = 0; i < 3; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
+  mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
   mapper.keyframes().save(dir / "s.keyframes");
   const KeyframeStore loaded = KeyframeStore::load(dir / "s.keyframes");
   REQUIRE(loaded.size() == mapper.keyframes().size());
@@ -74,7 +74,7 @@ TEST_CASE("a keyframe store saved and loaded holds the same frames, poses and da
 TEST_CASE("bad keyframe store files are refused naming the file, the keyframe and the field", "[mapper][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_hostile");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+  for (int i = 0; i < 2; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
   const fs::path good = dir / "good.keyframes", bad = dir / "bad.keyframes";
   mapper.keyframes().save(good);
   const auto fresh = [&] { fs::copy_file(good, bad, fs::copy_options::overwrite_existing); };
@@ -107,7 +107,7 @@ TEST_CASE("bad keyframe store files are refused naming the file, the keyframe an
 TEST_CASE("a version 1 keyframe store (no unit id) still loads", "[mapper][saved]") {
   const fs::path dir = test::freshDir("vdbmap_saved_v1");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+  for (int i = 0; i < 2; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
   mapper.keyframes().save(dir / "v2.keyframes");
   // Version 1: the same file without the unit id, its size field 0 (then reserved).
   std::string bytes = test::readBytes(dir / "v2.keyframes");
@@ -129,7 +129,7 @@ TEST_CASE("a saved map corrected after loading equals integrating its frames fro
     {
       Mapper mapper(config(mode));
       for (int i = 0; i < kFrames; ++i)
-        mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+        mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
       mapper.reintegrateAll(Vec3d::Zero());
       mapper.save(dir / "map.vdb");
       CHECK(fs::exists(dir / "map.keyframes"));
@@ -145,7 +145,7 @@ TEST_CASE("a saved map corrected after loading equals integrating its frames fro
 
     Mapper scratch(config(ConsistencyMode::None));
     for (const auto& [id, kf] : loaded.keyframes())
-      scratch.addDepthFrame(id, kf.timestamp, kf.data.decodeDepth(), kf.data.intrinsics(), test::circlePose(int(id)));
+      scratch.addFrame(id, kf.timestamp, SensorFrame::depth(kf.data.decodeDepth(), kf.data.intrinsics()), test::circlePose(int(id)));
     CHECK(loaded.volume().exactlyEquals(scratch.volume()));
 
     // Saved again, it loads again (the corrected poses are the ones the map now holds).
@@ -160,7 +160,7 @@ TEST_CASE("a saved map is refused without its exact state or with another run's 
     Mapper mapper(config(ConsistencyMode::All));
     const int n = std::string(name) == "a" ? 3 : 2;
     for (int i = 0; i < n; ++i)
-      mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+      mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
     mapper.save(dir / (std::string(name) + ".vdb"));
   }
   fs::copy_file(dir / "b.keyframes", dir / "a.keyframes", fs::copy_options::overwrite_existing);
@@ -171,7 +171,7 @@ TEST_CASE("a saved map is refused without its exact state or with another run's 
   fs::remove(dir / "b.exact.vdb");
   CHECK_THROWS_WITH(Mapper::load(dir / "b.vdb"), Catch::Contains("no exact companion"));
   Mapper queued(config(ConsistencyMode::All));
-  queued.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
+  queued.addFrame(0, 0.0, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera()), test::circleOdometry(0));
   queued.updatePoses({{0, test::circlePose(5)}});
   CHECK_THROWS_AS(queued.save(dir / "q.vdb"), std::logic_error);
 }
@@ -179,7 +179,7 @@ TEST_CASE("a saved map is refused without its exact state or with another run's 
 TEST_CASE("a map and an exact companion of different saves are refused, naming both files", "[tsdf][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_unit");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i) mapper.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+  for (int i = 0; i < 2; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
   const TsdfVolume& volume = mapper.volume();
   volume.save(dir / "a.vdb");
   volume.save(dir / "b.vdb");  // the same state, another save (as a second writer, or a later save)
@@ -211,7 +211,7 @@ TEST_CASE("a map and an exact companion of different saves are refused, naming b
 TEST_CASE("a map name that is a companion's name is refused before anything is written", "[tsdf][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_names");
   Mapper mapper(config(ConsistencyMode::All));
-  mapper.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
+  mapper.addFrame(0, 0.0, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera()), test::circleOdometry(0));
   CHECK_THROWS_WITH(mapper.volume().save(dir / "x.exact.vdb"), Catch::Contains("x.exact.vdb") && Catch::Contains("companion"));
   CHECK_THROWS_WITH(mapper.save(dir / "x.keyframes"), Catch::Contains("x.keyframes") && Catch::Contains("keyframe store"));
   CHECK(fs::is_empty(dir));
@@ -220,14 +220,14 @@ TEST_CASE("a map name that is a companion's name is refused before anything is w
 TEST_CASE("a save that fails part way leaves the previous files as they were and no temporaries", "[mapper][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_failed");
   Mapper first(config(ConsistencyMode::All));
-  first.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
+  first.addFrame(0, 0.0, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera()), test::circleOdometry(0));
   first.save(dir / "m.vdb");
   const std::string map_before = test::readBytes(dir / "m.vdb"), store_before = test::readBytes(dir / "m.keyframes");
   // The companion's name is taken by a folder: the store is staged first, then the companion fails.
   fs::remove(dir / "m.exact.vdb");
   fs::create_directory(dir / "m.exact.vdb");
   Mapper second(config(ConsistencyMode::All));
-  for (int i = 0; i < 3; ++i) second.addDepthFrame(i, 0.1 * i, kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera(), test::circleOdometry(i));
+  for (int i = 0; i < 3; ++i) second.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
   CHECK_THROWS_WITH(second.save(dir / "m.vdb"), Catch::Contains("m.exact.vdb") && Catch::Contains("folder"));
   CHECK(test::readBytes(dir / "m.vdb") == map_before);
   CHECK(test::readBytes(dir / "m.keyframes") == store_before);
@@ -249,7 +249,7 @@ TEST_CASE("a save removes temporaries that a killed save of the same map left, a
   const fs::path other = dir / ("n.vdb.tmp." + std::to_string(dead) + ".0");           // another map's
   for (const fs::path& p : {stale, stale_companion, live, other}) std::ofstream(p) << "half a file";
   Mapper mapper(config(ConsistencyMode::None));
-  mapper.addDepthFrame(0, 0.0, kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera(), test::circleOdometry(0));
+  mapper.addFrame(0, 0.0, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera()), test::circleOdometry(0));
   mapper.volume().save(dir / "m.vdb");
   CHECK_FALSE(fs::exists(stale));
   CHECK_FALSE(fs::exists(stale_companion));

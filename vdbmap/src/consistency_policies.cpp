@@ -17,43 +17,17 @@
 namespace vdbmap::internal {
 namespace {
 
-/// A stored frame decoded once: a depth image with its intrinsics, or points.
-struct DecodedFrame {
-  std::optional<DepthImage> depth;
-  std::shared_ptr<const CameraIntrinsics> K;
-  PointCloud points_S;
-};
-
-DecodedFrame decodeFrame(const EncodedFrame& frame) {
-  DecodedFrame d;
-  if (frame.isDepth()) {
-    d.depth = frame.decodeDepth();
-    d.K = frame.intrinsics();
-  } else {
-    d.points_S = frame.decode();
-  }
-  return d;
-}
-
-/// Integrates (add) or de-integrates a decoded frame as the volume's integrator takes it best:
-/// depth frames as images (projective), point frames as points. Always the decoded frame, so that
-/// a later de-integration removes exactly what went in.
-IntegrationStats applyDecoded(TsdfVolume& volume, FrameId id, const DecodedFrame& frame, const Pose3d& T_W_S, bool add) {
-  if (frame.depth)
-    return add ? volume.integrate(id, *frame.depth, *frame.K, T_W_S) : volume.deintegrate(id, *frame.depth, *frame.K, T_W_S);
-  return add ? volume.integrate(id, frame.points_S, T_W_S) : volume.deintegrate(id, frame.points_S, T_W_S);
-}
-
 /// Whether the volume's integration pass itself gives the frame's footprint (projective depth).
-bool footprintFromIntegration(const DecodedFrame& frame, const MapperConfig& config) {
-  return frame.depth && config.integrator.ray_mode == RayMode::Projective;
+bool footprintFromIntegration(const SensorFrame& frame, const MapperConfig& config) {
+  return frame.isDepth() && config.integrator.ray_mode == RayMode::Projective;
 }
 
 /// The coarse cells of a frame at T_W_S when its integration gave no footprint (the ray modes).
-CellSet raysCells(const DecodedFrame& frame, const Pose3d& T_W_S, const MapperConfig& config) {
+CellSet raysCells(const SensorFrame& frame, const Pose3d& T_W_S, const MapperConfig& config) {
   const double cell_vox = config.set_cover.cell_size_vox;
-  return frame.depth ? visibleCells(*frame.depth, *frame.K, T_W_S, config.tsdf, config.integrator, cell_vox)
-                     : visibleCells(frame.points_S, T_W_S, config.tsdf, config.integrator, cell_vox);
+  return frame.isDepth()
+             ? visibleCells(frame.depthImage(), frame.intrinsics(), T_W_S, config.tsdf, config.integrator, cell_vox)
+             : visibleCells(frame.points_S(), T_W_S, config.tsdf, config.integrator, cell_vox);
 }
 
 const KeyframeStore& emptyStore() {
@@ -77,7 +51,7 @@ class DirectPolicy final : public ConsistencyPolicy {
   IntegrationStats addFrame(FrameId id, double, EncodedFrame data, const Pose3d& T_W_S) override {
     if (volume_.isIntegrated(id)) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
     ++ledger_.stats.frames_total;
-    const IntegrationStats stats = applyDecoded(volume_, id, decodeFrame(data), T_W_S, true);
+    const IntegrationStats stats = volume_.integrate(id, data.decodeFrame(), T_W_S);
     ledger_.markDirty(stats.touched_voxels);
     return stats;
   }
@@ -121,7 +95,7 @@ class SubmapPolicy final : public ConsistencyPolicy {
       ++ledger_.stats.submaps;
     }
     Submap& s = submaps_.back();
-    const IntegrationStats stats = applyDecoded(*s.volume, id, decodeFrame(data), s.T_W_A_odom.inverse() * T_W_S, true);
+    const IntegrationStats stats = s.volume->integrate(id, data.decodeFrame(), s.T_W_A_odom.inverse() * T_W_S);
     ids_.insert(id);
     ++ledger_.stats.frames_total;
     ++s.frames;
@@ -228,7 +202,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     if (store_.contains(id)) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
     if (pruner_) checkPackable(id, T_W_S, config_.tsdf, config_.integrator, config_.set_cover.cell_size_vox);
     ++ledger_.stats.frames_total;
-    const DecodedFrame decoded = decodeFrame(data);  // once, for integration and the pruner's set
+    const SensorFrame decoded = data.decodeFrame();  // once, for integration and the pruner's set
     CellSet cells;
     const IntegrationStats stats = integrate(id, decoded, T_W_S, pruner_ ? &cells : nullptr);
     ledger_.markDirty(stats.touched_voxels);
@@ -343,15 +317,15 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
  private:
   /// Integrates a decoded frame; with `cells`, also its set for the pruner: the coarse cells its
   /// integration touches, recorded by the same pass under projective integration.
-  IntegrationStats integrate(FrameId id, const DecodedFrame& frame, const Pose3d& T_W_S, CellSet* cells) {
-    if (!cells) return applyDecoded(volume_, id, frame, T_W_S, true);
+  IntegrationStats integrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S, CellSet* cells) {
+    if (!cells) return volume_.integrate(id, frame, T_W_S);
     if (footprintFromIntegration(frame, config_)) {
       VoxelFootprint footprint;
-      const IntegrationStats stats = volume_.integrate(id, *frame.depth, *frame.K, T_W_S, &footprint);
+      const IntegrationStats stats = volume_.integrate(id, frame, T_W_S, &footprint);
       *cells = footprintCells(footprint, config_.set_cover.cell_size_vox);
       return stats;
     }
-    const IntegrationStats stats = applyDecoded(volume_, id, frame, T_W_S, true);
+    const IntegrationStats stats = volume_.integrate(id, frame, T_W_S);
     *cells = raysCells(frame, T_W_S, config_);
     return stats;
   }
@@ -359,15 +333,11 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   /// Moves a frame from the pose the map holds to its newest; in keyframes mode the pruner then
   /// sees it where it now is.
   void reintegrateFrame(Keyframe& kf) {
-    const DecodedFrame frame = decodeFrame(kf.data);
-    IntegrationStats s;
+    const SensorFrame frame = kf.data.decodeFrame();
     VoxelFootprint footprint;
     const bool with_footprint = pruner_ && footprintFromIntegration(frame, config_);
-    if (frame.depth)
-      s = volume_.reintegrate(kf.id, *frame.depth, *frame.K, kf.T_W_S_integrated, kf.T_W_S_latest,
-                              with_footprint ? &footprint : nullptr);
-    else
-      s = volume_.reintegrate(kf.id, frame.points_S, kf.T_W_S_integrated, kf.T_W_S_latest);
+    const IntegrationStats s = volume_.reintegrate(kf.id, frame, kf.T_W_S_integrated, kf.T_W_S_latest,
+                                                   with_footprint ? &footprint : nullptr);
     kf.T_W_S_integrated = kf.T_W_S_latest;
     if (pruner_)
       pruner_->updateFrame(kf.id, kf.T_W_S_integrated.translation(),
@@ -391,7 +361,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
 
   void deintegrateDropped(FrameId id) {
     Keyframe& kf = store_.at(id);
-    if (kf.integrated) ledger_.markDirty(applyDecoded(volume_, id, decodeFrame(kf.data), kf.T_W_S_integrated, false).touched_voxels);
+    if (kf.integrated) ledger_.markDirty(volume_.deintegrate(id, kf.data.decodeFrame(), kf.T_W_S_integrated).touched_voxels);
     store_.erase(id);
     drops_.erase(id);
     ++ledger_.stats.frames_dropped;

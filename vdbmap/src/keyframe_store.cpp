@@ -92,6 +92,15 @@ EncodedFrame EncodedFrame::fromPoints(const PointCloud& points_S, double unit_m,
   return f;
 }
 
+EncodedFrame EncodedFrame::encode(const SensorFrame& frame, double unit_m, bool compress) {
+  return frame.isDepth() ? fromDepth(frame.depthImage(), frame.sharedIntrinsics(), unit_m, 1, compress)
+                         : fromPoints(frame.points_S(), unit_m, compress);
+}
+
+SensorFrame EncodedFrame::decodeFrame() const {
+  return isDepth() ? SensorFrame::depth(decodeDepth(), intrinsics_) : SensorFrame::points(decode());
+}
+
 DepthImage EncodedFrame::decodeDepth() const {
   if (kind_ != Kind::Depth) throw std::logic_error("EncodedFrame::decodeDepth: the frame holds points, not depth");
   std::vector<std::uint16_t> coded(count_);

@@ -62,20 +62,10 @@ Mapper::Mapper(const MapperConfig& config)
 Mapper::~Mapper() = default;
 Mapper::Mapper(Mapper&&) noexcept = default;
 
-IntegrationStats Mapper::addDepthFrame(FrameId id, double timestamp, const DepthImage& depth,
-                                       std::shared_ptr<const CameraIntrinsics> K, const Pose3d& T_W_S) {
+IntegrationStats Mapper::addFrame(FrameId id, double timestamp_s, const SensorFrame& frame, const Pose3d& T_W_S) {
   // Frames the mapper keeps are compressed; in none mode a frame is decoded once and dropped.
   const bool store = config_.mode != ConsistencyMode::None;
-  return addFrame(id, timestamp, EncodedFrame::fromDepth(depth, std::move(K), config_.depth_unit_m, 1, store), T_W_S);
-}
-
-IntegrationStats Mapper::addPointFrame(FrameId id, double timestamp, const PointCloud& points_S, const Pose3d& T_W_S) {
-  const bool store = config_.mode != ConsistencyMode::None;
-  return addFrame(id, timestamp, EncodedFrame::fromPoints(points_S, config_.depth_unit_m, store), T_W_S);
-}
-
-IntegrationStats Mapper::addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) {
-  return policy_->addFrame(id, timestamp, std::move(data), T_W_S);
+  return policy_->addFrame(id, timestamp_s, EncodedFrame::encode(frame, config_.depth_unit_m, store), T_W_S);
 }
 
 std::size_t Mapper::updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) {

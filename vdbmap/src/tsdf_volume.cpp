@@ -300,6 +300,29 @@ IntegrationStats TsdfVolume::deintegrate(FrameId id, const DepthImage& depth_m, 
   return stats;
 }
 
+IntegrationStats TsdfVolume::integrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S,
+                                       VoxelFootprint* footprint) {
+  if (!frame.isDepth()) {
+    if (footprint) footprint->clear();
+    return integrate(id, frame.points_S(), T_W_S);
+  }
+  return integrate(id, frame.depthImage(), frame.intrinsics(), T_W_S, footprint);
+}
+
+IntegrationStats TsdfVolume::deintegrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S) {
+  return frame.isDepth() ? deintegrate(id, frame.depthImage(), frame.intrinsics(), T_W_S)
+                         : deintegrate(id, frame.points_S(), T_W_S);
+}
+
+IntegrationStats TsdfVolume::reintegrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S_old,
+                                         const Pose3d& T_W_S_new, VoxelFootprint* footprint) {
+  if (!frame.isDepth()) {
+    if (footprint) footprint->clear();
+    return reintegrate(id, frame.points_S(), T_W_S_old, T_W_S_new);
+  }
+  return reintegrate(id, frame.depthImage(), frame.intrinsics(), T_W_S_old, T_W_S_new, footprint);
+}
+
 IntegrationStats TsdfVolume::reintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S_old,
                                          const Pose3d& T_W_S_new) {
   const auto it = checkKnownFrame(id, fingerprint(points_S, T_W_S_old), "points");

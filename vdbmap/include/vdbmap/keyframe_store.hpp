@@ -7,6 +7,7 @@
 #pragma once
 
 #include "vdbmap/camera.hpp"
+#include "vdbmap/sensor_frame.hpp"
 #include "vdbmap/types.hpp"
 
 #include <cstdint>
@@ -31,6 +32,12 @@ class EncodedFrame {
                                 double depth_unit_m = 0.001, int stride = 1, bool compress = true);
   /// Points in the sensor frame quantized to `unit_m`; NaN points are kept as invalid.
   static EncodedFrame fromPoints(const PointCloud& points_S, double unit_m = 0.001, bool compress = true);
+  /// fromDepth (stride 1) or fromPoints, as the frame is.
+  static EncodedFrame encode(const SensorFrame& frame, double unit_m = 0.001, bool compress = true);
+
+  /// The frame exactly as every other decode gives it: a depth image with its camera when
+  /// isDepth(), else points (those of a strided depth frame too).
+  SensorFrame decodeFrame() const;
 
   /// The frame's points in the sensor frame, exactly as every other decode of this frame.
   PointCloud decode() const;

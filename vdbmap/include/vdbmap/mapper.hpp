@@ -17,6 +17,7 @@
 #include "vdbmap/camera.hpp"
 #include "vdbmap/config.hpp"
 #include "vdbmap/keyframe_store.hpp"
+#include "vdbmap/sensor_frame.hpp"
 #include "vdbmap/set_cover.hpp"
 #include "vdbmap/tsdf_volume.hpp"
 #include "vdbmap/types.hpp"
@@ -92,11 +93,22 @@ class Mapper {
 
   const MapperConfig& config() const { return config_; }
 
-  /// Stores (except in none mode) and integrates a depth frame seen from T_W_S (odometry).
+  /// Stores (except in none mode) and integrates a frame seen from T_W_S (odometry): a depth
+  /// image projectively (RayMode::Projective) or a point cloud by rays. What is integrated is the
+  /// frame as the store decodes it (depth quantized to depth_unit_m), so that a later
+  /// re-integration removes exactly what went in. Throws FrameError for an id given before, a
+  /// pose that is not rigid or lies beyond the map's range.
+  IntegrationStats addFrame(FrameId id, double timestamp_s, const SensorFrame& frame, const Pose3d& T_W_S);
+
+  [[deprecated("use addFrame(id, t, SensorFrame::depth(depth, K), T_W_S)")]]
   IntegrationStats addDepthFrame(FrameId id, double timestamp, const DepthImage& depth,
-                                 std::shared_ptr<const CameraIntrinsics> K, const Pose3d& T_W_S);
-  /// Same for a point cloud in the sensor frame.
-  IntegrationStats addPointFrame(FrameId id, double timestamp, const PointCloud& points_S, const Pose3d& T_W_S);
+                                 std::shared_ptr<const CameraIntrinsics> K, const Pose3d& T_W_S) {
+    return addFrame(id, timestamp, SensorFrame::depth(depth, std::move(K)), T_W_S);
+  }
+  [[deprecated("use addFrame(id, t, SensorFrame::points(points_S), T_W_S)")]]
+  IntegrationStats addPointFrame(FrameId id, double timestamp, const PointCloud& points_S, const Pose3d& T_W_S) {
+    return addFrame(id, timestamp, SensorFrame::points(points_S), T_W_S);
+  }
 
   /// New pose estimates T_W_S by frame id (a loop-closure correction). Frames whose pose moved
   /// beyond the gates are queued for re-integration (all, keyframes), or the submaps they anchor
@@ -151,7 +163,6 @@ class Mapper {
   static Mapper load(const std::filesystem::path& map_path, const ReintegrationConfig& reintegration = {});
 
  private:
-  IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S);
 
   MapperConfig config_;
   std::unique_ptr<internal::MapperLedger> ledger_;

@@ -14,6 +14,7 @@
 #include "vdbmap/camera.hpp"
 #include "vdbmap/config.hpp"
 #include "vdbmap/openvdb.hpp"
+#include "vdbmap/sensor_frame.hpp"
 #include "vdbmap/types.hpp"
 #include "vdbmap/voxel_codec.hpp"
 #include "vdbmap/voxel_footprint.hpp"
@@ -93,6 +94,14 @@ class TsdfVolume {
   /// `footprint` as for integrate(), at the new pose.
   IntegrationStats reintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
                                const Pose3d& T_W_S_old, const Pose3d& T_W_S_new, VoxelFootprint* footprint = nullptr);
+
+  /// The calls above for either kind of frame: a depth image with its camera, or points
+  /// (`footprint` filled for depth images under projective integration only).
+  IntegrationStats integrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S,
+                             VoxelFootprint* footprint = nullptr);
+  IntegrationStats deintegrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S);
+  IntegrationStats reintegrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new,
+                               VoxelFootprint* footprint = nullptr);
 
   bool isIntegrated(FrameId id) const { return frames_.count(id) != 0; }
   std::size_t frameCount() const { return frames_.size(); }

@@ -19,6 +19,7 @@
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/mesh.hpp"
 #include "vdbmap/openvdb.hpp"
+#include "vdbmap/sensor_frame.hpp"
 #include "vdbmap/set_cover.hpp"
 #include "vdbmap/triangle_mesh.hpp"
 #include "vdbmap/tsdf_volume.hpp"

@@ -18,6 +18,7 @@
 namespace vdbmap::io {
 
 FrameSource::FrameSource(FrameSourceContents contents) : c_(std::move(contents)) {
+  if (c_.sensor.kind == SensorKind::Depth) K_ = std::make_shared<const CameraIntrinsics>(c_.sensor.intrinsics);
   for (std::size_t i = 0; i < c_.records.size(); ++i) {
     if (c_.records[i].index != i)
       throw std::invalid_argument("FrameSource: record " + std::to_string(i) + " has index " + std::to_string(c_.records[i].index));
@@ -51,13 +52,12 @@ Frame FrameSource::load(std::size_t i) const {
   try {
     if (ext == ".png") {
       if (c_.sensor.kind != SensorKind::Depth) throw FileError(r.file.string() + ": a depth PNG, but the sensor is a point sensor");
-      f.is_depth = true;
       // The camera's size is checked against the PNG header before anything is decoded.
       const CameraIntrinsics& K = c_.sensor.intrinsics;
-      f.depth = readDepthPng(r.file, c_.sensor.depth_scale, c_.sensor.invalid_depth_raw, K.width, K.height);
+      f.data = SensorFrame::depth(
+          readDepthPng(r.file, c_.sensor.depth_scale, c_.sensor.invalid_depth_raw, K.width, K.height), K_);
     } else if (ext == ".ply" || ext == ".pcd" || ext == ".bin") {
-      f.is_depth = false;
-      f.points_S = readPointCloud(r.file);
+      f.data = SensorFrame::points(readPointCloud(r.file));
     } else {
       throw FileError(r.file.string() + ": unknown frame file type '" + ext + "' (expected .png, .ply, .pcd or .bin)");
     }

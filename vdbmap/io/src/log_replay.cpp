@@ -58,7 +58,6 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
     for (const io::CorrectionEvent& e : source.corrections()) events.emplace(e.event_frame, &e);
   std::vector<bool> integrated(source.size(), false);
 
-  auto K = std::make_shared<const CameraIntrinsics>(source.sensor().intrinsics);
   Stopwatch cycle;
   std::vector<double> frame_ms;
   frame_ms.reserve(indices.size());
@@ -80,9 +79,7 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
       const io::Frame& f = *loaded.frame;
       cycle.restart();
       const Stopwatch integration;
-      const IntegrationStats stats =
-          f.is_depth ? mapper.addDepthFrame(i, f.timestamp_s, f.depth, K, f.T_W_S)
-                     : mapper.addPointFrame(i, f.timestamp_s, f.points_S, f.T_W_S);
+      const IntegrationStats stats = mapper.addFrame(i, f.timestamp_s, f.data, f.T_W_S);
       const double ms = integration.ms();
       frame_ms.push_back(ms);
       result.integrate_s += ms / 1e3;

@@ -328,11 +328,10 @@ class RosBagSource final : public FrameSource {
     f.index = i;
     f.timestamp_s = r.timestamp_s;
     f.T_W_S = r.T_W_S;
-    f.is_depth = true;
     const std::lock_guard<std::mutex> lock(mutex_);  // rosbag's reader is not thread-safe
     try {
       const auto img = instantiateChecked<sensor_msgs::Image>(depth_[i], root());
-      f.depth = decodeDepth(*img, K_, root(), topic_);
+      f.data = SensorFrame::depth(decodeDepth(*img, K_, root(), topic_), sharedIntrinsics());
     } catch (const FileError& e) {
       throw BadFrameError(i, e.what());
     } catch (const std::exception& e) {

@@ -7,6 +7,7 @@
 #include "vdbmap/io/errors.hpp"
 #include "vdbmap/io/sensor_info.hpp"
 #include "vdbmap/io/tum_trajectory.hpp"
+#include "vdbmap/sensor_frame.hpp"
 #include "vdbmap/types.hpp"
 
 #include <cstddef>
@@ -34,14 +35,13 @@ struct FrameRecord {
   std::string problem;         ///< non-empty: the frame is unusable and load() throws BadFrameError with it
 };
 
-/// One loaded frame: a depth image (metres) or points in the sensor frame, with its pose.
+/// One loaded frame: a depth image (metres) with the sensor's camera, or points in the sensor
+/// frame, with its pose.
 struct Frame {
   std::size_t index = 0;
   double timestamp_s = 0.0;
   Pose3d T_W_S = Pose3d::Identity();
-  bool is_depth = true;
-  DepthImage depth;      ///< depth frames
-  PointCloud points_S;   ///< point frames
+  SensorFrame data;
 };
 
 /// A loop-closure correction: optimised poses the SLAM back end published at event_timestamp_s;
@@ -77,6 +77,8 @@ class FrameSource {
   const std::filesystem::path& root() const { return c_.root; }
   const std::string& description() const { return c_.description; }
   const SensorInfo& sensor() const { return c_.sensor; }
+  /// The depth sensor's camera, one for all frames (nullptr for point sensors).
+  const std::shared_ptr<const CameraIntrinsics>& sharedIntrinsics() const { return K_; }
   std::size_t size() const { return c_.records.size(); }
   /// Throws std::out_of_range when i >= size().
   const FrameRecord& record(std::size_t i) const;
@@ -97,6 +99,7 @@ class FrameSource {
 
  private:
   FrameSourceContents c_;
+  std::shared_ptr<const CameraIntrinsics> K_;
 };
 
 /// The dataset layouts openDataset knows.
