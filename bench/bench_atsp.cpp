@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
     row.optimum = optimum;
     row.limit_s = fixed_limit_s > 0 ? fixed_limit_s : (row.n <= 171 ? 1.0 : 2.0);
     for (int s = 0; s < seeds; ++s) {
-      AtspOptions options;
+      AtspConfig options;
       options.time_limit_s = row.limit_s;
       options.seed = first_seed + std::uint64_t(s);
       const AtspResult r = solveAtsp(instance.costs, options);

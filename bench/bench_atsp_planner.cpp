@@ -51,7 +51,7 @@ RealCostMatrix plannerLikeCosts(int n, std::uint64_t seed) {
 }
 
 std::int64_t reference(const RealCostMatrix& costs, int n) {
-  AtspOptions options;
+  AtspConfig options;
   options.open_from = 0;
   if (n <= 16) {
     options.time_limit_s = 60.0;
@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
     for (const double limit_s : limits_s) {
       Row row{n, limit_s};
       for (int k = 0; k < instances; ++k) {
-        AtspOptions options;
+        AtspConfig options;
         options.open_from = 0;
         options.time_limit_s = limit_s;
         const AtspResult r = solveAtsp(matrices[std::size_t(k)], options);

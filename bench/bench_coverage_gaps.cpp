@@ -51,7 +51,7 @@ constexpr double kClearance_m = 0.3;  // the planner's path and viewpoint cleara
 constexpr double kMinRange_m = 0.3, kMaxRange_m = 4.5;
 constexpr double kStep_m = 0.1;
 constexpr double kOwnSurfaceVox = 1.5;  // occupied voxels this close to the sample are its own surface
-constexpr double kBandMargin_m = 0.5;   // ExplorationParams::viewpoint_margin_z_m
+constexpr double kBandMargin_m = 0.5;   // ExplorationManagerConfig::viewpoint_margin_z_m
 constexpr int kAzimuths = 36, kElevations = 9;
 
 enum Witness { kNone = 0, kMapVisible = 1, kMapVisibleInBand = 2 };
@@ -184,7 +184,7 @@ int main(int argc, char** argv) {
       if (!known[i]) unknown.push_back(i);
 
     // Every frontier component of the final map, unsplit: min cluster size 1, no split radius.
-    planner::FrontierParams fp;
+    planner::FrontierConfig fp;
     fp.min_cluster_size = 1;
     fp.split_radius_xy_m = 1e4;
     fp.bounds_W = box;
@@ -243,7 +243,7 @@ int main(int argc, char** argv) {
     // The planner's clusters at the final sweep's size (30, split at 2 m) that map-visible samples
     // lie behind, most samples first, with the viewpoints the planner would find in the final map.
     {
-      planner::FrontierParams cp;
+      planner::FrontierConfig cp;
       cp.min_cluster_size = 30;
       cp.bounds_W = box;
       planner::FrontierMap clusters(cp);
@@ -264,7 +264,7 @@ int main(int argc, char** argv) {
       std::vector<std::pair<std::size_t, std::size_t>> ranked(samples_behind.begin(), samples_behind.end());
       std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
       if (ranked.size() > 15) ranked.resize(15);
-      planner::ViewpointParams vp;  // as ExplorationManager sets them: box shrunk by the clearance, 0.5 m in z
+      planner::ViewpointConfig vp;  // as ExplorationManager sets them: box shrunk by the clearance, 0.5 m in z
       const Vec3d margin(vp.min_clearance_m, vp.min_clearance_m, std::max(vp.min_clearance_m, kBandMargin_m));
       vp.bounds_W = Eigen::AlignedBox3d(box.min() + margin, box.max() - margin);
       vp.fallback = fallback;

@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
 
   const TsdfMapQuery tsdf(volume);
   const AssumeFreeMap map(tsdf, {boxAround(start, Vec3d(0.5, 0.5, 0.5))});
-  FrontierParams fp;
+  FrontierConfig fp;
   fp.bounds_W = Eigen::AlignedBox3d(Vec3d(-10, -7, 0.2), Vec3d(10, 7, 2.8));
 
   // Frontiers from scratch.
@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
     }
   VehicleState vehicle;
   vehicle.position_W = start;
-  PathParams cost_path;  // paths for costs: a shorter RRTConnect budget than for flying
+  PathConfig cost_path;  // paths for costs: a shorter RRTConnect budget than for flying
   cost_path.time_limit_s = argc > 2 ? std::atof(argv[2]) : 0.01;
   double pairs_ms = 0, tour_ms = 0, refine_ms = 0, traj_ms = 0;
   std::size_t pairs = 0, refined_edges = 0;
@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
   TrajectoryResult traj;
   PathResult path;
   for (int r = 0; r < repeats; ++r) {
-    PairCostTable table(CostParams{}, cost_path);
+    PairCostTable table(CostConfig{}, cost_path);
     Stopwatch watch;
     pairs = table.update(map, targets);
     pairs_ms += watch.ms() / repeats;
@@ -142,7 +142,7 @@ int main(int argc, char** argv) {
     const auto layers = refinementLayers(vehicle, in_order);
     refined_edges = 0;
     for (std::size_t l = 0; l < layers.size(); ++l) refined_edges += layers[l].size() * (l ? layers[l - 1].size() : 1);
-    refined = refineLocalTour(map, vehicle, layers, CostParams{}, cost_path);
+    refined = refineLocalTour(map, vehicle, layers, CostConfig{}, cost_path);
     refine_ms += watch.ms() / repeats;
     watch.restart();
     const Viewpoint& next = layers[0][refined.choice[0]];
@@ -172,7 +172,7 @@ int main(int argc, char** argv) {
   // The incremental step: the vehicle moves 2 m and turns again. After each frame only the box it
   // touched is rescanned (as the mapper reports dirty boxes); then only the pairs of new clusters
   // are planned, the table holding the pairs of the step before.
-  PairCostTable table(CostParams{}, cost_path);
+  PairCostTable table(CostConfig{}, cost_path);
   table.update(map, targets);
   std::vector<double> update_ms;
   openvdb::CoordBBox dirty;

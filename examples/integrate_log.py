@@ -38,7 +38,7 @@ def main() -> int:
     def progress(done: int, total: int) -> None:
         print(f"\rintegrated {done}/{total}", end="", file=sys.stderr, flush=True)
 
-    result = vdbmap.replay_log(source, mapper, vdbmap.ReplayOptions(frame_stride=args.stride, progress=progress))
+    result = vdbmap.replay_log(source, mapper, vdbmap.ReplayConfig(frame_stride=args.stride, progress=progress))
     print(file=sys.stderr)
 
     volume = mapper.volume()

@@ -15,7 +15,7 @@ namespace {
 
 struct AtspArgs {
   std::filesystem::path file;
-  planner::AtspOptions options;
+  planner::AtspConfig options;
   std::size_t open_from = 0;
   std::string json;
 };

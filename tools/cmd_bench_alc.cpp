@@ -18,7 +18,7 @@ struct BenchAlcOptions {
   std::size_t seeds = 5;
   double voxel_size_m = 0.1;
   double max_time_s = sim::ExplorationConfig::kDefaultMaxTime_s;
-  double epsilon = planner::AlcParams{}.epsilon;
+  double epsilon = planner::AlcConfig{}.epsilon;
   double ceiling_m = 2.5;
   std::string loop_closure = sim::toString(sim::SimulatorConfig{}.loop_closure);
   bool keep_runs = false;

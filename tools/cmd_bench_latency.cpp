@@ -50,7 +50,7 @@ void runBenchLatency(const BenchLatencyOptions& o) {
       config.reintegration.budget_ms = o.budget_ms;
       config.reintegration.budget_frames = o.budget_frames;
       Mapper mapper(config);
-      const ReplayResult r = replayLog(*source, mapper, ReplayOptions{});
+      const ReplayResult r = replayLog(*source, mapper, ReplayConfig{});
       const nlohmann::json p = percentiles(r.cycle_ms);
       double total_s = 0.0;
       for (const double ms : r.cycle_ms) total_s += ms / 1e3;

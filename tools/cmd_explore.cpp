@@ -32,10 +32,10 @@ struct ExploreOptions {
   std::vector<double> start, box;
   std::string alc = "off";
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
-  double epsilon = planner::AlcParams{}.epsilon;
-  int min_cluster_size = planner::FrontierParams{}.min_cluster_size;
-  int revisit_rounds = planner::ExplorationParams{}.revisit_rounds;
-  int final_min_cluster_size = planner::ExplorationParams{}.final_min_cluster_size;
+  double epsilon = planner::AlcConfig{}.epsilon;
+  int min_cluster_size = planner::FrontierConfig{}.min_cluster_size;
+  int revisit_rounds = planner::ExplorationManagerConfig{}.revisit_rounds;
+  int final_min_cluster_size = planner::ExplorationManagerConfig{}.final_min_cluster_size;
   bool no_initial_turn = false;
   bool overwrite = false;
   bool report = false;
@@ -98,7 +98,7 @@ void runExplore(const ExploreOptions& o) {
                o.world.c_str(), world.stats().triangles, b.min().x(), b.min().y(), b.min().z(), b.max().x(),
                b.max().y(), b.max().z(), config.start.position_W.x(), config.start.position_W.y(), config.start.position_W.z());
 
-  sim::ExplorationRunOptions ro;
+  sim::ExplorationRunConfig ro;
   ro.overwrite = o.overwrite;
   ro.description = description;
   ro.world = std::filesystem::absolute(requireWorld(o.world)).lexically_normal().string();

@@ -34,7 +34,7 @@ struct IntegrateOptions {
   double budget_ms = ReintegrationConfig{}.budget_ms;
   int budget_frames = ReintegrationConfig{}.budget_frames;
   int submap_frames = MapperConfig{}.submap_frames;
-  io::RosBagOptions bag;          // a .bag LOG
+  io::RosBagConfig bag;          // a .bag LOG
   std::vector<double> extrinsic;  // T_body_camera: x y z qx qy qz qw
 };
 
@@ -80,7 +80,7 @@ void runIntegrate(IntegrateOptions o) {
   config.submap_frames = o.submap_frames;
   Mapper mapper(config);
 
-  ReplayOptions replay;
+  ReplayConfig replay;
   replay.frame_stride = o.stride;
   replay.on_bad_frame = parseOnBadFrame(o.on_bad_frame);
   Progress progress("integrate");

@@ -48,7 +48,7 @@ void runSimulate(const SimulateOptions& o) {
   std::fprintf(stderr, "%s: %zu triangles; flight of %.1f s, %.1f m\n", o.world.c_str(), world.stats().triangles,
                trajectory.duration(), trajectory.length_m());
 
-  sim::FlightOptions fo;
+  sim::FlightConfig fo;
   fo.overwrite = o.overwrite;
   fo.description = "vdbmap simulate --world " + o.world.string() + " --drift " + o.drift + " --seed " +
                    std::to_string(o.seed) + " --loop-closure " + o.loop_closure;

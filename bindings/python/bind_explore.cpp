@@ -59,7 +59,7 @@ void bindConfig(py::module_& m) {
   c.def_readwrite("simulator", &ExplorationConfig::simulator,
                   "SimulatorConfig; its camera reports surfaces up to 30 m (far_clip_m) so rays carve free space")
       .def_readwrite("mapper", &ExplorationConfig::mapper, "vdbmap.MapperConfig (keyframes mode by default)")
-      .def_readwrite("planner", &ExplorationConfig::planner, "vdbmap.planner.ExplorationParams")
+      .def_readwrite("planner", &ExplorationConfig::planner, "vdbmap.planner.ExplorationManagerConfig")
       .def_property(
           "start", [](const ExplorationConfig& self) { return toArray(self.start.position_W); },
           [](ExplorationConfig& self, py::handle p) { self.start.position_W = toVec3(p, "start"); },
@@ -197,7 +197,7 @@ void bindRuns(py::module_& m) {
       "run_exploration",
       [](const World& world, const ExplorationConfig& config, std::optional<std::filesystem::path> log_dir,
          bool overwrite, const std::string& description, std::function<void(const ExplorationProgress&)> progress) {
-        ExplorationOptions options;
+        ExplorationRecordConfig options;
         if (log_dir) options.log_dir = *log_dir;
         options.overwrite = overwrite;
         options.description = description;
@@ -216,7 +216,7 @@ void bindRuns(py::module_& m) {
       [](const World& world, const ExplorationConfig& config, const std::filesystem::path& run_dir, bool overwrite,
          const std::string& description, std::function<void(const ExplorationProgress&)> progress,
          std::function<void(const std::string&)> report, double completeness_threshold_vox) {
-        ExplorationRunOptions options;
+        ExplorationRunConfig options;
         options.overwrite = overwrite;
         options.description = description;
         options.completeness_threshold_vox = completeness_threshold_vox;
@@ -238,7 +238,7 @@ void bindRuns(py::module_& m) {
       },
       py::arg("world"), py::arg("config"), py::arg("run_dir"), py::arg("overwrite") = false,
       py::arg("description") = "", py::arg("progress") = py::none(), py::arg("report") = py::none(),
-      py::arg("completeness_threshold_vox") = ExplorationRunOptions{}.completeness_threshold_vox,
+      py::arg("completeness_threshold_vox") = ExplorationRunConfig{}.completeness_threshold_vox,
       "Explores the world as `vdbmap explore` does and writes the run folder: log/ (replayable), map.vdb, "
       "mesh.ply, trajectory_true.txt, trajectory_odom.txt (TUM) and summary.json, whose content it returns as a "
       "dict (coverage, collisions, accuracy_rmse_m, completeness, ...). report: None or a callable(str) given a "

@@ -188,14 +188,14 @@ void bindFrameSource(py::module_& m) {
 }
 
 void bindReplay(py::module_& m) {
-  py::class_<ReplayOptions> o(m, "ReplayOptions", "How replay_log integrates a sequence.");
+  py::class_<ReplayConfig> o(m, "ReplayConfig", "How replay_log integrates a sequence.");
   addStructProtocol(o);
-  o.def_readwrite("frame_stride", &ReplayOptions::frame_stride, "integrate every k-th frame; [1, 1e6]")
-      .def_readwrite("apply_corrections", &ReplayOptions::apply_corrections, "False: ignore corrections/")
-      .def_readwrite("progress", &ReplayOptions::progress,
+  o.def_readwrite("frame_stride", &ReplayConfig::frame_stride, "integrate every k-th frame; [1, 1e6]")
+      .def_readwrite("apply_corrections", &ReplayConfig::apply_corrections, "False: ignore corrections/")
+      .def_readwrite("progress", &ReplayConfig::progress,
                      "None or a callable(frames_done, frames_to_do) called after every frame")
-      .def("validate", &ReplayOptions::validate, "Raises ValueError naming the field and its allowed range.");
-  defEnumField(o, "on_bad_frame", &ReplayOptions::on_bad_frame, &parseOnBadFrame, "OnBadFrame (or 'fail', 'skip')");
+      .def("validate", &ReplayConfig::validate, "Raises ValueError naming the field and its allowed range.");
+  defEnumField(o, "on_bad_frame", &ReplayConfig::on_bad_frame, &parseOnBadFrame, "OnBadFrame (or 'fail', 'skip')");
 
   py::class_<BadFrame> b(m, "BadFrame", "A frame skipped by replay_log (on_bad_frame 'skip').");
   b.def_readonly("index", &BadFrame::index, "the frame's index in the sequence")
@@ -226,7 +226,7 @@ void bindReplay(py::module_& m) {
 
   m.def(
       "replay_log",
-      [](const io::FrameSource& source, Mapper& mapper, ReplayOptions options) {
+      [](const io::FrameSource& source, Mapper& mapper, ReplayConfig options) {
         // The GIL is released for the replay; the progress callback takes it back, and Ctrl-C stops
         // the replay after the current frame (the KeyboardInterrupt propagates).
         const std::function<void(std::size_t, std::size_t)> user = std::move(options.progress);
@@ -238,7 +238,7 @@ void bindReplay(py::module_& m) {
         // The mapper is locked for writing; the callback runs on this thread, so it may read the mapper.
         return withLock(&mapper, Access::Write, [&] { return replayLog(source, mapper, options); });
       },
-      py::arg("source"), py::arg("mapper"), py::arg("options") = ReplayOptions{},
+      py::arg("source"), py::arg("mapper"), py::arg("options") = ReplayConfig{},
       "Replays a sequence into a mapper as the CLI's `integrate` does: frames in order with the poses the log "
       "gives, corrections applied once their frame is integrated, one budgeted re-integration cycle per "
       "frame, and the queue drained at the end. With on_bad_frame 'fail' the first bad frame raises "
@@ -343,19 +343,19 @@ void bindFiles(py::module_& m) {
 }
 
 void bindLogWriter(py::module_& m) {
-  py::class_<io::LogWriterOptions> o(m, "LogWriterOptions", "Options of LogWriter.");
+  py::class_<io::LogWriterConfig> o(m, "LogWriterConfig", "Options of LogWriter.");
   addStructProtocol(o);
-  o.def_readwrite("points_extension", &io::LogWriterOptions::points_extension, "'.bin', '.ply' or '.pcd'")
-      .def_readwrite("flush_every_frames", &io::LogWriterOptions::flush_every_frames,
+  o.def_readwrite("points_extension", &io::LogWriterConfig::points_extension, "'.bin', '.ply' or '.pcd'")
+      .def_readwrite("flush_every_frames", &io::LogWriterConfig::flush_every_frames,
                      "rewrite frames.csv every this many frames; 0 = only at flush()/close()")
-      .def_readwrite("overwrite", &io::LogWriterOptions::overwrite, "allow a folder that already holds a log")
-      .def("validate", &io::LogWriterOptions::validate, "Raises ValueError naming the field and its allowed range.");
+      .def_readwrite("overwrite", &io::LogWriterConfig::overwrite, "allow a folder that already holds a log")
+      .def("validate", &io::LogWriterConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<io::LogWriter> w(m, "LogWriter",
                               "Writes our log format (sensor.json, frames.csv, frame files, corrections/, "
                               "groundtruth.txt). A context manager: leaving the block closes it.");
-  w.def(py::init<const std::filesystem::path&, const io::SensorInfo&, io::LogWriterOptions>(), py::arg("folder"),
-        py::arg("sensor"), py::arg("options") = io::LogWriterOptions{},
+  w.def(py::init<const std::filesystem::path&, const io::SensorInfo&, io::LogWriterConfig>(), py::arg("folder"),
+        py::arg("sensor"), py::arg("options") = io::LogWriterConfig{},
         "Creates the folder and writes sensor.json. OSError when it already holds a log (unless overwrite).")
       .def(
           "add_depth_frame",

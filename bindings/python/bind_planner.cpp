@@ -11,16 +11,16 @@ namespace {
 using namespace vdbmap::planner;
 
 void bindFrontierAndViewpoints(py::module_& m) {
-  py::class_<FrontierParams> f(m, "FrontierParams",
+  py::class_<FrontierConfig> f(m, "FrontierConfig",
                                "Frontier clusters (FUEL's cluster_min, cluster_size_xy, down_sample).");
   addStructProtocol(f);
-  f.def_readwrite("min_cluster_size", &FrontierParams::min_cluster_size,
+  f.def_readwrite("min_cluster_size", &FrontierConfig::min_cluster_size,
                   "smaller 26-connected components are dropped; [1, 1e8]")
-      .def_readwrite("split_radius_xy_m", &FrontierParams::split_radius_xy_m,
+      .def_readwrite("split_radius_xy_m", &FrontierConfig::split_radius_xy_m,
                      "a cluster reaching farther than this from its centroid in x-y is split; (0, 1e4]")
-      .def_readwrite("sample_stride_vox", &FrontierParams::sample_stride_vox,
+      .def_readwrite("sample_stride_vox", &FrontierConfig::sample_stride_vox,
                      "one representative voxel per cube of this many voxels a side; [1, 64]")
-      .def("validate", &FrontierParams::validate, "Raises ValueError naming the field and its allowed range.");
+      .def("validate", &FrontierConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<CameraFrustum> c(m, "CameraFrustum", "The camera the planner scores viewpoints with.");
   addStructProtocol(c);
@@ -46,168 +46,168 @@ void bindFrontierAndViewpoints(py::module_& m) {
                      "cluster's samples; (0, 1]")
       .def("validate", &ViewpointFallback::validate, "Raises ValueError naming the field and its allowed range.");
 
-  py::class_<ViewpointParams> v(m, "ViewpointParams", "Viewpoints sampled on rings around each cluster.");
+  py::class_<ViewpointConfig> v(m, "ViewpointConfig", "Viewpoints sampled on rings around each cluster.");
   addStructProtocol(v);
-  v.def_readwrite("ring_radius_min_m", &ViewpointParams::ring_radius_min_m,
+  v.def_readwrite("ring_radius_min_m", &ViewpointConfig::ring_radius_min_m,
                   "FUEL candidate_rmin; (0, ring_radius_max_m]")
-      .def_readwrite("ring_radius_max_m", &ViewpointParams::ring_radius_max_m,
+      .def_readwrite("ring_radius_max_m", &ViewpointConfig::ring_radius_max_m,
                      "FUEL candidate_rmax; [ring_radius_min_m, 100]")
-      .def_readwrite("ring_count", &ViewpointParams::ring_count, "radii evenly spaced from min to max; [1, 100]")
-      .def_readwrite("angle_step_deg", &ViewpointParams::angle_step_deg, "FUEL candidate_dphi; (0, 180]")
-      .def_readwrite("height_offsets_m", &ViewpointParams::height_offsets_m,
+      .def_readwrite("ring_count", &ViewpointConfig::ring_count, "radii evenly spaced from min to max; [1, 100]")
+      .def_readwrite("angle_step_deg", &ViewpointConfig::angle_step_deg, "FUEL candidate_dphi; (0, 180]")
+      .def_readwrite("height_offsets_m", &ViewpointConfig::height_offsets_m,
                      "list of ring heights relative to the centroid (assign a new list to change it)")
-      .def_readwrite("min_clearance_m", &ViewpointParams::min_clearance_m,
+      .def_readwrite("min_clearance_m", &ViewpointConfig::min_clearance_m,
                      "every voxel within this distance of a viewpoint is known-free; [0, 10]")
-      .def_readwrite("min_visible_samples", &ViewpointParams::min_visible_samples,
+      .def_readwrite("min_visible_samples", &ViewpointConfig::min_visible_samples,
                      "FUEL min_visib_num: a viewpoint must see more cluster samples than this; [0, 1e6]")
-      .def_readwrite("camera", &ViewpointParams::camera, "CameraFrustum")
-      .def_readwrite("fallback", &ViewpointParams::fallback, "ViewpointFallback")
-      .def("validate", &ViewpointParams::validate, "Raises ValueError naming the field and its allowed range.");
+      .def_readwrite("camera", &ViewpointConfig::camera, "CameraFrustum")
+      .def_readwrite("fallback", &ViewpointConfig::fallback, "ViewpointFallback")
+      .def("validate", &ViewpointConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }
 
 void bindCostsAndPaths(py::module_& m) {
-  py::class_<CostParams> c(m, "CostParams",
+  py::class_<CostConfig> c(m, "CostConfig",
                            "Cost between viewpoints: max(path / v_max, yaw / yaw_rate) + direction term.");
   addStructProtocol(c);
-  c.def_readwrite("v_max_m_s", &CostParams::v_max_m_s, "(0, 100]")
-      .def_readwrite("yaw_rate_max_rad_s", &CostParams::yaw_rate_max_rad_s, "(0, 100]")
-      .def_readwrite("w_dir", &CostParams::w_dir, "FUEL's w_dir, seconds per radian; [0, 1e3]")
-      .def_readwrite("unreachable_cost_s", &CostParams::unreachable_cost_s, "cost of a pair without a path; (0, 1e9]")
-      .def("validate", &CostParams::validate, "Raises ValueError naming the field and its allowed range.");
+  c.def_readwrite("v_max_m_s", &CostConfig::v_max_m_s, "(0, 100]")
+      .def_readwrite("yaw_rate_max_rad_s", &CostConfig::yaw_rate_max_rad_s, "(0, 100]")
+      .def_readwrite("w_dir", &CostConfig::w_dir, "FUEL's w_dir, seconds per radian; [0, 1e3]")
+      .def_readwrite("unreachable_cost_s", &CostConfig::unreachable_cost_s, "cost of a pair without a path; (0, 1e9]")
+      .def("validate", &CostConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
-  py::class_<PathParams> p(m, "PathParams", "Collision-free paths in the map (straight line or OMPL RRTConnect).");
+  py::class_<PathConfig> p(m, "PathConfig", "Collision-free paths in the map (straight line or OMPL RRTConnect).");
   addStructProtocol(p);
-  p.def_readwrite("clearance_m", &PathParams::clearance_m, "known-free distance around the path; [0, 5]")
-      .def_readwrite("check_step_m", &PathParams::check_step_m, "OMPL's validity-check resolution; 0 = half a voxel")
-      .def_readwrite("time_limit_s", &PathParams::time_limit_s, "wall-clock budget of one search; (0, 60]")
-      .def_readwrite("max_iterations", &PathParams::max_iterations,
+  p.def_readwrite("clearance_m", &PathConfig::clearance_m, "known-free distance around the path; [0, 5]")
+      .def_readwrite("check_step_m", &PathConfig::check_step_m, "OMPL's validity-check resolution; 0 = half a voxel")
+      .def_readwrite("time_limit_s", &PathConfig::time_limit_s, "wall-clock budget of one search; (0, 60]")
+      .def_readwrite("max_iterations", &PathConfig::max_iterations,
                      "RRTConnect iterations of one search; 0 = only the time limit; [0, 1e9]")
-      .def_readwrite("rrt_range_m", &PathParams::rrt_range_m, "RRTConnect's extension length; 0 = OMPL's default")
-      .def_readwrite("simplify_rounds", &PathParams::simplify_rounds, "shortcutting rounds; [0, 100]")
-      .def_readwrite("seed", &PathParams::seed, "OMPL's seed")
-      .def("validate", &PathParams::validate, "Raises ValueError naming the field and its allowed range.");
+      .def_readwrite("rrt_range_m", &PathConfig::rrt_range_m, "RRTConnect's extension length; 0 = OMPL's default")
+      .def_readwrite("simplify_rounds", &PathConfig::simplify_rounds, "shortcutting rounds; [0, 100]")
+      .def_readwrite("seed", &PathConfig::seed, "OMPL's seed")
+      .def("validate", &PathConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
-  py::class_<TourParams> t(m, "TourParams", "The global tour's ATSP solver.");
+  py::class_<TourConfig> t(m, "TourConfig", "The global tour's ATSP solver.");
   addStructProtocol(t);
-  t.def_readwrite("time_limit_s", &TourParams::time_limit_s, "solver budget; (0, 60]")
-      .def_readwrite("seed", &TourParams::seed, "solver seed")
-      .def_readwrite("max_iterations", &TourParams::max_iterations, "solver rounds; 0 = only the time limit")
-      .def("validate", &TourParams::validate, "Raises ValueError naming the field and its allowed range.");
+  t.def_readwrite("time_limit_s", &TourConfig::time_limit_s, "solver budget; (0, 60]")
+      .def_readwrite("seed", &TourConfig::seed, "solver seed")
+      .def_readwrite("max_iterations", &TourConfig::max_iterations, "solver rounds; 0 = only the time limit")
+      .def("validate", &TourConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
-  py::class_<RefinementParams> r(m, "RefinementParams", "Local viewpoint refinement (FUEL's refined_*).");
+  py::class_<RefinementConfig> r(m, "RefinementConfig", "Local viewpoint refinement (FUEL's refined_*).");
   addStructProtocol(r);
-  r.def_readwrite("max_clusters", &RefinementParams::max_clusters, "clusters of the tour refined; [1, 100]")
-      .def_readwrite("radius_m", &RefinementParams::radius_m, "refine no farther than this (after two); (0, 1e4]")
-      .def_readwrite("top_viewpoints", &RefinementParams::top_viewpoints, "viewpoints per layer; [1, 1000]")
-      .def_readwrite("max_decay", &RefinementParams::max_decay,
+  r.def_readwrite("max_clusters", &RefinementConfig::max_clusters, "clusters of the tour refined; [1, 100]")
+      .def_readwrite("radius_m", &RefinementConfig::radius_m, "refine no farther than this (after two); (0, 1e4]")
+      .def_readwrite("top_viewpoints", &RefinementConfig::top_viewpoints, "viewpoints per layer; [1, 1000]")
+      .def_readwrite("max_decay", &RefinementConfig::max_decay,
                      "keep viewpoints seeing this share of the best's; [0, 1]")
-      .def_readwrite("min_distance_m", &RefinementParams::min_distance_m, "skip viewpoints this close; [0, 1e3]")
-      .def("validate", &RefinementParams::validate, "Raises ValueError naming the field and its allowed range.");
+      .def_readwrite("min_distance_m", &RefinementConfig::min_distance_m, "skip viewpoints this close; [0, 1e3]")
+      .def("validate", &RefinementConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
-  py::class_<TrajectoryParams> j(m, "TrajectoryParams", "Minimum-time trajectories along paths.");
+  py::class_<TrajectoryConfig> j(m, "TrajectoryConfig", "Minimum-time trajectories along paths.");
   addStructProtocol(j);
-  j.def_readwrite("v_max_m_s", &TrajectoryParams::v_max_m_s, "(0, 100]")
-      .def_readwrite("a_max_m_s2", &TrajectoryParams::a_max_m_s2, "(0, 100]")
-      .def_readwrite("yaw_rate_max_rad_s", &TrajectoryParams::yaw_rate_max_rad_s, "(0, 100]")
-      .def_readwrite("yaw_acc_max_rad_s2", &TrajectoryParams::yaw_acc_max_rad_s2, "(0, 1000]")
-      .def_readwrite("normal_acc_share", &TrajectoryParams::normal_acc_share, "share of a_max for turning; (0, 1)")
-      .def_readwrite("corner_fraction", &TrajectoryParams::corner_fraction, "arc start before a corner; (0, 0.5]")
-      .def_readwrite("ds_m", &TrajectoryParams::ds_m, "speed profile spacing; (0, 1]")
-      .def_readwrite("clearance_m", &TrajectoryParams::clearance_m, "clearance of arcs and lead-ins; [0, 5]")
-      .def_readwrite("check_step_m", &TrajectoryParams::check_step_m, "0 = half a voxel; [0, 1]")
-      .def_readwrite("corner_shrink_steps", &TrajectoryParams::corner_shrink_steps, "arc halvings; [0, 30]")
-      .def("validate", &TrajectoryParams::validate, "Raises ValueError naming the field and its allowed range.");
+  j.def_readwrite("v_max_m_s", &TrajectoryConfig::v_max_m_s, "(0, 100]")
+      .def_readwrite("a_max_m_s2", &TrajectoryConfig::a_max_m_s2, "(0, 100]")
+      .def_readwrite("yaw_rate_max_rad_s", &TrajectoryConfig::yaw_rate_max_rad_s, "(0, 100]")
+      .def_readwrite("yaw_acc_max_rad_s2", &TrajectoryConfig::yaw_acc_max_rad_s2, "(0, 1000]")
+      .def_readwrite("normal_acc_share", &TrajectoryConfig::normal_acc_share, "share of a_max for turning; (0, 1)")
+      .def_readwrite("corner_fraction", &TrajectoryConfig::corner_fraction, "arc start before a corner; (0, 0.5]")
+      .def_readwrite("ds_m", &TrajectoryConfig::ds_m, "speed profile spacing; (0, 1]")
+      .def_readwrite("clearance_m", &TrajectoryConfig::clearance_m, "clearance of arcs and lead-ins; [0, 5]")
+      .def_readwrite("check_step_m", &TrajectoryConfig::check_step_m, "0 = half a voxel; [0, 1]")
+      .def_readwrite("corner_shrink_steps", &TrajectoryConfig::corner_shrink_steps, "arc halvings; [0, 30]")
+      .def("validate", &TrajectoryConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }
 
 void bindAlcParams(py::module_& m) {
-  py::class_<AlcParams> a(m, "AlcParams",
+  py::class_<AlcConfig> a(m, "AlcConfig",
                           "Active loop closure (docs/planner.md); the history and cluster parameters stay at their C++ "
                           "defaults.");
   addStructProtocol(a);
-  a.def_readwrite("epsilon", &AlcParams::epsilon, "detour iff C_loop <= (1 + epsilon) C_frt; [0, 100]")
-      .def_readwrite("search_radius_m", &AlcParams::search_radius_m, "candidate clusters have a viewpoint this close")
-      .def_readwrite("initial_period_s", &AlcParams::initial_period_s, "no ALC in the first seconds of a flight")
-      .def_readwrite("give_up_timeout_s", &AlcParams::give_up_timeout_s, "a detour without a loop closure ends then")
-      .def_readwrite("suspension_s", &AlcParams::suspension_s, "ALC is off this long after giving up")
-      .def_readwrite("loop_quiet_s", &AlcParams::loop_quiet_s, "ALC is off this long after any loop closure")
-      .def_readwrite("max_failures_per_cluster", &AlcParams::max_failures_per_cluster,
+  a.def_readwrite("epsilon", &AlcConfig::epsilon, "detour iff C_loop <= (1 + epsilon) C_frt; [0, 100]")
+      .def_readwrite("search_radius_m", &AlcConfig::search_radius_m, "candidate clusters have a viewpoint this close")
+      .def_readwrite("initial_period_s", &AlcConfig::initial_period_s, "no ALC in the first seconds of a flight")
+      .def_readwrite("give_up_timeout_s", &AlcConfig::give_up_timeout_s, "a detour without a loop closure ends then")
+      .def_readwrite("suspension_s", &AlcConfig::suspension_s, "ALC is off this long after giving up")
+      .def_readwrite("loop_quiet_s", &AlcConfig::loop_quiet_s, "ALC is off this long after any loop closure")
+      .def_readwrite("max_failures_per_cluster", &AlcConfig::max_failures_per_cluster,
                      "given up this often, a cluster is never chosen again")
-      .def_readwrite("unreachable_cost_s", &AlcParams::unreachable_cost_s,
+      .def_readwrite("unreachable_cost_s", &AlcConfig::unreachable_cost_s,
                      "legs at or above this are left out of both sums")
-      .def_readwrite("tour", &AlcParams::tour, "TourParams of both tours")
-      .def("validate", &AlcParams::validate, "Raises ValueError naming the field and its allowed range.");
+      .def_readwrite("tour", &AlcConfig::tour, "TourConfig of both tours")
+      .def("validate", &AlcConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }
 
 void bindExplorationParams(py::module_& m) {
-  py::class_<EscapeParams> esc(m, "EscapeParams",
+  py::class_<EscapeConfig> esc(m, "EscapeConfig",
                                "Retreats and straight escapes out of a blocked start (bounds, clearance and trajectory "
                                "are set by the exploration manager).");
   addStructProtocol(esc);
-  esc.def_readwrite("flown_positions_kept", &EscapeParams::flown_positions_kept,
+  esc.def_readwrite("flown_positions_kept", &EscapeConfig::flown_positions_kept,
                     "flown positions kept for retreats (one voxel apart); [1, 1e6]")
-      .def_readwrite("retreat_reach_m", &EscapeParams::retreat_reach_m,
+      .def_readwrite("retreat_reach_m", &EscapeConfig::retreat_reach_m,
                      "how far back along the way flown a retreat goes; [0, 100]")
-      .def_readwrite("escape_reach_m", &EscapeParams::escape_reach_m,
+      .def_readwrite("escape_reach_m", &EscapeConfig::escape_reach_m,
                      "how far a straight escape looks for a clear point; (0, 10]")
-      .def("validate", &EscapeParams::validate, "Raises ValueError naming the field and its allowed range.");
+      .def("validate", &EscapeConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
-  py::class_<ExplorationParams> e(m, "ExplorationParams",
+  py::class_<ExplorationManagerConfig> e(m, "ExplorationManagerConfig",
                                   "The exploration manager (FUEL-style). box_W is required; the pieces' bounds are "
                                   "set from it. Nested structs are edited in place.");
   addStructProtocol(e);
   e.def_property(
-       "box_W", [](const ExplorationParams& self) { return toArrays(self.box_W); },
-       [](ExplorationParams& self, py::handle value) { self.box_W = toBox(value, "box_W"); },
+       "box_W", [](const ExplorationManagerConfig& self) { return toArrays(self.box_W); },
+       [](ExplorationManagerConfig& self, py::handle value) { self.box_W = toBox(value, "box_W"); },
        "the exploration box (min (3,), max (3,)) in the world frame, or None (unset)")
-      .def_readwrite("frontier", &ExplorationParams::frontier, "FrontierParams")
-      .def_readwrite("viewpoint", &ExplorationParams::viewpoint, "ViewpointParams")
-      .def_readwrite("cost", &ExplorationParams::cost, "CostParams")
-      .def_readwrite("path", &ExplorationParams::path, "PathParams of the flown paths (0.1 s OMPL budget)")
-      .def_readwrite("cost_path", &ExplorationParams::cost_path, "PathParams of paths only measured (0.01 s)")
-      .def_readwrite("tour", &ExplorationParams::tour, "TourParams")
-      .def_readwrite("refinement", &ExplorationParams::refinement, "RefinementParams")
-      .def_readwrite("trajectory", &ExplorationParams::trajectory, "TrajectoryParams")
+      .def_readwrite("frontier", &ExplorationManagerConfig::frontier, "FrontierConfig")
+      .def_readwrite("viewpoint", &ExplorationManagerConfig::viewpoint, "ViewpointConfig")
+      .def_readwrite("cost", &ExplorationManagerConfig::cost, "CostConfig")
+      .def_readwrite("path", &ExplorationManagerConfig::path, "PathConfig of the flown paths (0.1 s OMPL budget)")
+      .def_readwrite("cost_path", &ExplorationManagerConfig::cost_path, "PathConfig of paths only measured (0.01 s)")
+      .def_readwrite("tour", &ExplorationManagerConfig::tour, "TourConfig")
+      .def_readwrite("refinement", &ExplorationManagerConfig::refinement, "RefinementConfig")
+      .def_readwrite("trajectory", &ExplorationManagerConfig::trajectory, "TrajectoryConfig")
       .def_property(
-          "start_free_half_size_m", [](const ExplorationParams& self) { return toArray(self.start_free_half_size_m); },
-          [](ExplorationParams& self, py::handle v) {
+          "start_free_half_size_m", [](const ExplorationManagerConfig& self) { return toArray(self.start_free_half_size_m); },
+          [](ExplorationManagerConfig& self, py::handle v) {
             self.start_free_half_size_m = toVec3(v, "start_free_half_size_m");
           },
           "(3,) half-sizes of the box around the start where unknown reads free; each [0, 10]")
-      .def_readwrite("initial_turn", &ExplorationParams::initial_turn, "turn once on the spot before exploring")
-      .def_readwrite("viewpoint_margin_z_m", &ExplorationParams::viewpoint_margin_z_m,
+      .def_readwrite("initial_turn", &ExplorationManagerConfig::initial_turn, "turn once on the spot before exploring")
+      .def_readwrite("viewpoint_margin_z_m", &ExplorationManagerConfig::viewpoint_margin_z_m,
                      "viewpoints keep this far from the box's bottom and top; [0, 10]")
-      .def_readwrite("alc_enabled", &ExplorationParams::alc_enabled, "active loop closure (off: plain FUEL)")
-      .def_readwrite("alc", &ExplorationParams::alc, "AlcParams")
-      .def_readwrite("replan_time_left_s", &ExplorationParams::replan_time_left_s,
+      .def_readwrite("alc_enabled", &ExplorationManagerConfig::alc_enabled, "active loop closure (off: plain FUEL)")
+      .def_readwrite("alc", &ExplorationManagerConfig::alc, "AlcConfig")
+      .def_readwrite("replan_time_left_s", &ExplorationManagerConfig::replan_time_left_s,
                      "replan when less trajectory is left (FUEL thresh_replan1); [0, 100]")
-      .def_readwrite("replan_covered_after_s", &ExplorationParams::replan_covered_after_s,
+      .def_readwrite("replan_covered_after_s", &ExplorationManagerConfig::replan_covered_after_s,
                      "replan when the target is covered after this long (thresh_replan2); [0, 100]")
-      .def_readwrite("replan_period_s", &ExplorationParams::replan_period_s, "replan at least this often; (0, 1000]")
-      .def_readwrite("covered_fraction", &ExplorationParams::covered_fraction,
+      .def_readwrite("replan_period_s", &ExplorationManagerConfig::replan_period_s, "replan at least this often; (0, 1000]")
+      .def_readwrite("covered_fraction", &ExplorationManagerConfig::covered_fraction,
                      "a target is covered when this share of its frontier is gone; (0, 1]")
-      .def_readwrite("collision_radius_m", &ExplorationParams::collision_radius_m,
+      .def_readwrite("collision_radius_m", &ExplorationManagerConfig::collision_radius_m,
                      "known-free space kept around the rest of the trajectory; [0, path.clearance_m]")
-      .def_readwrite("max_failures", &ExplorationParams::max_failures, "failures before a target is blacklisted")
-      .def_readwrite("revisit_rounds", &ExplorationParams::revisit_rounds,
+      .def_readwrite("max_failures", &ExplorationManagerConfig::max_failures, "failures before a target is blacklisted")
+      .def_readwrite("revisit_rounds", &ExplorationManagerConfig::revisit_rounds,
                      "times per run that blacklisted clusters get one more try and viewpoints are recomputed when "
                      "only blacklisted clusters or clusters without a viewpoint are left; [0, 100]")
-      .def_readwrite("final_min_cluster_size", &ExplorationParams::final_min_cluster_size,
+      .def_readwrite("final_min_cluster_size", &ExplorationManagerConfig::final_min_cluster_size,
                      "when no target is left, the frontier's min cluster size drops to this once, for a final "
                      "sweep of the small clusters (0: off); [0, 1e8]")
-      .def_readwrite("max_targets_per_replan", &ExplorationParams::max_targets_per_replan, "targets tried per replan")
-      .def_readwrite("keep_target", &ExplorationParams::keep_target,
+      .def_readwrite("max_targets_per_replan", &ExplorationManagerConfig::max_targets_per_replan, "targets tried per replan")
+      .def_readwrite("keep_target", &ExplorationManagerConfig::keep_target,
                      "periodic and frame-shift replans keep flying to the current target while it is live "
                      "(off: the tour's first target wins every replan, as in FUEL)")
-      .def_readwrite("initial_turn_parts", &ExplorationParams::initial_turn_parts,
+      .def_readwrite("initial_turn_parts", &ExplorationManagerConfig::initial_turn_parts,
                      "parts of the initial turn, each under half a turn; [3, 36]")
-      .def_readwrite("risk_check_spacing_vox", &ExplorationParams::risk_check_spacing_vox,
+      .def_readwrite("risk_check_spacing_vox", &ExplorationManagerConfig::risk_check_spacing_vox,
                      "spacing of the collision-risk check along the trajectory, voxels; (0, 10]")
-      .def_readwrite("escape", &ExplorationParams::escape, "EscapeParams")
-      .def_readwrite("max_chained_escapes", &ExplorationParams::max_chained_escapes,
+      .def_readwrite("escape", &ExplorationManagerConfig::escape, "EscapeConfig")
+      .def_readwrite("max_chained_escapes", &ExplorationManagerConfig::max_chained_escapes,
                      "straight escapes in a row before giving up; [0, 100]")
-      .def_readwrite("max_chained_backtracks", &ExplorationParams::max_chained_backtracks,
+      .def_readwrite("max_chained_backtracks", &ExplorationManagerConfig::max_chained_backtracks,
                      "goings back the way flown in a row after every target failed; [0, 100]")
-      .def("validate", &ExplorationParams::validate, "Raises ValueError naming the field and its allowed range.");
+      .def("validate", &ExplorationManagerConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::enum_<ExplorationStatus> status(m, "ExplorationStatus", "What one exploration update decided.");
   status.value("Continue", ExplorationStatus::Continue, "keep following the trajectory")
@@ -229,9 +229,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readonly("escapes", &ExplorationCounters::escapes,
                     "moves out of a start blocked by occupied voxels (retreats included)")
       .def_readonly("retreats", &ExplorationCounters::retreats, "escapes back along the way flown")
-      .def_readonly("revisit_rounds", &ExplorationCounters::revisit_rounds, "ExplorationParams.revisit_rounds done")
+      .def_readonly("revisit_rounds", &ExplorationCounters::revisit_rounds, "ExplorationManagerConfig.revisit_rounds done")
       .def_readonly("final_sweep_clusters", &ExplorationCounters::final_sweep_clusters,
-                    "clusters the final sweep (ExplorationParams.final_min_cluster_size) added")
+                    "clusters the final sweep (ExplorationManagerConfig.final_min_cluster_size) added")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 }
 

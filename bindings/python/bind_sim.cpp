@@ -256,11 +256,11 @@ void bindSimulatorConfig(py::module_& m) {
                      "candidates (nearest first) tested per frame; [1, 1000]")
       .def("validate", &LoopClosureConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
-  py::class_<PoseGraphSolveOptions> p(m, "PoseGraphSolveOptions", "The pose-graph solver's stopping rules.");
+  py::class_<PoseGraphSolveConfig> p(m, "PoseGraphSolveConfig", "The pose-graph solver's stopping rules.");
   addStructProtocol(p);
-  p.def_readwrite("max_iterations", &PoseGraphSolveOptions::max_iterations, "[1, 10000]")
-      .def_readwrite("function_tolerance", &PoseGraphSolveOptions::function_tolerance, "relative cost change")
-      .def("validate", &PoseGraphSolveOptions::validate, "Raises ValueError naming the field and its allowed range.");
+  p.def_readwrite("max_iterations", &PoseGraphSolveConfig::max_iterations, "[1, 10000]")
+      .def_readwrite("function_tolerance", &PoseGraphSolveConfig::function_tolerance, "relative cost change")
+      .def("validate", &PoseGraphSolveConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<SimulatorConfig> s(m, "SimulatorConfig",
                                 "The simulated vehicle's sensors: camera, drift, loop closure. Nested structs are "
@@ -278,7 +278,7 @@ void bindSimulatorConfig(py::module_& m) {
                      "noise of a loop edge in yaw; [0, 0.5]")
       .def_readwrite("odometry_sigma_floor", &SimulatorConfig::odometry_sigma_floor,
                      "floor of the odometry edges' standard deviations; [1e-9, 1]")
-      .def_readwrite("solve", &SimulatorConfig::solve, "PoseGraphSolveOptions")
+      .def_readwrite("solve", &SimulatorConfig::solve, "PoseGraphSolveConfig")
       .def("validate", &SimulatorConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<MotionLimits> ml(m, "MotionLimits", "The vehicle's limits; the paper's: 2 m/s, 2 m/s^2, 0.9 rad/s.");
@@ -322,7 +322,7 @@ void bindFlight(py::module_& m) {
         // world's built-in coverage pattern.
         const bool coverage = waypoints.is_none();
         const std::vector<FlatPose> path = coverage ? std::vector<FlatPose>{} : toWaypoints(waypoints, "waypoints");
-        FlightOptions options;
+        FlightConfig options;
         options.overwrite = overwrite;
         options.description = description;
         options.progress = [progress](std::size_t done, std::size_t total) {

@@ -5,6 +5,9 @@
 #include "vdbmap/version.hpp"
 
 #include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
 #include <system_error>
 
 namespace vdbmap::python {
@@ -35,6 +38,23 @@ void registerExceptions(py::module_& m) {
   });
 }
 
+/// The classes renamed when every settings type took the suffix Config: their old names still
+/// resolve, through the module's __getattr__ (PEP 562), with a DeprecationWarning.
+void keepRenamedClasses(py::module_ m, const std::vector<std::pair<std::string, std::string>>& renamed) {
+  const std::string module_name = py::str(m.attr("__name__"));
+  m.attr("__getattr__") = py::cpp_function(
+      [module_name, renamed](const std::string& name) -> py::object {
+        for (const auto& [old_name, new_name] : renamed) {
+          if (name != old_name) continue;
+          const std::string message = module_name + "." + old_name + " is renamed " + module_name + "." + new_name;
+          if (PyErr_WarnEx(PyExc_DeprecationWarning, message.c_str(), 1) != 0) throw py::error_already_set();
+          return py::module_::import(module_name.c_str()).attr(new_name.c_str());
+        }
+        throw py::attribute_error("module '" + module_name + "' has no attribute '" + name + "'");
+      },
+      py::arg("name"));
+}
+
 }  // namespace
 }  // namespace vdbmap::python
 
@@ -53,4 +73,16 @@ PYBIND11_MODULE(vdbmap, m) {
   m.attr("__version__") = vdbmap::kVersion;
   registerExceptions(m);
   bindAllParts(m);
+  keepRenamedClasses(m, {{"ReplayOptions", "ReplayConfig"}, {"LogWriterOptions", "LogWriterConfig"}});
+  keepRenamedClasses(m.attr("planner"), {{"AlcParams", "AlcConfig"},
+                                         {"CostParams", "CostConfig"},
+                                         {"EscapeParams", "EscapeConfig"},
+                                         {"ExplorationParams", "ExplorationManagerConfig"},
+                                         {"FrontierParams", "FrontierConfig"},
+                                         {"PathParams", "PathConfig"},
+                                         {"RefinementParams", "RefinementConfig"},
+                                         {"TourParams", "TourConfig"},
+                                         {"TrajectoryParams", "TrajectoryConfig"},
+                                         {"ViewpointParams", "ViewpointConfig"}});
+  keepRenamedClasses(m.attr("sim"), {{"PoseGraphSolveOptions", "PoseGraphSolveConfig"}});
 }

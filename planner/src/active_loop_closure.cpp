@@ -8,11 +8,11 @@
 
 namespace vdbmap::planner {
 
-void AlcParams::validate() const {
+void AlcConfig::validate() const {
   history.validate();
   clusters.validate();
   tour.validate();
-  const FieldCheck check("AlcParams");
+  const FieldCheck check("AlcConfig");
   auto in = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
   if (!in(epsilon, 0.0, 100.0)) check.fail("epsilon", "[0, 100]");
   if (!(search_radius_m > 0.0 && search_radius_m <= 1e3)) check.fail("search_radius_m", "(0, 1000]");
@@ -48,7 +48,7 @@ std::string toString(AlcStatus status) {
   return "unknown";
 }
 
-LegCostFunction mapLegCosts(const MapQuery& map, const CostParams& cost, const PathParams& path) {
+LegCostFunction mapLegCosts(const MapQuery& map, const CostConfig& cost, const PathConfig& path) {
   cost.validate();
   path.validate();
   return [&map, cost, path](const VehicleState& from, const std::vector<TourTarget>& to) {
@@ -84,7 +84,7 @@ double reachableTourCost(const RealCostMatrix& costs, const std::vector<std::siz
   return cost;
 }
 
-ActiveLoopClosure::ActiveLoopClosure(const AlcParams& params, double flight_start_s)
+ActiveLoopClosure::ActiveLoopClosure(const AlcConfig& params, double flight_start_s)
     : params_(params), flight_start_s_(flight_start_s), history_(params.history), clusters_(params.clusters) {
   params_.validate();
   if (!std::isfinite(flight_start_s)) throw std::invalid_argument("ActiveLoopClosure: flight_start_s must be finite");
@@ -246,7 +246,7 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
 
 std::vector<std::vector<Viewpoint>> alcRefinementLayers(const VehicleState& vehicle, const AlcDecision& decision,
                                                         const std::vector<std::vector<Viewpoint>>& target_views,
-                                                        const RefinementParams& params) {
+                                                        const RefinementConfig& params) {
   if (target_views.size() != decision.frontier_tour.order.size())
     throw std::invalid_argument("alcRefinementLayers: viewpoints for " + std::to_string(target_views.size()) +
                                 " targets, the tour has " + std::to_string(decision.frontier_tour.order.size()));

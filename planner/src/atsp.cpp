@@ -68,7 +68,7 @@ struct Search {
   std::uint64_t iterations = 0;
 };
 
-Search solveInstance(const AtspInstance& instance, const AtspOptions& options, const Deadline& deadline) {
+Search solveInstance(const AtspInstance& instance, const AtspConfig& options, const Deadline& deadline) {
   Search search;
   if (instance.n <= 3) {
     search.order = tinyOptimalTour(instance);
@@ -136,14 +136,14 @@ std::string toString(AtspStatus status) {
   return "unknown";
 }
 
-void AtspOptions::validate() const {
+void AtspConfig::validate() const {
   if (!(time_limit_s > 0.0) || !std::isfinite(time_limit_s))
-    throw std::invalid_argument("AtspOptions::time_limit_s must be finite and > 0, got " +
+    throw std::invalid_argument("AtspConfig::time_limit_s must be finite and > 0, got " +
                                 std::to_string(time_limit_s));
   if (exact_max_n > 18)
-    throw std::invalid_argument("AtspOptions::exact_max_n must be in [0, 18], got " + std::to_string(exact_max_n));
+    throw std::invalid_argument("AtspConfig::exact_max_n must be in [0, 18], got " + std::to_string(exact_max_n));
   if (!(cost_resolution > 0.0) || !std::isfinite(cost_resolution))
-    throw std::invalid_argument("AtspOptions::cost_resolution must be finite and > 0, got " +
+    throw std::invalid_argument("AtspConfig::cost_resolution must be finite and > 0, got " +
                                 std::to_string(cost_resolution));
 }
 
@@ -161,14 +161,14 @@ std::int64_t tourCost(const CostMatrix& costs, const std::vector<std::size_t>& o
   return sum;
 }
 
-AtspResult solveAtsp(const CostMatrix& costs, const AtspOptions& options) {
+AtspResult solveAtsp(const CostMatrix& costs, const AtspConfig& options) {
   const auto start = atsp::Clock::now();
   options.validate();
   const std::size_t n = costs.size();
   if (n > kMaxAtspNodes)
     throw std::invalid_argument("solveAtsp: n = " + std::to_string(n) + " exceeds kMaxAtspNodes = 65536");
   if (options.open_from && *options.open_from >= n)
-    throw std::invalid_argument("AtspOptions::open_from must be in [0, " + std::to_string(n) + "), got " +
+    throw std::invalid_argument("AtspConfig::open_from must be in [0, " + std::to_string(n) + "), got " +
                                 std::to_string(*options.open_from));
   const Deadline deadline(start, options.time_limit_s);
   AtspResult result;
@@ -193,7 +193,7 @@ AtspResult solveAtsp(const CostMatrix& costs, const AtspOptions& options) {
   return result;
 }
 
-AtspResult solveAtsp(const RealCostMatrix& costs, const AtspOptions& options) {
+AtspResult solveAtsp(const RealCostMatrix& costs, const AtspConfig& options) {
   options.validate();
   const std::size_t n = costs.size();
   CostMatrix quantized(n);

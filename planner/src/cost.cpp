@@ -16,21 +16,21 @@ constexpr double kMovingSpeed_m_s = 1e-3;  ///< below this the vehicle counts as
 std::uint64_t pairSeed(ClusterId a, ClusterId b) { return (std::uint64_t(a) << 32) ^ std::uint64_t(b) ^ 0x5bd1e995ULL; }
 }  // namespace
 
-void CostParams::validate() const {
-  const FieldCheck check("CostParams");
+void CostConfig::validate() const {
+  const FieldCheck check("CostConfig");
   if (!(v_max_m_s > 0.0 && v_max_m_s <= 100.0)) check.fail("v_max_m_s", "(0, 100]");
   if (!(yaw_rate_max_rad_s > 0.0 && yaw_rate_max_rad_s <= 100.0)) check.fail("yaw_rate_max_rad_s", "(0, 100]");
   if (!(w_dir >= 0.0 && w_dir <= 1e3)) check.fail("w_dir", "[0, 1000]");
   if (!(unreachable_cost_s > 0.0 && unreachable_cost_s <= 1e9)) check.fail("unreachable_cost_s", "(0, 1e9]");
 }
 
-double motionCost(double path_length_m, double yaw_change_rad, double departure_angle_rad, const CostParams& p) {
+double motionCost(double path_length_m, double yaw_change_rad, double departure_angle_rad, const CostConfig& p) {
   const double position_s = path_length_m / p.v_max_m_s + p.w_dir * departure_angle_rad;
   const double yaw_s = std::abs(yaw_change_rad) / p.yaw_rate_max_rad_s;
   return std::max(position_s, yaw_s);
 }
 
-CostEvaluator::CostEvaluator(const MapQuery& map, const CostParams& cost, const PathParams& path)
+CostEvaluator::CostEvaluator(const MapQuery& map, const CostConfig& cost, const PathConfig& path)
     : params_(cost), planner_(map, path) {
   params_.validate();
 }
@@ -60,7 +60,7 @@ LegCost CostEvaluator::cost(const FlatPose& from, const FlatPose& to, std::uint6
   return cost(rest, to, query_seed);
 }
 
-PairCostTable::PairCostTable(const CostParams& cost, const PathParams& path) : cost_(cost), path_(path) {
+PairCostTable::PairCostTable(const CostConfig& cost, const PathConfig& path) : cost_(cost), path_(path) {
   cost_.validate();
   path_.validate();
 }
@@ -124,8 +124,8 @@ RealCostMatrix buildTourCostMatrix(const std::vector<double>& from_vehicle, cons
 }
 
 std::vector<LegCost> costsFromVehicle(const MapQuery& map, const VehicleState& vehicle,
-                                      const std::vector<TourTarget>& targets, const CostParams& cost,
-                                      const PathParams& path) {
+                                      const std::vector<TourTarget>& targets, const CostConfig& cost,
+                                      const PathConfig& path) {
   std::vector<LegCost> legs(targets.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, targets.size(), 4), [&](const tbb::blocked_range<std::size_t>& r) {
     CostEvaluator evaluator(map, cost, path);

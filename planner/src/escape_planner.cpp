@@ -20,8 +20,8 @@ std::vector<Eigen::AlignedBox3d> corridorAround(const std::vector<Vec3d>& way, d
 }
 }  // namespace
 
-void EscapeParams::validate() const {
-  const FieldCheck check("EscapeParams");
+void EscapeConfig::validate() const {
+  const FieldCheck check("EscapeConfig");
   if (bounds_W && (bounds_W->isEmpty() || !bounds_W->min().allFinite() || !bounds_W->max().allFinite()))
     check.fail("bounds_W", "non-empty finite boxes");
   check.inRange("clearance_m", clearance_m, 0.0, 10.0);
@@ -31,7 +31,7 @@ void EscapeParams::validate() const {
   trajectory.validate();
 }
 
-EscapePlanner::EscapePlanner(const EscapeParams& params) : params_(params) { params_.validate(); }
+EscapePlanner::EscapePlanner(const EscapeConfig& params) : params_(params) { params_.validate(); }
 
 void EscapePlanner::recordFlown(const Vec3d& p_W, double voxel_m) {
   if (!flown_W_.empty() && (p_W - flown_W_.back()).norm() < voxel_m) return;

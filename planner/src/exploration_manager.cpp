@@ -16,7 +16,7 @@ namespace {
 double yawOf(const Eigen::Isometry3d& T) { return std::atan2(T.linear()(1, 0), T.linear()(0, 0)); }
 
 /// The parameters with the pieces' bounds and the trajectory's clearance set from the manager's.
-ExplorationParams derivedParams(ExplorationParams p) {
+ExplorationManagerConfig derivedParams(ExplorationManagerConfig p) {
   p.validate();
   p.frontier.bounds_W = p.box_W;
   const double clearance = p.viewpoint.min_clearance_m;
@@ -98,22 +98,22 @@ const char* toString(ReplanReason r) {
   return "?";
 }
 
-PathParams ExplorationParams::flightPathDefaults() {
-  PathParams p;
+PathConfig ExplorationManagerConfig::flightPathDefaults() {
+  PathConfig p;
   p.time_limit_s = 0.1;
   return p;
 }
 
-PathParams ExplorationParams::costPathDefaults() {
-  PathParams p;
+PathConfig ExplorationManagerConfig::costPathDefaults() {
+  PathConfig p;
   p.time_limit_s = 0.01;
   return p;
 }
 
-void ExplorationParams::validate() const {
-  const FieldCheck check("ExplorationParams");
+void ExplorationManagerConfig::validate() const {
+  const FieldCheck check("ExplorationManagerConfig");
   if (box_W.isEmpty() || !box_W.min().allFinite() || !box_W.max().allFinite())
-    throw std::invalid_argument("ExplorationParams.box_W must be a finite, non-empty box");
+    throw std::invalid_argument("ExplorationManagerConfig.box_W must be a finite, non-empty box");
   frontier.validate();
   viewpoint.validate();
   cost.validate();
@@ -147,7 +147,7 @@ void ExplorationParams::validate() const {
   if (alc_enabled) alc.validate();
 }
 
-ExplorationManager::ExplorationManager(const ExplorationParams& params, const VehicleState& start, double t_s)
+ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, const VehicleState& start, double t_s)
     : params_(derivedParams(params)), book_(params_.max_failures), escapes_(params_.escape) {
   if (!params_.box_W.contains(start.position_W))
     throw std::invalid_argument("ExplorationManager: the start position lies outside the exploration box");

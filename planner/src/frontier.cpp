@@ -105,8 +105,8 @@ std::vector<openvdb::Coord> sampleVoxels(const std::vector<openvdb::Coord>& voxe
 
 }  // namespace
 
-void FrontierParams::validate() const {
-  const FieldCheck check("FrontierParams");
+void FrontierConfig::validate() const {
+  const FieldCheck check("FrontierConfig");
   if (min_cluster_size < 1 || min_cluster_size > 100000000) check.fail("min_cluster_size", "[1, 1e8]");
   if (!(split_radius_xy_m > 0.0 && split_radius_xy_m <= 1e4)) check.fail("split_radius_xy_m", "(0, 1e4]");
   if (sample_stride_vox < 1 || sample_stride_vox > 64) check.fail("sample_stride_vox", "[1, 64]");
@@ -133,7 +133,7 @@ std::size_t FrontierMap::CoordHash::operator()(const openvdb::Coord& c) const no
   return std::size_t(h ^ (h >> 31));
 }
 
-FrontierMap::FrontierMap(const FrontierParams& params) : params_(params) { params_.validate(); }
+FrontierMap::FrontierMap(const FrontierConfig& params) : params_(params) { params_.validate(); }
 
 const FrontierCluster* FrontierMap::find(ClusterId id) const {
   const auto it = std::lower_bound(clusters_.begin(), clusters_.end(), id,
@@ -303,7 +303,7 @@ void FrontierMap::dropClusters(const std::vector<ClusterId>& sorted_ids) {
 }
 
 FrontierUpdate FrontierMap::setMinClusterSize(const MapQuery& map, int min_cluster_size) {
-  FrontierParams changed = params_;
+  FrontierConfig changed = params_;
   changed.min_cluster_size = min_cluster_size;
   changed.validate();
   checkVoxelSize(map);

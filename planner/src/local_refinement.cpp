@@ -9,8 +9,8 @@
 
 namespace vdbmap::planner {
 
-void RefinementParams::validate() const {
-  const FieldCheck check("RefinementParams");
+void RefinementConfig::validate() const {
+  const FieldCheck check("RefinementConfig");
   if (max_clusters < 1 || max_clusters > 100) check.fail("max_clusters", "[1, 100]");
   if (!(radius_m > 0.0 && radius_m <= 1e4)) check.fail("radius_m", "(0, 1e4]");
   if (top_viewpoints < 1 || top_viewpoints > 1000) check.fail("top_viewpoints", "[1, 1000]");
@@ -20,7 +20,7 @@ void RefinementParams::validate() const {
 
 std::vector<std::vector<Viewpoint>> refinementLayers(const VehicleState& vehicle,
                                                      const std::vector<std::vector<Viewpoint>>& tour,
-                                                     const RefinementParams& params) {
+                                                     const RefinementConfig& params) {
   params.validate();
   std::vector<std::vector<Viewpoint>> layers;
   for (const std::vector<Viewpoint>& views : tour) {
@@ -80,8 +80,8 @@ RefinementResult shortestLayeredPath(const LayeredCosts& costs) {
 }
 
 LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
-                          const std::vector<std::vector<Viewpoint>>& layers, const CostParams& cost,
-                          const PathParams& path) {
+                          const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost,
+                          const PathConfig& path) {
   LayeredCosts costs;
   if (layers.empty()) return costs;
   // Every edge as one job: (layer of its head, tail index, head index); layer 0's tail is the vehicle.
@@ -123,8 +123,8 @@ LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
 }
 
 RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicle,
-                                 const std::vector<std::vector<Viewpoint>>& layers, const CostParams& cost,
-                                 const PathParams& path) {
+                                 const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost,
+                                 const PathConfig& path) {
   return shortestLayeredPath(layeredCosts(map, vehicle, layers, cost, path));
 }
 

@@ -7,8 +7,8 @@
 
 namespace vdbmap::planner {
 
-void LoopClusterParams::validate() const {
-  const FieldCheck check("LoopClusterParams");
+void LoopClusterConfig::validate() const {
+  const FieldCheck check("LoopClusterConfig");
   if (!(min_age_s >= 0.0 && min_age_s <= 1e6)) check.fail("min_age_s", "[0, 1e6]");
   if (max_viewpoints < 1 || max_viewpoints > 10000) check.fail("max_viewpoints", "[1, 10000]");
   if (!(max_extent_m > 0.0 && max_extent_m <= 100.0)) check.fail("max_extent_m", "(0, 100]");
@@ -16,7 +16,7 @@ void LoopClusterParams::validate() const {
   if (!(merge_distance_m >= 0.0 && merge_distance_m <= 100.0)) check.fail("merge_distance_m", "[0, 100]");
 }
 
-LoopClusters::LoopClusters(const LoopClusterParams& params) : params_(params) { params_.validate(); }
+LoopClusters::LoopClusters(const LoopClusterConfig& params) : params_(params) { params_.validate(); }
 
 std::size_t LoopClusters::update(const ViewpointHistory& history, double now_s) {
   if (history.size() < cluster_of_.size())

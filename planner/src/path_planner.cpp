@@ -77,8 +77,8 @@ const char* toString(PathStatus s) {
   return "?";
 }
 
-void PathParams::validate() const {
-  const FieldCheck check("PathParams");
+void PathConfig::validate() const {
+  const FieldCheck check("PathConfig");
   if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) check.fail("clearance_m", "[0, 5]");
   if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) check.fail("check_step_m", "[0, 1]");
   if (!(time_limit_s > 0.0 && time_limit_s <= 60.0)) check.fail("time_limit_s", "(0, 60]");
@@ -177,7 +177,7 @@ struct PathPlanner::Ompl {
   }
 };
 
-PathPlanner::PathPlanner(const MapQuery& map, const PathParams& params) : params_(params) {
+PathPlanner::PathPlanner(const MapQuery& map, const PathConfig& params) : params_(params) {
   params_.validate();
   const double step = params_.check_step_m > 0.0 ? params_.check_step_m : 0.5 * map.voxelSize();
   Eigen::AlignedBox3d bounds = map.worldBox(map.knownBounds());

@@ -5,9 +5,9 @@
 
 namespace vdbmap::planner {
 
-void TourParams::validate() const {
+void TourConfig::validate() const {
   if (!(time_limit_s > 0.0 && time_limit_s <= 60.0))
-    throw std::invalid_argument("TourParams.time_limit_s must be in (0, 60]");
+    throw std::invalid_argument("TourConfig.time_limit_s must be in (0, 60]");
 }
 
 double openTourCost(const RealCostMatrix& costs, const std::vector<std::size_t>& order) {
@@ -28,7 +28,7 @@ double openTourCost(const RealCostMatrix& costs, const std::vector<std::size_t>&
   return cost;
 }
 
-TourResult solveOpenTour(const RealCostMatrix& costs, const TourParams& params) {
+TourResult solveOpenTour(const RealCostMatrix& costs, const TourConfig& params) {
   params.validate();
   TourResult result;
   const std::size_t n = costs.size();
@@ -38,7 +38,7 @@ TourResult solveOpenTour(const RealCostMatrix& costs, const TourParams& params) 
     result.optimal_proven = true;
     return result;
   }
-  AtspOptions options;
+  AtspConfig options;
   options.time_limit_s = params.time_limit_s;
   options.seed = params.seed;
   options.max_iterations = params.max_iterations;
@@ -54,7 +54,7 @@ TourResult solveOpenTour(const RealCostMatrix& costs, const TourParams& params) 
 }
 
 GlobalTour planGlobalTour(const MapQuery& map, const VehicleState& vehicle, const std::vector<TourTarget>& targets,
-                          PairCostTable& table, const TourParams& tour) {
+                          PairCostTable& table, const TourConfig& tour) {
   GlobalTour g;
   table.update(map, targets);
   g.from_vehicle = costsFromVehicle(map, vehicle, targets, table.costParams(), table.pathParams());

@@ -30,8 +30,8 @@ const char* toString(TrajectoryStatus s) {
   return "?";
 }
 
-void TrajectoryParams::validate() const {
-  const FieldCheck check("TrajectoryParams");
+void TrajectoryConfig::validate() const {
+  const FieldCheck check("TrajectoryConfig");
   if (!(v_max_m_s > 0.0 && v_max_m_s <= 100.0)) check.fail("v_max_m_s", "(0, 100]");
   if (!(a_max_m_s2 > 0.0 && a_max_m_s2 <= 100.0)) check.fail("a_max_m_s2", "(0, 100]");
   if (!(yaw_rate_max_rad_s > 0.0 && yaw_rate_max_rad_s <= 100.0)) check.fail("yaw_rate_max_rad_s", "(0, 100]");
@@ -131,7 +131,7 @@ VehicleState Trajectory::sample(double t_s) const {
 /// Builds a Trajectory: lead-in, corner rounding with clearance checks, speed profile, yaw.
 class TrajectoryBuilder {
  public:
-  TrajectoryBuilder(const MapQuery& map, const TrajectoryParams& p)
+  TrajectoryBuilder(const MapQuery& map, const TrajectoryConfig& p)
       : p_(p), probe_(map), step_(p.check_step_m > 0.0 ? p.check_step_m : 0.5 * map.voxelSize()) {}
 
   TrajectoryResult build(const std::vector<Vec3d>& path, const VehicleState& start, double goal_yaw) {
@@ -335,13 +335,13 @@ class TrajectoryBuilder {
     traj.yaw_ramp_s_ = traj.yaw_peak_rate_ / alpha;
   }
 
-  TrajectoryParams p_;
+  TrajectoryConfig p_;
   MapProbe probe_;
   double step_;
 };
 
 TrajectoryResult planTrajectory(const std::vector<Vec3d>& path_W, const VehicleState& start, double goal_yaw_rad,
-                                const MapQuery& map, const TrajectoryParams& params) {
+                                const MapQuery& map, const TrajectoryConfig& params) {
   params.validate();
   if (path_W.empty()) throw std::invalid_argument("planTrajectory: the path is empty");
   if ((path_W.front() - start.position_W).norm() > kStartTolerance_m)

@@ -15,7 +15,7 @@ namespace {
 class TsdfReader : public MapReader {
  public:
   TsdfReader(openvdb::Int64Grid::ConstPtr w, openvdb::Int64Grid::ConstPtr wd, openvdb::Int64Grid::ConstPtr hits,
-             const TsdfConfig& c, const TsdfMapQueryParams& p)
+             const TsdfConfig& c, const TsdfMapQueryConfig& p)
       : w_grid_(std::move(w)),
         wd_grid_(std::move(wd)),
         hits_grid_(std::move(hits)),
@@ -172,20 +172,20 @@ class TsdfReader : public MapReader {
 };
 }  // namespace
 
-void TsdfMapQueryParams::validate() const {
+void TsdfMapQueryConfig::validate() const {
   if (!(thin_below_vox > 0.0 && thin_below_vox <= 100.0))
-    throw std::invalid_argument("TsdfMapQueryParams.thin_below_vox must be in (0, 100]");
+    throw std::invalid_argument("TsdfMapQueryConfig.thin_below_vox must be in (0, 100]");
   if (!(thin_margin_vox > 0.0 && thin_margin_vox <= 100.0))
-    throw std::invalid_argument("TsdfMapQueryParams.thin_margin_vox must be in (0, 100]");
+    throw std::invalid_argument("TsdfMapQueryConfig.thin_margin_vox must be in (0, 100]");
   if (!(min_hits >= 1 && min_hits <= 1000000000))
-    throw std::invalid_argument("TsdfMapQueryParams.min_hits must be in [1, 1e9]");
+    throw std::invalid_argument("TsdfMapQueryConfig.min_hits must be in [1, 1e9]");
 }
 
-TsdfMapQuery::TsdfMapQuery(const TsdfVolume& volume, const TsdfMapQueryParams& params)
+TsdfMapQuery::TsdfMapQuery(const TsdfVolume& volume, const TsdfMapQueryConfig& params)
     : volume_(&volume), params_(params) {
   params_.validate();
   if (params_.thin_obstacles || params_.hit_obstacles) {
-    TsdfMapQueryParams own = params_;
+    TsdfMapQueryConfig own = params_;
     own.thin_obstacles = own.hit_obstacles = false;
     sight_ = std::make_shared<const TsdfMapQuery>(volume, own);
   }

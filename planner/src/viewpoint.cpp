@@ -48,21 +48,21 @@ void ViewpointFallback::validate() const {
     fail("ViewpointFallback", "min_visible_fraction", "(0, 1]");
 }
 
-void ViewpointParams::validate() const {
+void ViewpointConfig::validate() const {
   camera.validate();
   fallback.validate();
-  if (!(ring_radius_min_m > 0.0)) fail("ViewpointParams", "ring_radius_min_m", "(0, ring_radius_max_m]");
+  if (!(ring_radius_min_m > 0.0)) fail("ViewpointConfig", "ring_radius_min_m", "(0, ring_radius_max_m]");
   if (!(ring_radius_max_m >= ring_radius_min_m && ring_radius_max_m <= 100.0))
-    fail("ViewpointParams", "ring_radius_max_m", "[ring_radius_min_m, 100]");
-  if (ring_count < 1 || ring_count > 100) fail("ViewpointParams", "ring_count", "[1, 100]");
-  if (!(angle_step_deg > 0.0 && angle_step_deg <= 180.0)) fail("ViewpointParams", "angle_step_deg", "(0, 180]");
-  if (height_offsets_m.empty()) fail("ViewpointParams", "height_offsets_m", "non-empty lists");
+    fail("ViewpointConfig", "ring_radius_max_m", "[ring_radius_min_m, 100]");
+  if (ring_count < 1 || ring_count > 100) fail("ViewpointConfig", "ring_count", "[1, 100]");
+  if (!(angle_step_deg > 0.0 && angle_step_deg <= 180.0)) fail("ViewpointConfig", "angle_step_deg", "(0, 180]");
+  if (height_offsets_m.empty()) fail("ViewpointConfig", "height_offsets_m", "non-empty lists");
   for (const double h : height_offsets_m)
-    if (!(h >= -100.0 && h <= 100.0)) fail("ViewpointParams", "height_offsets_m[]", "[-100, 100]");
-  if (!(min_clearance_m >= 0.0 && min_clearance_m <= 10.0)) fail("ViewpointParams", "min_clearance_m", "[0, 10]");
+    if (!(h >= -100.0 && h <= 100.0)) fail("ViewpointConfig", "height_offsets_m[]", "[-100, 100]");
+  if (!(min_clearance_m >= 0.0 && min_clearance_m <= 10.0)) fail("ViewpointConfig", "min_clearance_m", "[0, 10]");
   if (min_visible_samples < 0 || min_visible_samples > 1000000)
-    fail("ViewpointParams", "min_visible_samples", "[0, 1e6]");
-  if (bounds_W && bounds_W->isEmpty()) fail("ViewpointParams", "bounds_W", "non-empty boxes");
+    fail("ViewpointConfig", "min_visible_samples", "[0, 1e6]");
+  if (bounds_W && bounds_W->isEmpty()) fail("ViewpointConfig", "bounds_W", "non-empty boxes");
 }
 
 double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, const MapQuery& map) {
@@ -118,7 +118,7 @@ struct Rings {
 /// The candidates on `rings` that pass, in ring order.
 /// `probe` checks clearance, `sight` (on the map's sightMap(); `probe` itself when that is the
 /// same map) what a candidate sees.
-void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sight, const ViewpointParams& params,
+void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sight, const ViewpointConfig& params,
                  const Rings& rings, std::vector<Viewpoint>& out) {
   const MapQuery& map = probe.map();
   // Every check below stays within the outer ring, the samples, and the clearance around them:
@@ -159,7 +159,7 @@ void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sigh
 }  // namespace
 
 std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const MapQuery& map,
-                                         const ViewpointParams& params) {
+                                         const ViewpointConfig& params) {
   params.validate();
   std::vector<Viewpoint> viewpoints;
   if (cluster.samples.empty()) return viewpoints;
@@ -186,7 +186,7 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
 }
 
 std::vector<std::vector<Viewpoint>> computeViewpoints(const std::vector<const FrontierCluster*>& clusters,
-                                                      const MapQuery& map, const ViewpointParams& params) {
+                                                      const MapQuery& map, const ViewpointConfig& params) {
   params.validate();
   std::vector<std::vector<Viewpoint>> views(clusters.size());
   tbb::parallel_for(std::size_t(0), clusters.size(), [&](std::size_t i) { views[i] = computeViewpoints(*clusters[i], map, params); });

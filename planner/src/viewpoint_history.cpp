@@ -7,13 +7,13 @@
 
 namespace vdbmap::planner {
 
-void ViewpointHistoryParams::validate() const {
-  const FieldCheck check("ViewpointHistoryParams");
+void ViewpointHistoryConfig::validate() const {
+  const FieldCheck check("ViewpointHistoryConfig");
   if (!(record_spacing_m >= 0.0 && record_spacing_m <= 100.0)) check.fail("record_spacing_m", "[0, 100]");
   if (!(record_yaw_step_rad > 0.0 && record_yaw_step_rad <= M_PI)) check.fail("record_yaw_step_rad", "(0, pi]");
 }
 
-ViewpointHistory::ViewpointHistory(const ViewpointHistoryParams& params) : params_(params) { params_.validate(); }
+ViewpointHistory::ViewpointHistory(const ViewpointHistoryConfig& params) : params_(params) { params_.validate(); }
 
 bool ViewpointHistory::offer(const Vec3d& position_W, double yaw_rad, double stamp_s) {
   if (!position_W.allFinite() || !std::isfinite(yaw_rad) || !std::isfinite(stamp_s))

@@ -89,7 +89,7 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
       ec.planner.alc_enabled = std::string(arm) == "alc";
       ec.planner.alc = config.alc;
       ec.planner.alc.tour.seed = seed;
-      ExplorationRunOptions ro;
+      ExplorationRunConfig ro;
       ro.overwrite = true;
       ro.write_log = config.keep_runs;
       ro.write_map = config.keep_runs;

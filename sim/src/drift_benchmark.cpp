@@ -62,7 +62,7 @@ DriftBenchmarkRow replayMode(const io::FrameSource& log, ConsistencyMode mode, c
   mc.integrator.min_range_m = log.sensor().min_range_m;
   mc.integrator.max_range_m = log.sensor().max_range_m;
   Mapper mapper(mc);
-  const ReplayResult replay = replayLog(log, mapper, ReplayOptions{});
+  const ReplayResult replay = replayLog(log, mapper, ReplayConfig{});
   DriftBenchmarkRow row;
   row.mode = toString(mode);
   row.frames_total = replay.frames_integrated;
@@ -123,7 +123,7 @@ DriftBenchmarkResult runDriftBenchmark(const DriftBenchmarkConfig& config, const
     SimulatorConfig sc = config.simulator;
     sc.drift = DriftConfig::preset(level, config.seed);
     sc.loop_closure = config.loop_closure;
-    FlightOptions fo;
+    FlightConfig fo;
     fo.overwrite = true;
     fo.description = "vdbmap bench drift: level " + level + ", world " + config.world_mesh.string();
     const Stopwatch flight_watch;

@@ -123,10 +123,10 @@ double estimateErrorRmse(const std::vector<io::StampedPose>& truth, const std::v
 }
 }  // namespace
 
-ExplorationResult runExploration(const World& world, const ExplorationConfig& config, const ExplorationOptions& options) {
+ExplorationResult runExploration(const World& world, const ExplorationConfig& config, const ExplorationRecordConfig& options) {
   config.validate();
   if (!(options.coverage_period_s > 0.0 && options.coverage_period_s <= 1e4))
-    throw std::invalid_argument("ExplorationOptions.coverage_period_s must be in (0, 1e4]");
+    throw std::invalid_argument("ExplorationRecordConfig.coverage_period_s must be in (0, 1e4]");
   const Stopwatch wall;
   if (!world.isClear(config.start.position_W, config.vehicle_radius_m))
     throw std::invalid_argument("runExploration: the start position is within vehicle_radius_m of a surface");
@@ -319,10 +319,10 @@ BudgetMode parseBudgetMode(const std::string& text) {
 }
 
 void setBudgets(ExplorationConfig& config, BudgetMode mode) {
-  planner::ExplorationParams& p = config.planner;
-  const planner::PathParams flight = planner::ExplorationParams::flightPathDefaults();
-  const planner::PathParams cost = planner::ExplorationParams::costPathDefaults();
-  const planner::TourParams tour;
+  planner::ExplorationManagerConfig& p = config.planner;
+  const planner::PathConfig flight = planner::ExplorationManagerConfig::flightPathDefaults();
+  const planner::PathConfig cost = planner::ExplorationManagerConfig::costPathDefaults();
+  const planner::TourConfig tour;
   const ReintegrationConfig reintegration;
   const bool counted = mode == BudgetMode::Counted;
   const double backstop = counted ? 20.0 : 1.0;
@@ -330,7 +330,7 @@ void setBudgets(ExplorationConfig& config, BudgetMode mode) {
   p.path.max_iterations = counted ? kCountedFlightPathIterations : 0;
   p.cost_path.time_limit_s = backstop * cost.time_limit_s;
   p.cost_path.max_iterations = counted ? kCountedCostPathIterations : 0;
-  for (planner::TourParams* t : {&p.tour, &p.alc.tour}) {
+  for (planner::TourConfig* t : {&p.tour, &p.alc.tour}) {
     t->time_limit_s = backstop * tour.time_limit_s;
     t->max_iterations = counted ? kCountedTourIterations : 0;
   }
@@ -358,7 +358,7 @@ ExplorationConfig explorationConfigFor(const World& world, const std::string& dr
 
 namespace {
 nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult& r, const ExplorationConfig& c,
-                           const ExplorationRunOptions& options, const WorldConfig& world) {
+                           const ExplorationRunConfig& options, const WorldConfig& world) {
   nlohmann::json j;
   j["exploration_time_s"] = s.exploration_time_s;
   j["path_length_m"] = s.path_length_m;
@@ -467,10 +467,10 @@ void writeCyclesCsv(const std::filesystem::path& path, const std::vector<CycleSa
 }  // namespace
 
 ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
-                                   const std::filesystem::path& run_dir, const ExplorationRunOptions& options) {
+                                   const std::filesystem::path& run_dir, const ExplorationRunConfig& options) {
   config.validate();
   if (!(options.completeness_threshold_vox > 0.0 && options.completeness_threshold_vox <= 100.0))
-    throw std::invalid_argument("ExplorationRunOptions.completeness_threshold_vox must be in (0, 100]");
+    throw std::invalid_argument("ExplorationRunConfig.completeness_threshold_vox must be in (0, 100]");
   const Stopwatch wall;
   const auto report = [&](const std::string& line) {
     if (options.report) options.report(line);
@@ -489,7 +489,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
          std::to_string(observable.stats().samples_in_box) + " samples in the box (" +
          std::to_string(int(observable.stats().observable_area_m2)) + " m^2)");
 
-  ExplorationOptions eo;
+  ExplorationRecordConfig eo;
   if (options.write_log) eo.log_dir = run_dir / "log";
   eo.overwrite = options.overwrite;
   eo.description = options.description;

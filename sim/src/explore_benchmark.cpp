@@ -148,7 +148,7 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
       ec.max_time_s = config.max_time_s;
       ec.planner.alc_enabled = config.alc;
       ec.planner.alc.tour.seed = seed;
-      ExplorationRunOptions ro;
+      ExplorationRunConfig ro;
       ro.overwrite = true;
       ro.write_log = config.keep_runs;
       ro.write_map = config.keep_runs;

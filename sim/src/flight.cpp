@@ -76,12 +76,12 @@ void flyAlong(Simulator& sim, const std::function<FlatPose(double)>& truth_at, d
 
 struct FlightRecorder::Log {
   io::LogWriter writer;
-  Log(const std::filesystem::path& dir, const io::SensorInfo& sensor, const io::LogWriterOptions& options)
+  Log(const std::filesystem::path& dir, const io::SensorInfo& sensor, const io::LogWriterConfig& options)
       : writer(dir, sensor, options) {}
 };
 
 FlightRecorder::FlightRecorder(const std::filesystem::path& log_dir, const Simulator& sim, bool overwrite) {
-  io::LogWriterOptions options;
+  io::LogWriterConfig options;
   options.overwrite = overwrite;
   log_ = std::make_unique<Log>(log_dir, sim.camera().sensorInfo(), options);
 }
@@ -151,7 +151,7 @@ FlightResult FlightRecorder::finish(const SimulatorConfig& config, const std::st
 }
 
 FlightResult simulateFlight(const World& world, const SampledTrajectory& trajectory, const SimulatorConfig& config,
-                            const std::filesystem::path& log_dir, const FlightOptions& options) {
+                            const std::filesystem::path& log_dir, const FlightConfig& options) {
   config.validate();
   if (trajectory.empty()) throw std::invalid_argument("simulateFlight: empty trajectory");
   const double t0 = trajectory.startTime(), t_end = trajectory.endTime();

@@ -24,11 +24,11 @@ FlatPose compose(const FlatPose& a, const FlatPose& r) {
   return b;
 }
 
-void PoseGraphSolveOptions::validate() const {
+void PoseGraphSolveConfig::validate() const {
   if (max_iterations < 1 || max_iterations > 10000)
-    throw std::invalid_argument("PoseGraphSolveOptions.max_iterations must be in [1, 10000]");
+    throw std::invalid_argument("PoseGraphSolveConfig.max_iterations must be in [1, 10000]");
   if (!(function_tolerance > 0.0 && function_tolerance < 1.0))
-    throw std::invalid_argument("PoseGraphSolveOptions.function_tolerance must be in (0, 1)");
+    throw std::invalid_argument("PoseGraphSolveConfig.function_tolerance must be in (0, 1)");
 }
 
 std::size_t PoseGraph4Dof::addNode(const FlatPose& initial) {
@@ -80,7 +80,7 @@ struct EdgeResidual {
 };
 }  // namespace
 
-PoseGraphSummary PoseGraph4Dof::optimize(const PoseGraphSolveOptions& options) {
+PoseGraphSummary PoseGraph4Dof::optimize(const PoseGraphSolveConfig& options) {
   options.validate();
   if (nodes_.empty()) throw std::logic_error("PoseGraph4Dof::optimize: empty graph");
   const Stopwatch solve;

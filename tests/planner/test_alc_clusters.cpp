@@ -13,7 +13,7 @@ using namespace vdbmap::planner;
 namespace {
 /// A history that records every pose offered, one per second from t0_s.
 ViewpointHistory historyOf(const std::vector<Vec3d>& positions, double t0_s = 0.0) {
-  ViewpointHistoryParams every;
+  ViewpointHistoryConfig every;
   every.record_spacing_m = 0.0;
   ViewpointHistory h(every);
   for (std::size_t i = 0; i < positions.size(); ++i) h.offer(positions[i], 0.0, t0_s + double(i));
@@ -26,8 +26,8 @@ std::vector<Vec3d> line(int n, double step_m, double y = 0.0) {
   return p;
 }
 
-LoopClusterParams smallParams() {
-  LoopClusterParams p;
+LoopClusterConfig smallParams() {
+  LoopClusterConfig p;
   p.min_age_s = 10.0;
   p.max_viewpoints = 4;
   p.max_extent_m = 1.0;
@@ -40,7 +40,7 @@ using Indices = std::vector<std::size_t>;
 }  // namespace
 
 TEST_CASE("Runs of consecutive viewpoints end at a jump, at the size bound and at the extent bound", "[planner][alc]") {
-  LoopClusterParams p = smallParams();
+  LoopClusterConfig p = smallParams();
   SECTION("size bound: at most max_viewpoints per run") {
     const ViewpointHistory h = historyOf(line(10, 0.125));  // exact in binary: ties are real ties
     LoopClusters c(p);
@@ -100,7 +100,7 @@ TEST_CASE("Only viewpoints at least min_age_s old are clustered", "[planner][alc
 }
 
 TEST_CASE("Runs whose centre is near an existing cluster's join it, far ones start a new cluster", "[planner][alc]") {
-  LoopClusterParams p = smallParams();
+  LoopClusterConfig p = smallParams();
   p.merge_distance_m = 0.6;
   // A first pass along y = 0 (x = 0 .. 2.75 m), a place far away, a second pass along y = 0.25,
   // and a last far pose that ends the second pass's last run. Runs are 4 viewpoints (0.75 m).
@@ -150,7 +150,7 @@ TEST_CASE("A flight's clusters keep their invariants; near() equals brute force;
         h.offer(a + s * dir + Vec3d(0, 0, 0.1 * lap), std::atan2(dir.y(), dir.x()), t);
     }
   }
-  const LoopClusterParams p;  // defaults
+  const LoopClusterConfig p;  // defaults
   LoopClusters c(p);
   const double now_s = t + p.min_age_s;  // everything flown is old enough
   c.update(h, now_s);

@@ -20,8 +20,8 @@ namespace {
 constexpr LoopClusterId kA = 0, kB = 1;  // the two loop clusters flyPlaces() creates
 
 /// ALC parameters for the hand-made histories: every pose recorded, clusters after 1 s.
-AlcParams testParams() {
-  AlcParams p;
+AlcConfig testParams() {
+  AlcConfig p;
   p.history.record_spacing_m = 0.0;
   p.clusters.min_age_s = 1.0;
   p.clusters.link_distance_m = 0.5;
@@ -95,9 +95,9 @@ AlcDecision decideAt(ActiveLoopClosure& alc, FakeLegs& legs, double now_s, bool 
 }  // namespace
 
 TEST_CASE("ALC takes the loop tour at exactly (1 + epsilon) C_frt and not above it", "[planner][alc]") {
-  CHECK(AlcParams{}.epsilon == 0.2);
+  CHECK(AlcConfig{}.epsilon == 0.2);
   for (const double epsilon : {0.25, 0.5, 1.0}) {
-    AlcParams p = testParams();
+    AlcConfig p = testParams();
     p.epsilon = epsilon;
     const double threshold = (1.0 + epsilon) * 8.0;  // exact in binary for these epsilons
     for (const double above : {0.0, 1e-9}) {
@@ -130,7 +130,7 @@ TEST_CASE("ALC takes the loop tour at exactly (1 + epsilon) C_frt and not above 
 }
 
 TEST_CASE("With epsilon = 0 ALC detours only when the detour is free", "[planner][alc]") {
-  AlcParams p = testParams();
+  AlcConfig p = testParams();
   p.epsilon = 0.0;
   for (const double extra : {0.0, 1e-9, 0.5}) {
     ActiveLoopClosure alc(p);
@@ -146,7 +146,7 @@ TEST_CASE("With epsilon = 0 ALC detours only when the detour is free", "[planner
 
 TEST_CASE("c* is the cluster cheapest to reach from the current state; only two cost rows are asked for",
           "[planner][alc]") {
-  AlcParams p = testParams();
+  AlcConfig p = testParams();
   p.search_radius_m = 10.0;  // both clusters are candidates
   ActiveLoopClosure alc(p);
   flyPlaces(alc);
@@ -232,7 +232,7 @@ TEST_CASE("M_loop, M_frt with row 0 from c*, equals the matrix built from scratc
 }
 
 TEST_CASE("A timed-out cluster is not chosen again until the suspension ends", "[planner][alc]") {
-  AlcParams p = testParams();  // give up after 15 s, suspend 10 s, retire a cluster after 2 failures
+  AlcConfig p = testParams();  // give up after 15 s, suspend 10 s, retire a cluster after 2 failures
   p.search_radius_m = 10.0;
   ActiveLoopClosure alc(p);
   flyPlaces(alc);
@@ -280,7 +280,7 @@ TEST_CASE("A timed-out cluster is not chosen again until the suspension ends", "
   CHECK(s.detour_time_s == Approx(15.0 + 15.0 + 5.0));
 
   SECTION("with max_failures_per_cluster = 1 and only A in range, ALC finds no cluster after the suspension") {
-    AlcParams once = testParams();
+    AlcConfig once = testParams();
     once.max_failures_per_cluster = 1;
     ActiveLoopClosure one(once);
     flyPlaces(one);
@@ -369,10 +369,10 @@ TEST_CASE("ALC's other outcomes and misuse", "[planner][alc]") {
                     std::invalid_argument);
     decideAt(alc, legs, 30.0);
     CHECK_THROWS_AS(decideAt(alc, legs, 29.0), std::invalid_argument);  // time goes back
-    AlcParams bad;
+    AlcConfig bad;
     bad.epsilon = -0.1;
     CHECK_THROWS_WITH(ActiveLoopClosure(bad), Catch::Contains("epsilon"));
-    bad = AlcParams{};
+    bad = AlcConfig{};
     bad.clusters.max_viewpoints = 0;
     CHECK_THROWS_WITH(ActiveLoopClosure(bad), Catch::Contains("max_viewpoints"));
     CHECK_THROWS_AS(alc.addFlownPose(Vec3d::Zero(), 0.0, 1.0), std::invalid_argument);  // before the last pose

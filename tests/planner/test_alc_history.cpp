@@ -78,7 +78,7 @@ TEST_CASE("PointIndex includes points exactly on the sphere and follows a reset"
 }
 
 TEST_CASE("ViewpointHistory records a pose when the vehicle moved or turned enough", "[planner][alc]") {
-  ViewpointHistoryParams p;  // 0.25 m, 0.1 rad
+  ViewpointHistoryConfig p;  // 0.25 m, 0.1 rad
   ViewpointHistory h(p);
   CHECK(h.offer(Vec3d(0, 0, 1), 0.0, 0.0));                  // the first is always recorded
   CHECK_FALSE(h.offer(Vec3d(0.2, 0, 1), 0.05, 0.1));         // 0.2 m, 0.05 rad: hovering about
@@ -91,7 +91,7 @@ TEST_CASE("ViewpointHistory records a pose when the vehicle moved or turned enou
   CHECK(h[1].stamp_s == 0.2);
   CHECK_THROWS_AS(h.offer(Vec3d(5, 0, 1), 0.0, 0.35), std::invalid_argument);  // back in time
   CHECK_THROWS_AS(h.offer(Vec3d(5, 0, NAN), 0.0, 1.0), std::invalid_argument);
-  ViewpointHistoryParams bad;
+  ViewpointHistoryConfig bad;
   bad.record_yaw_step_rad = 0.0;
   CHECK_THROWS_WITH(ViewpointHistory(bad), Catch::Contains("record_yaw_step_rad"));
 }

@@ -108,7 +108,7 @@ TEST_CASE("exact DP matches brute force on random instances, closed and open, n 
       const CostMatrix costs = mixedCosts(n, 99 * n + seed);
       for (const std::optional<std::size_t> open_from :
            {std::optional<std::size_t>(), std::optional<std::size_t>(n - 1)}) {
-        AtspOptions options;
+        AtspConfig options;
         options.open_from = open_from;
         options.time_limit_s = 10.0;
         const AtspResult r = solveAtsp(costs, options);
@@ -128,7 +128,7 @@ TEST_CASE("local search without the DP matches brute force on random instances, 
       const CostMatrix costs = mixedCosts(n, 999 * n + seed);
       for (const std::optional<std::size_t> open_from :
            {std::optional<std::size_t>(), std::optional<std::size_t>(n / 2)}) {
-        AtspOptions options;
+        AtspConfig options;
         options.open_from = open_from;
         options.exact_max_n = 0;  // force the heuristic path
         options.max_iterations = 300;
@@ -151,7 +151,7 @@ TEST_CASE("open paths ignore the return arcs: a path can beat every tour", "[ats
   // A chain 0 -> 1 -> 2 -> 3 of cost 1 per arc; every arc back costs 100.
   CostMatrix costs(4, 100);
   costs(0, 1) = costs(1, 2) = costs(2, 3) = 1;
-  AtspOptions options;
+  AtspConfig options;
   options.open_from = 0;
   const AtspResult path = solveAtsp(costs, options);
   CHECK(path.order == std::vector<std::size_t>{0, 1, 2, 3});
@@ -166,7 +166,7 @@ TEST_CASE("open paths ignore the return arcs: a path can beat every tour", "[ats
 }
 
 TEST_CASE("degenerate sizes 0 to 3 are solved exactly", "[atsp]") {
-  AtspOptions options;
+  AtspConfig options;
   const AtspResult empty = solveAtsp(CostMatrix(0), options);
   CHECK(empty.order.empty());
   CHECK(empty.optimal_proven);
@@ -183,7 +183,7 @@ TEST_CASE("degenerate sizes 0 to 3 are solved exactly", "[atsp]") {
 TEST_CASE("TSPLIB br17 = 39 and ftv33 = 1286 are found", "[atsp][tsplib]") {
   vdbmap::test::requireSharedData("tsplib_atsp/br17.atsp");
   // A fixed round count (found within about 100 rounds) keeps the result independent of machine speed.
-  AtspOptions options;
+  AtspConfig options;
   options.time_limit_s = 10.0;
   options.max_iterations = 3000;
   const TsplibInstance br17 = readTsplib(kTsplib / "br17.atsp");
@@ -195,7 +195,7 @@ TEST_CASE("TSPLIB br17 = 39 and ftv33 = 1286 are found", "[atsp][tsplib]") {
   CHECK(r17_exact.cost == 39);
   CHECK(r17_exact.optimal_proven);
 
-  options.exact_max_n = AtspOptions{}.exact_max_n;
+  options.exact_max_n = AtspConfig{}.exact_max_n;
   const TsplibInstance ftv33 = readTsplib(kTsplib / "ftv33.atsp");
   const AtspResult r33 = solveAtsp(ftv33.costs, options);
   checkResult(ftv33.costs, r33, std::nullopt);
@@ -206,7 +206,7 @@ TEST_CASE("TSPLIB br17 = 39 and ftv33 = 1286 are found", "[atsp][tsplib]") {
 TEST_CASE("a tour meeting the assignment bound is proven optimal and returned early (rbg323)", "[atsp][tsplib]") {
   vdbmap::test::requireSharedData("tsplib_atsp/rbg323.atsp");
   const TsplibInstance rbg = readTsplib(kTsplib / "rbg323.atsp");
-  AtspOptions options;
+  AtspConfig options;
   options.time_limit_s = 20.0;
   const AtspResult r = solveAtsp(rbg.costs, options);
   checkResult(rbg.costs, r, std::nullopt);
@@ -220,7 +220,7 @@ TEST_CASE("the time limit is respected within 10 % on a large random instance", 
   // n = 600: the assignment bound (O(n^3)) takes a fraction of the limit even on a loaded
   // machine, so the local search runs too and the limit is what stops it.
   const CostMatrix costs = randomCosts(600, 100000, 42);
-  AtspOptions options;
+  AtspConfig options;
   options.time_limit_s = 0.5;
   const auto start = std::chrono::steady_clock::now();
   const AtspResult r = solveAtsp(costs, options);
@@ -234,7 +234,7 @@ TEST_CASE("the time limit is respected within 10 % on a large random instance", 
 
 TEST_CASE("the same seed and round count give the same tour", "[atsp]") {
   const CostMatrix costs = randomCosts(60, 20, 9);  // ties: many equally good tours to drift between
-  AtspOptions options;
+  AtspConfig options;
   options.time_limit_s = 30.0;
   options.max_iterations = 2000;
   options.seed = 5;
@@ -254,7 +254,7 @@ TEST_CASE("unreachable (huge) costs neither overflow nor get used when avoidable
     std::mt19937_64 rng(n);
     for (std::size_t i = 0; i < n; ++i) costs(i, (i + 1) % n) = 10 + std::int64_t(rng() % 5);
     for (int k = 0; k < 3 * int(n); ++k) costs(rng() % n, rng() % n) = std::int64_t(rng() % 30);
-    AtspOptions options;
+    AtspConfig options;
     options.time_limit_s = 0.2;
     const AtspResult r = solveAtsp(costs, options);
     REQUIRE(isPermutation(r.order, n));
@@ -263,7 +263,7 @@ TEST_CASE("unreachable (huge) costs neither overflow nor get used when avoidable
   }
   // Nothing reachable: the cost is the clamped sum, not an overflow.
   const CostMatrix all_huge(30, kHuge);
-  AtspOptions options;
+  AtspConfig options;
   options.time_limit_s = 0.05;
   const AtspResult r = solveAtsp(all_huge, options);
   CHECK(r.cost == 30 * kMaxArcCost);
@@ -282,7 +282,7 @@ TEST_CASE("real-valued costs (seconds, +inf unreachable) are solved at the given
       scaled(i, j) = std::isinf(real(i, j)) ? 1000000000 : std::llround(real(i, j) / 1e-3);
     }
   }
-  AtspOptions options;
+  AtspConfig options;
   options.open_from = 0;
   options.cost_resolution = 1e-3;
   const AtspResult r = solveAtsp(real, options);
@@ -296,7 +296,7 @@ TEST_CASE("real-valued costs (seconds, +inf unreachable) are solved at the given
 
 TEST_CASE("bad options and inputs throw naming the field", "[atsp][bad-input]") {
   const CostMatrix costs = randomCosts(5, 10, 1);
-  AtspOptions options;
+  AtspConfig options;
   options.time_limit_s = 0.0;
   CHECK_THROWS_WITH(solveAtsp(costs, options), Catch::Contains("time_limit_s"));
   options = {};

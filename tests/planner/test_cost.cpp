@@ -24,7 +24,7 @@ DenseMap costRoom() {
 }  // namespace
 
 TEST_CASE("motionCost is FUEL's max of travel time (with the direction term) and turning time", "[planner][cost]") {
-  const CostParams p;  // 2 m/s, 0.9 rad/s, w_dir 1.5
+  const CostConfig p;  // 2 m/s, 0.9 rad/s, w_dir 1.5
   CHECK(motionCost(4.0, 0.0, 0.0, p) == Approx(2.0));
   CHECK(motionCost(4.0, 2.7, 0.0, p) == Approx(3.0));          // turning takes longer
   CHECK(motionCost(4.0, 0.0, M_PI / 2, p) == Approx(2.0 + 1.5 * M_PI / 2));

@@ -19,8 +19,8 @@ constexpr double kTolM = 1e-6;
 /// A 6 x 2 x 2 m room at 0.1 m voxels (inside: voxels 1..58, 1..18, 1..18).
 DenseMap room() { return makeRoom(Eigen::Vector3i(60, 20, 20)); }
 
-EscapeParams roomEscape() {
-  EscapeParams p;
+EscapeConfig roomEscape() {
+  EscapeConfig p;
   p.bounds_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(6, 2, 2));
   return p;
 }
@@ -34,7 +34,7 @@ void flyAlongX(EscapePlanner& e, double to_x) {
 TEST_CASE("A retreat goes back along the way flown to the newest clear position, or the farthest within reach",
           "[planner][escape]") {
   DenseMap map = room();
-  EscapeParams params = roomEscape();
+  EscapeConfig params = roomEscape();
   params.retreat_reach_m = 2.0;
   const VehicleState here = at(Vec3d(4.0, 1.0, 1.0));
 
@@ -83,9 +83,9 @@ TEST_CASE("A straight escape moves away from the occupied voxels to a clear poin
   CHECK((end - start).norm() <= 1.0 + kTolM);
   CHECK(bruteClear(map, end, roomEscape().clearance_m - 1e-9));
 
-  EscapeParams tiny = roomEscape();
+  EscapeConfig tiny = roomEscape();
   tiny.escape_reach_m = 0.05;  // less than a voxel: no point to try
   CHECK_FALSE(EscapePlanner(tiny).straightEscape(map, at(start)));
   tiny.escape_reach_m = 0.0;
-  CHECK_THROWS_WITH(EscapePlanner(tiny), Catch::Contains("EscapeParams.escape_reach_m"));
+  CHECK_THROWS_WITH(EscapePlanner(tiny), Catch::Contains("EscapeConfig.escape_reach_m"));
 }

@@ -31,8 +31,8 @@ DenseMap corridorRoom() {
 
 /// ALC for hand-fed histories: on from the start, clusters once viewpoints are 1 s old, a 2 s
 /// give-up timeout and a 3 s suspension.
-ExplorationParams alcParams() {
-  ExplorationParams p;
+ExplorationManagerConfig alcParams() {
+  ExplorationManagerConfig p;
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 6, 3));
   p.initial_turn = false;
   p.path.time_limit_s = 0.05;
@@ -77,8 +77,8 @@ bool endsAtLoopCluster(const ExplorationManager& m) {
 }
 }  // namespace
 
-TEST_CASE("ExplorationParams validates ALC's parameters only when ALC is on", "[planner][exploration][alc]") {
-  ExplorationParams p = alcParams();
+TEST_CASE("ExplorationManagerConfig validates ALC's parameters only when ALC is on", "[planner][exploration][alc]") {
+  ExplorationManagerConfig p = alcParams();
   p.alc.epsilon = -1.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("epsilon"));
   p.alc_enabled = false;
@@ -126,7 +126,7 @@ TEST_CASE("A detour without a loop is given up at its timeout and its cluster wa
           "[planner][exploration][alc]") {
   const DenseMap map = corridorRoom();
   const Vec3d vehicle(4.5, 3, 1.5);
-  const ExplorationParams p = alcParams();
+  const ExplorationManagerConfig p = alcParams();
   ExplorationManager m(p, at(Vec3d(4.0, 3, 1.5)), 0.0);
   double t = flyPlaceThenGo(m, map, 4.0, vehicle);
   REQUIRE(replanAt(m, map, vehicle, t).loop_detour);
@@ -186,7 +186,7 @@ TEST_CASE("With ALC on, exploration of a room still finishes", "[planner][explor
   // The map never changes, so every visited target stays unobserved until all are blacklisted;
   // ALC may send the vehicle back to old places on the way, but never keeps it from finishing.
   const DenseMap map = corridorRoom();
-  ExplorationParams p = alcParams();
+  ExplorationManagerConfig p = alcParams();
   ExplorationManager m(p, at(Vec3d(2, 3, 1.5)), 0.0);
   double t = 0.0;
   ExplorationStep step = m.update(map, CoordBBox(), at(Vec3d(2, 3, 1.5)), t);

@@ -7,8 +7,19 @@
 
 #include <catch2/catch.hpp>
 
+#include <type_traits>
+
 using namespace vdbmap;
 using namespace vdbmap::planner;
+
+// Renamed types keep compiling, as deprecated aliases of the new ones (docs/conventions.md, "Names").
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+static_assert(std::is_same_v<ExplorationParams, ExplorationManagerConfig>);
+static_assert(std::is_same_v<AlcParams, AlcConfig>);
+static_assert(std::is_same_v<PoseTarget, FlatPose>);
+static_assert(std::is_same_v<TrajectoryState, VehicleState>);
+#pragma GCC diagnostic pop
 using openvdb::Coord;
 using openvdb::CoordBBox;
 using test::at;
@@ -28,8 +39,8 @@ DenseMap halfKnownRoom(int length_vox = 80, int known_vox = 40) {
   return map;
 }
 
-ExplorationParams roomParams(double length_m = 8.0) {
-  ExplorationParams p;
+ExplorationManagerConfig roomParams(double length_m = 8.0) {
+  ExplorationManagerConfig p;
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(length_m, 6, 3));
   p.initial_turn = false;
   p.path.time_limit_s = 0.05;
@@ -56,8 +67,8 @@ bool trajectoryClear(const ExplorationManager& m, const DenseMap& map, double ra
 }
 }  // namespace
 
-TEST_CASE("ExplorationParams::validate names the field", "[planner][exploration]") {
-  ExplorationParams p = roomParams();
+TEST_CASE("ExplorationManagerConfig::validate names the field", "[planner][exploration]") {
+  ExplorationManagerConfig p = roomParams();
   CHECK_NOTHROW(p.validate());
   p.replan_period_s = 0.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("replan_period_s"));
@@ -89,7 +100,7 @@ TEST_CASE("A fully known room has nothing to explore: the manager finishes at on
 
 TEST_CASE("The initial turn looks all round in three parts before exploring", "[planner][exploration]") {
   const DenseMap map = halfKnownRoom();
-  ExplorationParams p = roomParams();
+  ExplorationManagerConfig p = roomParams();
   p.initial_turn = true;
   const Vec3d start(1.5, 3, 1.5);
   ExplorationManager m(p, at(start), 0.0);
@@ -143,7 +154,7 @@ TEST_CASE("Replan triggers: trajectory end, period, collision risk, target cover
   // A 12 m room known up to x = 8 m: the first target is some 5 m away.
   const Vec3d start(1.0, 3.0, 1.5);
   DenseMap map = halfKnownRoom(120, 80);
-  ExplorationParams p = roomParams(12.0);
+  ExplorationManagerConfig p = roomParams(12.0);
   ExplorationManager m(p, at(start), 0.0);
   REQUIRE(m.update(map, CoordBBox(), at(start), 0.0).status == ExplorationStatus::Planned);
   double t0 = m.trajectoryStartTime(), duration = m.trajectory().duration();
@@ -204,7 +215,7 @@ TEST_CASE("Periodic replans keep flying to the current target; without keep_targ
   INFO("alc_enabled " << alc);
   for (const bool keep : {true, false}) {
     INFO("keep_target " << keep);
-    ExplorationParams p = roomParams(12.0);
+    ExplorationManagerConfig p = roomParams(12.0);
     p.keep_target = keep;
     p.alc_enabled = alc;
     ExplorationManager m(p, at(start), 0.0);
@@ -246,7 +257,7 @@ TEST_CASE("A frontier that cannot be reached is retried, blacklisted, and explor
   DenseMap map = test::makeRoom(Eigen::Vector3i(80, 60, 30));
   map.fill(CoordBBox(Coord(35, 0, 0), Coord(40, 59, 29)), Occupancy::Occupied);
   map.fill(CoordBBox(Coord(79, 20, 8), Coord(79, 40, 22)), Occupancy::Unknown);
-  ExplorationParams p = roomParams();
+  ExplorationManagerConfig p = roomParams();
   p.path.time_limit_s = 0.02;
   p.revisit_rounds = GENERATE(0, 1, 2);
   const Vec3d start(1.5, 3, 1.5);
@@ -307,7 +318,7 @@ TEST_CASE("A visit is judged by what its viewpoint saw: uncovering that part of 
   map.fill(CoordBBox(Coord(0), Coord(79, 59, 79)), Occupancy::Occupied);
   map.fill(CoordBBox(Coord(1), Coord(39, 58, 78)), Occupancy::Free);
   map.fill(CoordBBox(Coord(40, 1, 1), Coord(78, 58, 78)), Occupancy::Unknown);
-  ExplorationParams p = roomParams();
+  ExplorationManagerConfig p = roomParams();
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(8, 6, 8));
   const Vec3d start(1.5, 3.0, 4.0);
   ExplorationManager m(p, at(start), 0.0);
@@ -346,7 +357,7 @@ TEST_CASE("A revisit round computes viewpoints again for clusters that had none"
   // the frontier cluster is unchanged, and only a revisit round gives it viewpoints.
   DenseMap map = halfKnownRoom();
   map.fill(CoordBBox(Coord(10, 1, 1), Coord(37, 58, 28)), Occupancy::Occupied);
-  ExplorationParams p = roomParams();
+  ExplorationManagerConfig p = roomParams();
   p.revisit_rounds = GENERATE(1, 2);
   const Vec3d start(0.5, 3, 1.5);
   ExplorationManager m(p, at(start), 0.0);
@@ -385,7 +396,7 @@ TEST_CASE("The final sweep visits a pocket smaller than min_cluster_size once no
   DenseMap map = test::makeRoom(Eigen::Vector3i(80, 60, 30));
   const CoordBBox pocket(Coord(50, 30, 14), Coord(52, 32, 16));
   map.fill(pocket, Occupancy::Unknown);
-  ExplorationParams p = roomParams();
+  ExplorationManagerConfig p = roomParams();
   p.final_min_cluster_size = GENERATE(0, 30, 100);
   const Vec3d start(2, 3, 1.5);
   ExplorationManager m(p, at(start), 0.0);
@@ -515,7 +526,7 @@ TEST_CASE("When every target fails from a clear start, the vehicle goes back the
   // within 3 m that keeps the clearance.
   DenseMap map = halfKnownRoom(120, 80);
   const Vec3d start(1.0, 3.0, 1.5);
-  ExplorationParams p = roomParams(12.0);
+  ExplorationManagerConfig p = roomParams(12.0);
   ExplorationManager m(p, at(start), 0.0);
   ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
   REQUIRE(step.status == ExplorationStatus::Planned);

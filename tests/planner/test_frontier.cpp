@@ -18,8 +18,8 @@ using openvdb::CoordBBox;
 namespace {
 DenseMap unknownMap() { return DenseMap(0.1, CoordBBox(Coord(-40), Coord(140, 60, 40))); }
 
-FrontierParams everyCluster() {
-  FrontierParams p;
+FrontierConfig everyCluster() {
+  FrontierConfig p;
   p.min_cluster_size = 1;
   return p;
 }
@@ -114,7 +114,7 @@ TEST_CASE("Components below min_cluster_size are dropped but kept for later grow
   DenseMap map = unknownMap();
   map.fill(CoordBBox(Coord(0), Coord(4, 3, 2)), Occupancy::Free);     // 54 frontier voxels
   map.fill(CoordBBox(Coord(20), Coord(22)), Occupancy::Free);         // 26
-  FrontierParams p;
+  FrontierConfig p;
   p.min_cluster_size = 30;
   FrontierMap f(p);
   f.rebuild(map);
@@ -130,7 +130,7 @@ TEST_CASE("Components below min_cluster_size are dropped but kept for later grow
 }
 
 TEST_CASE("Wide clusters are split along their principal horizontal axis", "[planner][frontier]") {
-  FrontierParams p = everyCluster();
+  FrontierConfig p = everyCluster();
   p.split_radius_xy_m = 2.0;
   SECTION("6 m line: halves of 30") {
     DenseMap map = unknownMap();
@@ -164,7 +164,7 @@ TEST_CASE("Wide clusters are split along their principal horizontal axis", "[pla
 TEST_CASE("The exploration box limits frontier voxels and the unknown that makes them", "[planner][frontier]") {
   DenseMap map = unknownMap();
   map.fill(CoordBBox(Coord(0), Coord(9)), Occupancy::Free);
-  FrontierParams p = everyCluster();
+  FrontierConfig p = everyCluster();
   // Box over voxel centres x in [0, 0.5] (voxels 0..5), y, z in [-1, 2].
   p.bounds_W = Eigen::AlignedBox3d(Vec3d(-0.04, -1.0, -1.0), Vec3d(0.54, 2.0, 2.0));
   FrontierMap f(p);
@@ -183,7 +183,7 @@ TEST_CASE("setMinClusterSize gives the clusters a rebuild with that size gives, 
   map.fill(CoordBBox(Coord(0), Coord(4, 3, 2)), Occupancy::Free);  // 54 frontier voxels
   map.fill(CoordBBox(Coord(20), Coord(22)), Occupancy::Free);      // 26
   map.fill(CoordBBox(Coord(40, 40, 20), Coord(41, 41, 21)), Occupancy::Free);  // 8
-  FrontierParams p;
+  FrontierConfig p;
   p.min_cluster_size = 30;
   FrontierMap f(p);
   f.rebuild(map);
@@ -191,7 +191,7 @@ TEST_CASE("setMinClusterSize gives the clusters a rebuild with that size gives, 
   const ClusterId big = f.clusters().front().id;
 
   const auto sameAsRebuild = [&](int size) {
-    FrontierParams q = p;
+    FrontierConfig q = p;
     q.min_cluster_size = size;
     FrontierMap scratch(q);
     scratch.rebuild(map);
@@ -260,7 +260,7 @@ TEST_CASE("Incremental updates equal detection from scratch and report id change
   // A sequence of edits like exploration and re-integration make: carve free space, add
   // obstacles, and forget voxels (unknown again, as de-integration does).
   DenseMap map(0.1, CoordBBox(Coord(-5), Coord(70, 50, 25)));
-  FrontierParams p;
+  FrontierConfig p;
   p.min_cluster_size = 8;
   p.split_radius_xy_m = 1.0;
   FrontierMap incremental(p);
@@ -317,7 +317,7 @@ TEST_CASE("An update with an empty dirty region changes nothing", "[planner][fro
 TEST_CASE("Cluster samples keep one voxel per stride cube", "[planner][frontier]") {
   DenseMap map = unknownMap();
   map.fill(CoordBBox(Coord(0), Coord(5, 5, 0)), Occupancy::Free);  // a 6 x 6 sheet: all frontier
-  FrontierParams p = everyCluster();
+  FrontierConfig p = everyCluster();
   p.sample_stride_vox = 3;
   FrontierMap f(p);
   f.rebuild(map);
@@ -326,14 +326,14 @@ TEST_CASE("Cluster samples keep one voxel per stride cube", "[planner][frontier]
   CHECK(f.clusters()[0].samples == (std::vector<Coord>{Coord(1, 1, 0), Coord(1, 4, 0), Coord(4, 1, 0), Coord(4, 4, 0)}));
 }
 
-TEST_CASE("FrontierParams::validate names the field", "[planner][frontier]") {
-  FrontierParams p;
+TEST_CASE("FrontierConfig::validate names the field", "[planner][frontier]") {
+  FrontierConfig p;
   p.min_cluster_size = 0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("min_cluster_size"));
-  p = FrontierParams{};
+  p = FrontierConfig{};
   p.split_radius_xy_m = 0.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("split_radius_xy_m"));
-  p = FrontierParams{};
+  p = FrontierConfig{};
   p.sample_stride_vox = 0;
   CHECK_THROWS_WITH(FrontierMap{p}, Catch::Contains("sample_stride_vox"));
 }

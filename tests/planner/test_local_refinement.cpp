@@ -57,7 +57,7 @@ TEST_CASE("The layered shortest path equals brute-force enumeration", "[planner]
 TEST_CASE("refinementLayers follows FUEL: top viewpoints, decay, distance, radius, anchor", "[planner][refinement]") {
   VehicleState vehicle;
   vehicle.position_W = Vec3d(0, 0, 1);
-  RefinementParams p;
+  RefinementConfig p;
   p.max_clusters = 3;
   p.radius_m = 5.0;
   p.top_viewpoints = 2;

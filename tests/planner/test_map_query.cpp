@@ -171,7 +171,7 @@ TEST_CASE("TsdfMapQuery without thin and hit obstacles agrees with TsdfVolume::s
   T.translation() = Vec3d(0.3, 0.1, -0.2);
   volume.integrate(2, wall_S, T);
 
-  TsdfMapQueryParams exact;
+  TsdfMapQueryConfig exact;
   exact.thin_obstacles = false;
   exact.hit_obstacles = false;
   const TsdfMapQuery query(volume, exact);
@@ -271,7 +271,7 @@ TEST_CASE("TsdfMapQuery reads a post thinner than a voxel as an obstacle, and wa
           "[planner][map]") {
   const Eigen::Vector2d post_xy(0.03, 0.03);  // off the voxel centres
   // Four readers: the map's own states, tsdf valleys only, hits only, and both (the default).
-  TsdfMapQueryParams exact_params, valley_params, hits_params;
+  TsdfMapQueryConfig exact_params, valley_params, hits_params;
   exact_params.thin_obstacles = exact_params.hit_obstacles = false;
   valley_params.hit_obstacles = false;
   hits_params.thin_obstacles = false;
@@ -322,10 +322,10 @@ TEST_CASE("TsdfMapQuery reads a post thinner than a voxel as an obstacle, and wa
     CHECK(occupied > 100);
     CHECK(with_hits > 20);  // free voxels in front of the walls hold their end points (55 here)
   }
-  TsdfMapQueryParams bad;
+  TsdfMapQueryConfig bad;
   bad.thin_margin_vox = 0.0;
   CHECK_THROWS_WITH(bad.validate(), Catch::Contains("thin_margin_vox"));
-  TsdfMapQueryParams no_hits;
+  TsdfMapQueryConfig no_hits;
   no_hits.min_hits = 0;
   CHECK_THROWS_WITH(no_hits.validate(), Catch::Contains("min_hits"));
 }
@@ -353,11 +353,11 @@ TEST_CASE("TsdfMapQuery reads a post as an obstacle from its hits when rays besi
   REQUIRE(volume.state(edge) == VoxelState::Free);
   REQUIRE(volume.state(Coord(5, 2, 0)) == VoxelState::Unknown);
 
-  TsdfMapQueryParams valley_only;
+  TsdfMapQueryConfig valley_only;
   valley_only.hit_obstacles = false;
   CHECK(TsdfMapQuery(volume, valley_only).reader()->at(post) == Occupancy::Free);
   CHECK(TsdfMapQuery(volume).reader()->at(post) == Occupancy::Occupied);
-  TsdfMapQueryParams strict;
+  TsdfMapQueryConfig strict;
   strict.min_hits = 4;  // more hits needed than the voxel holds
   CHECK(TsdfMapQuery(volume, strict).reader()->at(post) == Occupancy::Free);
   // Beside unknown space the hits are a surface being discovered: the voxel stays free (a frontier).
@@ -384,7 +384,7 @@ TEST_CASE("TsdfMapQuery reads a post as an obstacle from its hits when rays besi
   CHECK(start.reader()->at(unknown) == Occupancy::Free);
   CHECK(start.sightMap().reader()->at(unknown) == Occupancy::Free);
   // Without the rules, and for other maps, sight reads the same map.
-  TsdfMapQueryParams own;
+  TsdfMapQueryConfig own;
   own.thin_obstacles = own.hit_obstacles = false;
   const TsdfMapQuery exact(volume, own);
   CHECK(&exact.sightMap() == &exact);

@@ -44,7 +44,7 @@ TEST_CASE("A clear straight segment is the path", "[planner][path]") {
 
 TEST_CASE("Through the door: RRTConnect paths are collision-free against the map", "[planner][path]") {
   const DenseMap map = wallRoom(true);
-  PathParams params;
+  PathConfig params;
   params.clearance_m = 0.25;
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     params.seed = seed;
@@ -74,7 +74,7 @@ TEST_CASE("Through the door: RRTConnect paths are collision-free against the map
 
 TEST_CASE("A closed one-voxel wall gives the status NoPath within the time limit", "[planner][path]") {
   const DenseMap map = wallRoom(false);
-  PathParams params;
+  PathConfig params;
   params.time_limit_s = 0.05;
   PathPlanner planner(map, params);
   const PathResult r = planner.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1));
@@ -86,7 +86,7 @@ TEST_CASE("A closed one-voxel wall gives the status NoPath within the time limit
 
 TEST_CASE("An iteration cap ends a hopeless search after exactly that many iterations", "[planner][path]") {
   const DenseMap map = wallRoom(false);
-  PathParams params;
+  PathConfig params;
   params.time_limit_s = 60.0;  // the cap, not the clock, must end it
   params.max_iterations = 200;
   PathPlanner planner(map, params);
@@ -114,7 +114,7 @@ TEST_CASE("Starts and goals near obstacles or in unknown space are statuses", "[
 
 TEST_CASE("Paths repeat for a seed, whatever ran before", "[planner][path]") {
   const DenseMap map = wallRoom(true);
-  PathParams params;
+  PathConfig params;
   params.seed = 17;
   PathPlanner a(map, params), b(map, params);
   const PathResult first = a.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1.5), 3);
@@ -128,7 +128,7 @@ TEST_CASE("Paths repeat for a seed, whatever ran before", "[planner][path]") {
 
 TEST_CASE("The search space is the map's known bounds cut by the optional box", "[planner][path]") {
   const DenseMap map = wallRoom(true);
-  PathParams params;
+  PathConfig params;
   params.bounds_W = Eigen::AlignedBox3d(Vec3d(-1, -1, -1), Vec3d(6, 3, 4));  // cuts the door at y = 3 m
   params.time_limit_s = 1.0;  // the passage left is narrow
   PathPlanner planner(map, params);
@@ -140,15 +140,15 @@ TEST_CASE("The search space is the map's known bounds cut by the optional box", 
   CHECK(planner.plan(Vec3d(2, 1, 1), Vec3d(8, 1, 1)).status == PathStatus::GoalInvalid);
 }
 
-TEST_CASE("PathParams::validate names the field", "[planner][path]") {
-  PathParams p;
+TEST_CASE("PathConfig::validate names the field", "[planner][path]") {
+  PathConfig p;
   p.time_limit_s = 0.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("time_limit_s"));
-  p = PathParams{};
+  p = PathConfig{};
   p.clearance_m = -1.0;
   const DenseMap map = wallRoom(true);
   CHECK_THROWS_WITH(PathPlanner(map, p), Catch::Contains("clearance_m"));
-  p = PathParams{};
+  p = PathConfig{};
   p.max_iterations = 2'000'000'000u;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("max_iterations"));
 }

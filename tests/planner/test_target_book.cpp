@@ -24,7 +24,7 @@ FrontierCluster clusterOf(ClusterId id, std::vector<Coord> voxels) {
 FrontierMap twoSlabs(DenseMap& map) {
   map.fill(CoordBBox(Coord(0, 0, 0), Coord(4, 0, 0)), Occupancy::Free);
   map.fill(CoordBBox(Coord(20, 0, 0), Coord(24, 0, 0)), Occupancy::Free);
-  FrontierParams p;
+  FrontierConfig p;
   p.min_cluster_size = 1;
   FrontierMap f(p);
   f.rebuild(map);

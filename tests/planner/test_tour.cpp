@@ -65,7 +65,7 @@ TEST_CASE("Small open tours are optimal and their cost is the matrix's", "[plann
 
 TEST_CASE("Large open tours: a permutation whose cost is the matrix's", "[planner][tour]") {
   const RealCostMatrix m = randomTourMatrix(40, 3);
-  TourParams p;
+  TourConfig p;
   p.time_limit_s = 0.2;
   const TourResult t = solveOpenTour(m, p);
   std::vector<std::size_t> sorted = t.order;
@@ -92,7 +92,7 @@ TEST_CASE("planGlobalTour over clusters of a map: the open-tour cost equals the 
   DenseMap map = test::makeRoom(Eigen::Vector3i(120, 80, 30));
   const Coord pockets[] = {Coord(20, 20, 8), Coord(90, 15, 8), Coord(60, 60, 8), Coord(15, 65, 8), Coord(100, 60, 8)};
   for (const Coord& c : pockets) map.fill(CoordBBox(c, c + Coord(5, 5, 6)), Occupancy::Unknown);
-  FrontierParams fp;
+  FrontierConfig fp;
   fp.min_cluster_size = 50;
   FrontierMap frontiers(fp);
   frontiers.rebuild(map);

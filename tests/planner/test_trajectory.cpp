@@ -23,7 +23,7 @@ DenseMap wallRoom() {
 
 /// Checks every limit at samples 1 ms apart, continuity between samples, that position
 /// differences match velocity, and (when `map` is given) clearance by brute force.
-void checkTrajectory(const Trajectory& traj, const TrajectoryParams& p, const DenseMap* map) {
+void checkTrajectory(const Trajectory& traj, const TrajectoryConfig& p, const DenseMap* map) {
   const double dt = 1e-3;
   const double tol = 1e-9;
   VehicleState prev = traj.sample(0.0);
@@ -47,7 +47,7 @@ void checkTrajectory(const Trajectory& traj, const TrajectoryParams& p, const De
 
 TEST_CASE("A straight 10 m leg from rest takes exactly the bang-cruise-bang time", "[planner][trajectory]") {
   DenseMap map = test::makeRoom(Eigen::Vector3i(140, 40, 30));
-  TrajectoryParams p;
+  TrajectoryConfig p;
   VehicleState start;
   start.position_W = Vec3d(2, 2, 1.5);
   const TrajectoryResult r = planTrajectory({start.position_W, Vec3d(12, 2, 1.5)}, start, 0.0, map, p);
@@ -65,8 +65,8 @@ TEST_CASE("A straight 10 m leg from rest takes exactly the bang-cruise-bang time
 TEST_CASE("Along a planned path: limits at every sample, clear of the map, from rest to rest at the goal yaw",
           "[planner][trajectory]") {
   const DenseMap map = wallRoom();
-  PathParams pp;
-  TrajectoryParams tp;
+  PathConfig pp;
+  TrajectoryConfig tp;
   tp.clearance_m = pp.clearance_m;
   PathPlanner planner(map, pp);
   VehicleState start;
@@ -94,7 +94,7 @@ TEST_CASE("Along a planned path: limits at every sample, clear of the map, from 
 
 TEST_CASE("A moving start keeps the vehicle's velocity through a clear lead-in", "[planner][trajectory]") {
   const DenseMap map = wallRoom();
-  TrajectoryParams tp;
+  TrajectoryConfig tp;
   VehicleState start;
   start.position_W = Vec3d(2, 3, 1.2);
   start.velocity_W = Vec3d(0, 1.5, 0.2);  // sideways to the path
@@ -109,7 +109,7 @@ TEST_CASE("A moving start keeps the vehicle's velocity through a clear lead-in",
 
 TEST_CASE("Moving straight at a wall: the start is slowed and the status says so", "[planner][trajectory]") {
   const DenseMap map = wallRoom();
-  TrajectoryParams tp;
+  TrajectoryConfig tp;
   VehicleState start;
   start.position_W = Vec3d(4.5, 1.0, 1.2);  // 0.5 m before the wall, flying at it
   start.velocity_W = Vec3d(2.0, 0, 0);
@@ -121,7 +121,7 @@ TEST_CASE("Moving straight at a wall: the start is slowed and the status says so
 
 TEST_CASE("A single-point path turns on the spot within the yaw-rate limit", "[planner][trajectory]") {
   const DenseMap map = wallRoom();
-  TrajectoryParams tp;
+  TrajectoryConfig tp;
   VehicleState start;
   start.position_W = Vec3d(2, 2, 1);
   start.yaw_rad = 3.0;
@@ -150,7 +150,7 @@ TEST_CASE("A corner whose arc would clip an obstacle is tightened or stopped, ne
   map.fill(CoordBBox(Coord(0), Coord(60, 60, 20)), Occupancy::Occupied);
   map.fill(CoordBBox(Coord(1, 1, 1), Coord(59, 8, 19)), Occupancy::Free);   // along x, y 0.1-0.8
   map.fill(CoordBBox(Coord(52, 1, 1), Coord(59, 59, 19)), Occupancy::Free); // along y, x 5.2-5.9
-  TrajectoryParams tp;
+  TrajectoryConfig tp;
   tp.clearance_m = 0.25;
   VehicleState start;
   start.position_W = Vec3d(1.0, 0.45, 1.0);
@@ -174,11 +174,11 @@ TEST_CASE("A path through an obstacle is refused", "[planner][trajectory]") {
   CHECK_THROWS_AS(planTrajectory({Vec3d(3, 3, 1)}, start, 0.0, map), std::invalid_argument);  // not at the vehicle
 }
 
-TEST_CASE("TrajectoryParams::validate names the field", "[planner][trajectory]") {
-  TrajectoryParams p;
+TEST_CASE("TrajectoryConfig::validate names the field", "[planner][trajectory]") {
+  TrajectoryConfig p;
   p.normal_acc_share = 1.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("normal_acc_share"));
-  p = TrajectoryParams{};
+  p = TrajectoryConfig{};
   p.corner_fraction = 0.6;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("corner_fraction"));
 }

@@ -74,7 +74,7 @@ TEST_CASE("Every viewpoint is clear, sees its cluster, and looks at it", "[plann
   frontiers.rebuild(map);
   REQUIRE(frontiers.clusters().size() == 2);  // the 5.8 m wide plane is split in halves of 2.9 m
 
-  const ViewpointParams params;
+  const ViewpointConfig params;
   const double radii[] = {1.5, 1.5 + 1.0 / 3.0, 1.5 + 2.0 / 3.0, 2.5};
   std::size_t total = 0;
   for (const FrontierCluster& cluster : frontiers.clusters()) {
@@ -120,7 +120,7 @@ TEST_CASE("Viewpoints respect the exploration box and the clearance", "[planner]
   FrontierMap frontiers;
   frontiers.rebuild(map);
   REQUIRE_FALSE(frontiers.clusters().empty());
-  ViewpointParams params;
+  ViewpointConfig params;
   params.bounds_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(2.2, 6, 3));  // x <= 2.2 m only
   params.min_clearance_m = 0.5;
   for (const FrontierCluster& cluster : frontiers.clusters())
@@ -134,7 +134,7 @@ TEST_CASE("A cluster seen only through unknown space gets no viewpoint", "[plann
   // A free pocket of 6 x 6 x 6 voxels in unknown space: every ring candidate is in unknown space.
   DenseMap map(0.1, CoordBBox(Coord(-40), Coord(40)));
   map.fill(CoordBBox(Coord(-3), Coord(2)), Occupancy::Free);
-  FrontierParams fp;
+  FrontierConfig fp;
   fp.min_cluster_size = 10;
   FrontierMap frontiers(fp);
   frontiers.rebuild(map);
@@ -156,11 +156,11 @@ TEST_CASE("A cluster the rings cannot see from gets the fallback's closer viewpo
   const FrontierCluster& cluster = frontiers.clusters()[0];
   REQUIRE(cluster.voxels.size() == 15u * 15u);
 
-  ViewpointParams rings_only;
+  ViewpointConfig rings_only;
   rings_only.fallback.enabled = false;
   CHECK(computeViewpoints(cluster, map, rings_only).empty());
 
-  const ViewpointParams params;
+  const ViewpointConfig params;
   const ViewpointFallback& fb = params.fallback;
   const std::vector<Viewpoint> views = computeViewpoints(cluster, map, params);
   REQUIRE_FALSE(views.empty());
@@ -189,18 +189,18 @@ TEST_CASE("The fallback's threshold lets a small cluster pass by the fraction it
   DenseMap map = halfKnownRoom();
   map.fill(CoordBBox(Coord(40, 0, 0), Coord(82, 62, 32)), Occupancy::Occupied);
   map.fill(CoordBBox(Coord(40, 28, 12), Coord(40, 31, 15)), Occupancy::Unknown);
-  FrontierParams fp;
+  FrontierConfig fp;
   fp.min_cluster_size = 1;
   FrontierMap frontiers(fp);
   frontiers.rebuild(map);
   REQUIRE(frontiers.clusters().size() == 1);
   const FrontierCluster& cluster = frontiers.clusters()[0];
-  REQUIRE(cluster.samples.size() < std::size_t(ViewpointParams{}.min_visible_samples));
+  REQUIRE(cluster.samples.size() < std::size_t(ViewpointConfig{}.min_visible_samples));
 
-  ViewpointParams rings_only;
+  ViewpointConfig rings_only;
   rings_only.fallback.enabled = false;
   CHECK(computeViewpoints(cluster, map, rings_only).empty());  // 4 samples never exceed 15
-  ViewpointParams params;
+  ViewpointConfig params;
   const std::vector<Viewpoint> views = computeViewpoints(cluster, map, params);
   REQUIRE_FALSE(views.empty());
   CHECK(views.front().visible_samples == int(cluster.samples.size()));
@@ -211,20 +211,20 @@ TEST_CASE("The fallback's threshold lets a small cluster pass by the fraction it
     CHECK(v.visible_samples == int(cluster.samples.size()));
 }
 
-TEST_CASE("ViewpointParams::validate names the field", "[planner][viewpoint]") {
-  ViewpointParams p;
+TEST_CASE("ViewpointConfig::validate names the field", "[planner][viewpoint]") {
+  ViewpointConfig p;
   p.ring_radius_max_m = 1.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("ring_radius_max_m"));
-  p = ViewpointParams{};
+  p = ViewpointConfig{};
   p.camera.max_range_m = 0.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("max_range_m"));
-  p = ViewpointParams{};
+  p = ViewpointConfig{};
   p.height_offsets_m.clear();
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("height_offsets_m"));
-  p = ViewpointParams{};
+  p = ViewpointConfig{};
   p.fallback.min_visible_fraction = 0.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.min_visible_fraction"));
-  p = ViewpointParams{};
+  p = ViewpointConfig{};
   p.fallback.ring_radius_min_m = 3.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.ring_radius_max_m"));
 }

@@ -84,5 +84,5 @@ def test_a_drifting_log_with_a_correction_gives_the_cli_map(cli, icl_nuim, tmp_p
     assert_same_map(tmp_path, mapper.volume(), summary)
     # The corrected map is not the drifted one: the correction did something.
     uncorrected = mapper_like_the_cli(source, mode)
-    vdbmap.replay_log(source, uncorrected, vdbmap.ReplayOptions(apply_corrections=False))
+    vdbmap.replay_log(source, uncorrected, vdbmap.ReplayConfig(apply_corrections=False))
     assert not uncorrected.volume().exactly_equals(mapper.volume())

@@ -73,8 +73,8 @@ def test_a_bad_frame_is_an_os_error_with_its_index(tmp_path):
     assert info.value.frame_index == 1
     assert "frame 1" in str(info.value)
     with pytest.raises(vdbmap.BadFrameError):
-        vdbmap.replay_log(source, vdbmap.Mapper(), vdbmap.ReplayOptions())
-    result = vdbmap.replay_log(source, vdbmap.Mapper(), vdbmap.ReplayOptions(on_bad_frame="skip"))
+        vdbmap.replay_log(source, vdbmap.Mapper(), vdbmap.ReplayConfig())
+    result = vdbmap.replay_log(source, vdbmap.Mapper(), vdbmap.ReplayConfig(on_bad_frame="skip"))
     assert result.frames_integrated == 1 and result.frames_skipped == 1
     assert result.bad_frames[0].index == 1 and "frame 1" in result.bad_frames[0].message
 
@@ -106,7 +106,7 @@ def test_progress_callbacks_run_with_the_gil_and_their_exceptions_stop_the_repla
             log.add_depth_frame(0.1 * i, wall_depth(2.0 + 0.1 * i), pose(x=0.05 * i))
     source = vdbmap.open_dataset(tmp_path / "log")
     seen = []
-    result = vdbmap.replay_log(source, vdbmap.Mapper(), vdbmap.ReplayOptions(progress=lambda d, t: seen.append((d, t))))
+    result = vdbmap.replay_log(source, vdbmap.Mapper(), vdbmap.ReplayConfig(progress=lambda d, t: seen.append((d, t))))
     assert result.frames_integrated == 4 and seen == [(1, 4), (2, 4), (3, 4), (4, 4)]
 
     def stop(done, total):
@@ -114,4 +114,4 @@ def test_progress_callbacks_run_with_the_gil_and_their_exceptions_stop_the_repla
             raise KeyError("stop here")
 
     with pytest.raises(KeyError, match="stop here"):
-        vdbmap.replay_log(source, vdbmap.Mapper(), vdbmap.ReplayOptions(progress=stop))
+        vdbmap.replay_log(source, vdbmap.Mapper(), vdbmap.ReplayConfig(progress=stop))

@@ -206,7 +206,7 @@ def test_exploration_config_defaults_and_shortcuts(room):
     config.planner.alc.epsilon = 0.5
     assert config.planner.alc.epsilon == 0.5
     with pytest.raises(ValueError, match="epsilon"):
-        vdbmap.planner.AlcParams(epsilon=-1.0).validate()
+        vdbmap.planner.AlcConfig(epsilon=-1.0).validate()
 
     config.seed = 11
     assert (config.simulator.drift.seed, config.planner.path.seed, config.planner.cost_path.seed,

@@ -107,5 +107,5 @@ def test_a_replay_progress_callback_may_read_the_mapper_it_writes(tmp_path):
     mapper = vdbmap.Mapper()
     seen = []
     vdbmap.replay_log(vdbmap.open_dataset(tmp_path / "log"), mapper,
-                      vdbmap.ReplayOptions(progress=lambda done, total: seen.append(mapper.stats.frames_total)))
+                      vdbmap.ReplayConfig(progress=lambda done, total: seen.append(mapper.stats.frames_total)))
     assert seen == [1, 2, 3, 4]

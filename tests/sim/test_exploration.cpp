@@ -56,7 +56,7 @@ TEST_CASE("Closed-loop exploration of two rooms finishes, covers them, and never
   setBudgets(config, BudgetMode::Counted);  // the same flight on a loaded machine
   const std::filesystem::path log = std::filesystem::temp_directory_path() / "vdbmap_test_explore_log";
   std::filesystem::remove_all(log);
-  ExplorationOptions options;
+  ExplorationRecordConfig options;
   options.log_dir = log;
   const ExplorationResult r = runExploration(world, config, options);
   INFO("time " << r.exploration_time_s << " s, path " << r.path_length_m << " m, replans " << r.planner_counters.replans
@@ -77,7 +77,7 @@ TEST_CASE("Closed-loop exploration of two rooms finishes, covers them, and never
   const std::unique_ptr<io::FrameSource> source = io::openDataset(log, io::DatasetFormat::Log);
   MapperConfig mc = config.mapper;
   Mapper replay(mc);
-  const ReplayResult replayed = replayLog(*source, replay, ReplayOptions{});
+  const ReplayResult replayed = replayLog(*source, replay, ReplayConfig{});
   CHECK(replayed.frames_integrated == r.frames_total);
   CHECK(replayed.correction_events == r.loop_closures);
   std::filesystem::remove_all(log);
@@ -155,7 +155,7 @@ TEST_CASE("Counted budgets make a run repeat exactly; setBudgets switches both w
   CHECK(a.mapper->volume().activeVoxelCount() == b.mapper->volume().activeVoxelCount());
 
   setBudgets(config, BudgetMode::WallClock);
-  const planner::ExplorationParams defaults;
+  const planner::ExplorationManagerConfig defaults;
   CHECK(config.planner.path.max_iterations == 0);
   CHECK(config.planner.path.time_limit_s == defaults.path.time_limit_s);
   CHECK(config.planner.cost_path.time_limit_s == defaults.cost_path.time_limit_s);

@@ -56,7 +56,7 @@ TEST_CASE("after a loop correction keyframes and all match the true-pose map and
   const auto drifted_source = io::openDataset(log);
   REQUIRE(drifted_source->corrections().size() == 1);
 
-  ReplayOptions replay;
+  ReplayConfig replay;
   replay.frame_stride = kStride;
 
   // The reference: the same frames at their true poses.

@@ -165,7 +165,7 @@ TEST_CASE("simulate -> integrate: a drifting flight with loop closure replays, a
     mc.mode = mode;
     mc.tsdf.voxel_size_m = 0.1;
     Mapper mapper(mc);
-    const ReplayResult r = replayLog(*log, mapper, ReplayOptions{});
+    const ReplayResult r = replayLog(*log, mapper, ReplayConfig{});
     CHECK(r.frames_integrated == flight.frames);
     CHECK(r.correction_events == 1);
     EvalConfig ec;

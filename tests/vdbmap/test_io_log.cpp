@@ -102,7 +102,7 @@ TEST_CASE("LogWriter then openDataset round trip (points)", "[io][log]") {
     SensorInfo s;
     s.kind = SensorKind::Points;
     s.max_range_m = 30.0;
-    LogWriterOptions opt;
+    LogWriterConfig opt;
     opt.points_extension = ext;
     opt.flush_every_frames = 1;
     const auto folder = dir / (std::string("pts") + ext);
@@ -153,7 +153,7 @@ TEST_CASE("LogWriter overwriting a log drops the old log's corrections and groun
     w.close();
   }
   REQUIRE(openDataset(dir / "log")->corrections().size() == 1);
-  LogWriterOptions options;
+  LogWriterConfig options;
   options.overwrite = true;
   {
     LogWriter w(dir / "log", smallDepthSensor(), options);

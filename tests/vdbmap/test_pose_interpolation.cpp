@@ -110,7 +110,7 @@ TEST_CASE("a replayed log whose correction lists every other frame equals integr
   mc.tsdf.voxel_size_m = 0.1;
   mc.integrator.max_range_m = 5.0;
   Mapper replayed(mc);
-  const ReplayResult r = replayLog(*source, replayed, ReplayOptions{});
+  const ReplayResult r = replayLog(*source, replayed, ReplayConfig{});
   CHECK(r.correction_events == 1);
 
   // The oracle: every frame integrated once, from scratch, at its interpolated corrected pose.

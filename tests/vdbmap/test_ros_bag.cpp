@@ -93,7 +93,7 @@ TEST_CASE("a bag with a keyframe Path gives the same map as the equivalent folde
     mc.mode = ConsistencyMode::All;
     mc.tsdf.voxel_size_m = 0.1;
     Mapper from_bag(mc), from_folder(mc);
-    replayLog(*bag, from_bag, ReplayOptions{});
+    replayLog(*bag, from_bag, ReplayConfig{});
     // The folder log with the same subset of corrected poses.
     io::SensorInfo sensor = folder->sensor();
     {
@@ -106,7 +106,7 @@ TEST_CASE("a bag with a keyframe Path gives the same map as the equivalent folde
       for (std::size_t k = 0; k < folder->corrections()[0].poses.size(); k += 2) every_other.push_back(folder->corrections()[0].poses[k]);
       thin.addCorrection(folder->corrections()[0].event_timestamp_s, every_other);
     }
-    replayLog(*io::openDataset(dir / (std::string("thin_") + encoding)), from_folder, ReplayOptions{});
+    replayLog(*io::openDataset(dir / (std::string("thin_") + encoding)), from_folder, ReplayConfig{});
     if (std::string(encoding) == "16UC1") {
       CHECK(from_bag.volume().exactlyEquals(from_folder.volume()));
     } else {  // metres in float32 from the same millimetres: the same points within float rounding
@@ -120,7 +120,7 @@ TEST_CASE("poses at other stamps are interpolated at the depth stamps and moved 
   const fs::path log = writeLog(dir);
   // The body: 0.5 m/s along x turning at 0.2 rad/s, published every 30 ms from t = 0.15 s.
   makeBag(log, dir / "run.bag", "--analytic-odometry --odometry-start 0.15 --pose-type transform");
-  io::RosBagOptions options;
+  io::RosBagConfig options;
   options.T_B_S = poseFromTranslationQuaternion(Vec3d(0.1, 0.0, -0.05), 0.0, 0.0, std::sin(0.1), std::cos(0.1));
   const auto bag = io::openRosBag(dir / "run.bag", options);
   REQUIRE(bag->size() == 5);  // the image at 0.1 s precedes the pose stream: skipped
@@ -144,7 +144,7 @@ TEST_CASE("bad bags are refused naming the file, the topic and the stamp", "[io]
   CHECK_THROWS_AS(io::openRosBag(dir / "cut.bag"), FileError);
   CHECK_THROWS_WITH(io::openRosBag(dir / "cut.bag"), Catch::Contains("cut.bag"));
 
-  io::RosBagOptions missing;
+  io::RosBagConfig missing;
   missing.depth_topic = "/nope";
   CHECK_THROWS_WITH(io::openRosBag(dir / "good.bag", missing),
                     Catch::Contains("no topic /nope") && Catch::Contains("/camera/depth/image_rect_raw"));

@@ -116,3 +116,22 @@ TEST_CASE("Mapper::addFrame integrates what the store decodes, as the volume wou
   CHECK(mapper.volume().exactlyEquals(reference));
   CHECK(mapper.keyframesKept() == 4);
 }
+
+TEST_CASE("the deprecated addDepthFrame and addPointFrame still integrate as addFrame does", "[sensor_frame][mapper]") {
+  const auto K = smallCamera();
+  const testing::AnalyticScene scene = testing::AnalyticScene::demoRoom();
+  const std::vector<Pose3d> poses = testing::AnalyticScene::demoTrajectory(2);
+  const DepthImage depth = scene.renderDepth(*K, poses[0], 5.0);
+  const PointCloud points_S = backProject(scene.renderDepth(*K, poses[1], 5.0), *K, 3);
+  MapperConfig c;
+  c.tsdf = tsdf();
+  Mapper now(c), before(c);
+  now.addFrame(0, 0.0, SensorFrame::depth(depth, K), poses[0]);
+  now.addFrame(1, 0.1, SensorFrame::points(points_S), poses[1]);
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+  before.addDepthFrame(0, 0.0, depth, K, poses[0]);
+  before.addPointFrame(1, 0.1, points_S, poses[1]);
+#pragma GCC diagnostic pop
+  CHECK(now.volume().exactlyEquals(before.volume()));
+}

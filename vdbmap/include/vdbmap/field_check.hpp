@@ -8,7 +8,7 @@ namespace vdbmap {
 
 class FieldCheck {
  public:
-  /// `owner`: the struct's name as users write it (e.g. "FrontierParams").
+  /// `owner`: the struct's name as users write it (e.g. "FrontierConfig").
   explicit FieldCheck(std::string owner) : owner_(std::move(owner)) {}
 
   /// Throws std::invalid_argument "OWNER.FIELD must be in RANGE" (RANGE in words: "[1, 64]",

@@ -17,9 +17,9 @@ OnBadFrame parseOnBadFrame(const std::string& text) {
   throw std::invalid_argument("on-bad-frame must be fail or skip, got '" + text + "'");
 }
 
-void ReplayOptions::validate() const {
+void ReplayConfig::validate() const {
   if (frame_stride < 1 || frame_stride > 1000000)
-    throw std::invalid_argument("ReplayOptions.frame_stride must be in [1, 1e6], got " + std::to_string(frame_stride));
+    throw std::invalid_argument("ReplayConfig.frame_stride must be in [1, 1e6], got " + std::to_string(frame_stride));
 }
 
 namespace {
@@ -44,7 +44,7 @@ Loaded loadFrame(const io::FrameSource& source, std::size_t i) {
 }
 }  // namespace
 
-ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const ReplayOptions& options) {
+ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const ReplayConfig& options) {
   options.validate();
   const Stopwatch wall;
   ReplayResult result;

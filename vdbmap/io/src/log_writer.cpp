@@ -13,12 +13,12 @@
 
 namespace vdbmap::io {
 
-void LogWriterOptions::validate() const {
+void LogWriterConfig::validate() const {
   if (points_extension != ".bin" && points_extension != ".ply" && points_extension != ".pcd")
-    throw std::invalid_argument("LogWriterOptions: points_extension must be .bin, .ply or .pcd, got '" + points_extension + "'");
+    throw std::invalid_argument("LogWriterConfig: points_extension must be .bin, .ply or .pcd, got '" + points_extension + "'");
 }
 
-LogWriter::LogWriter(const std::filesystem::path& folder, const SensorInfo& sensor, LogWriterOptions options)
+LogWriter::LogWriter(const std::filesystem::path& folder, const SensorInfo& sensor, LogWriterConfig options)
     : folder_(folder), sensor_(sensor), options_(std::move(options)) {
   sensor_.validate();
   options_.validate();

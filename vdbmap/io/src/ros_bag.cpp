@@ -27,10 +27,10 @@
 
 namespace vdbmap::io {
 
-void RosBagOptions::validate() const {
-  if (!isValidRigidTransform(T_B_S)) throw std::invalid_argument("RosBagOptions.T_B_S must be a rigid transform");
+void RosBagConfig::validate() const {
+  if (!isValidRigidTransform(T_B_S)) throw std::invalid_argument("RosBagConfig.T_B_S must be a rigid transform");
   if (!(min_range_m >= 0.0 && min_range_m < max_range_m && max_range_m <= 1000.0))
-    throw std::invalid_argument("RosBagOptions: ranges must satisfy 0 <= min_range_m < max_range_m <= 1000");
+    throw std::invalid_argument("RosBagConfig: ranges must satisfy 0 <= min_range_m < max_range_m <= 1000");
 }
 
 #ifndef VDBMAP_HAS_ROSBAG
@@ -43,7 +43,7 @@ namespace {
 }
 }  // namespace
 RosBagInfo inspectRosBag(const std::filesystem::path& bag) { unsupported(bag); }
-std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& bag, const RosBagOptions&) { unsupported(bag); }
+std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& bag, const RosBagConfig&) { unsupported(bag); }
 
 #else
 
@@ -535,7 +535,7 @@ RosBagInfo inspectRosBag(const std::filesystem::path& path) {
   }
 }
 
-std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& path, const RosBagOptions& options) {
+std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& path, const RosBagConfig& options) {
   options.validate();
   try {
     std::unique_ptr<rosbag::Bag> bag = openBag(path);

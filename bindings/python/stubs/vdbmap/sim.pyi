@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from vdbmap import CameraIntrinsics, ConsistencyMode, Mapper, MapperConfig, SensorInfo
-from vdbmap.planner import ExplorationCounters, ExplorationParams, ExplorationStatus
+from vdbmap.planner import ExplorationCounters, ExplorationManagerConfig, ExplorationStatus
 
 _Path = Union[str, os.PathLike[str]]
 _Array = npt.ArrayLike
@@ -155,14 +155,14 @@ class LoopClosureConfig:
     def __copy__(self) -> LoopClosureConfig: ...
     def __deepcopy__(self, memo: dict[Any, Any]) -> LoopClosureConfig: ...
 
-class PoseGraphSolveOptions:
+class PoseGraphSolveConfig:
     """The pose-graph solver's stopping rules."""
     max_iterations: int
     function_tolerance: float
     def __init__(self, **kwargs: Any) -> None: ...
     def validate(self) -> None: ...
-    def __copy__(self) -> PoseGraphSolveOptions: ...
-    def __deepcopy__(self, memo: dict[Any, Any]) -> PoseGraphSolveOptions: ...
+    def __copy__(self) -> PoseGraphSolveConfig: ...
+    def __deepcopy__(self, memo: dict[Any, Any]) -> PoseGraphSolveConfig: ...
 
 class SimulatorConfig:
     """The simulated vehicle's sensors: camera, drift, loop closure."""
@@ -174,7 +174,7 @@ class SimulatorConfig:
     loop_sigma_m: float
     loop_sigma_yaw_rad: float
     odometry_sigma_floor: float
-    solve: PoseGraphSolveOptions
+    solve: PoseGraphSolveConfig
     def __init__(self, **kwargs: Any) -> None: ...
     def validate(self) -> None: ...
     def __copy__(self) -> SimulatorConfig: ...
@@ -248,7 +248,7 @@ class ExplorationConfig:
     """A closed-loop exploration; box and start must be set (see for_world)."""
     simulator: SimulatorConfig
     mapper: MapperConfig
-    planner: ExplorationParams
+    planner: ExplorationManagerConfig
     start: _F64
     start_yaw: float
     max_time_s: float

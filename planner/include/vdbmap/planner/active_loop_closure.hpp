@@ -49,9 +49,9 @@
 
 namespace vdbmap::planner {
 
-struct AlcParams {
-  ViewpointHistoryParams history;
-  LoopClusterParams clusters;
+struct AlcConfig {
+  ViewpointHistoryConfig history;
+  LoopClusterConfig clusters;
   double epsilon = 0.2;              ///< detour iff C_loop <= (1 + epsilon) C_frt; [0, 100]
   double search_radius_m = 3.0;      ///< candidate clusters have a viewpoint this close; (0, 1e3]
   double initial_period_s = 20.0;    ///< no ALC in the first seconds of a flight; [0, 1e6]
@@ -59,12 +59,13 @@ struct AlcParams {
   double suspension_s = 10.0;        ///< ALC is off this long after giving up; [0, 1e6]
   double loop_quiet_s = 30.0;        ///< ALC is off this long after any loop closure; [0, 1e6]
   int max_failures_per_cluster = 2;  ///< given up this often, a cluster is never chosen again; [1, 1000]
-  /// Legs costing this much or more mean "no path" (keep equal to CostParams::unreachable_cost_s);
+  /// Legs costing this much or more mean "no path" (keep equal to CostConfig::unreachable_cost_s);
   /// (0, 1e9]
   double unreachable_cost_s = 1000.0;
-  TourParams tour;  ///< the solver's budget and seed for both tours
+  TourConfig tour;  ///< the solver's budget and seed for both tours
   void validate() const;
 };
+using AlcParams [[deprecated("renamed AlcConfig")]] = AlcConfig;
 
 /// Why the decision came out as it did. Every status is an expected outcome.
 enum class AlcStatus {
@@ -88,7 +89,7 @@ using LegCostFunction =
 
 /// The planner's legs on a map: costsFromVehicle (CostEvaluator: straight or OMPL paths, FUEL's
 /// cost), in parallel. The function keeps a reference to `map`: use it while the map lives.
-LegCostFunction mapLegCosts(const MapQuery& map, const CostParams& cost = {}, const PathParams& path = {});
+LegCostFunction mapLegCosts(const MapQuery& map, const CostConfig& cost = {}, const PathConfig& path = {});
 /// The same with the pair table's cost and path parameters, so that ALC's legs match M_frt's.
 LegCostFunction mapLegCosts(const MapQuery& map, const PairCostTable& table);
 
@@ -136,7 +137,7 @@ struct AlcDetour {
 class ActiveLoopClosure {
  public:
   /// `flight_start_s`: when the flight (exploration) started, for initial_period_s.
-  explicit ActiveLoopClosure(const AlcParams& params = {}, double flight_start_s = 0.0);
+  explicit ActiveLoopClosure(const AlcConfig& params = {}, double flight_start_s = 0.0);
 
   /// Feeds the vehicle's pose as it flies (every cycle is fine: the history thins it). Returns
   /// true when it was recorded. Throws std::invalid_argument for stamps going back in time.
@@ -168,7 +169,7 @@ class ActiveLoopClosure {
 
   const ViewpointHistory& history() const { return history_; }
   const LoopClusters& clusters() const { return clusters_; }
-  const AlcParams& params() const { return params_; }
+  const AlcConfig& params() const { return params_; }
 
  private:
   /// The gates before any cost is computed (loop closures and timeouts included).
@@ -177,7 +178,7 @@ class ActiveLoopClosure {
   void giveUp(double now_s);
   std::vector<LoopClusterId> candidates(const Vec3d& position_W) const;
 
-  AlcParams params_;
+  AlcConfig params_;
   double flight_start_s_;
   ViewpointHistory history_;
   LoopClusters clusters_;
@@ -194,6 +195,6 @@ class ActiveLoopClosure {
 /// `target_views[i]` holds frontier target i's viewpoints, best first.
 std::vector<std::vector<Viewpoint>> alcRefinementLayers(const VehicleState& vehicle, const AlcDecision& decision,
                                                         const std::vector<std::vector<Viewpoint>>& target_views,
-                                                        const RefinementParams& params = {});
+                                                        const RefinementConfig& params = {});
 
 }  // namespace vdbmap::planner

@@ -3,7 +3,7 @@
 // dense cost matrix, time-bounded and deterministic for a seed.
 //
 // How it solves (see planner/src/atsp.cpp):
-// - n <= AtspOptions::exact_max_n (default 16): Held-Karp dynamic programming, proven optimal
+// - n <= AtspConfig::exact_max_n (default 16): Held-Karp dynamic programming, proven optimal
 //   (a short local search runs first, so a time limit too short for the DP still gets a tour);
 // - larger n: the assignment-problem lower bound (Hungarian method), Karp patching of its cycles
 //   into a first tour, then iterated local search with orientation-preserving 3-opt moves
@@ -39,7 +39,7 @@ class SquareMatrix {
 
 /// Integer arc costs (e.g. seconds scaled to milliseconds). The diagonal is ignored.
 using CostMatrix = SquareMatrix<std::int64_t>;
-/// Real arc costs (e.g. seconds); solved after rounding to multiples of `AtspOptions::cost_resolution`.
+/// Real arc costs (e.g. seconds); solved after rounding to multiples of `AtspConfig::cost_resolution`.
 using RealCostMatrix = SquareMatrix<double>;
 
 /// Largest arc cost the solver works with (2^44, about 1.8e13). Costs above it, and +infinity in a
@@ -49,7 +49,7 @@ inline constexpr std::int64_t kMaxArcCost = std::int64_t{1} << 44;
 /// Largest number of nodes (a dense matrix of this size already takes 32 GB).
 inline constexpr std::size_t kMaxAtspNodes = std::size_t{1} << 16;
 
-struct AtspOptions {
+struct AtspConfig {
   /// Wall-clock budget in seconds, > 0. The search stops at this limit (or earlier, when the
   /// tour is proven optimal or max_iterations is reached).
   double time_limit_s = 1.0;
@@ -70,6 +70,7 @@ struct AtspOptions {
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
 };
+using AtspOptions [[deprecated("renamed AtspConfig")]] = AtspConfig;
 
 enum class AtspStatus {
   kOptimal,         ///< proven optimal (exact DP, lower bound met, or n <= 3)
@@ -101,12 +102,12 @@ struct AtspResult {
 
 /// Solves the ATSP on integer costs. Throws std::invalid_argument for bad options, open_from
 /// outside [0, n), n > kMaxAtspNodes, or a cost below -kMaxArcCost.
-AtspResult solveAtsp(const CostMatrix& costs, const AtspOptions& options);
+AtspResult solveAtsp(const CostMatrix& costs, const AtspConfig& options);
 
 /// Solves the ATSP on real costs (rounded to options.cost_resolution; +inf and costs beyond
 /// kMaxArcCost * cost_resolution are unreachable). Throws std::invalid_argument for NaN or
 /// -inf costs, and as the integer overload.
-AtspResult solveAtsp(const RealCostMatrix& costs, const AtspOptions& options);
+AtspResult solveAtsp(const RealCostMatrix& costs, const AtspConfig& options);
 
 /// Cost of visiting `order` (a closed tour when `closed`, else an open path), arcs clamped to
 /// kMaxArcCost as the solver does. Throws std::invalid_argument if `order` is not a

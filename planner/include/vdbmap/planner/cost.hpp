@@ -23,17 +23,18 @@
 
 namespace vdbmap::planner {
 
-struct CostParams {
+struct CostConfig {
   double v_max_m_s = 2.0;            ///< (0, 100]
   double yaw_rate_max_rad_s = 0.9;   ///< (0, 100]
   double w_dir = 1.5;                ///< FUEL's w_dir, seconds per radian; [0, 1e3]
   double unreachable_cost_s = 1000.0;  ///< cost of a pair without a path; (0, 1e9]
   void validate() const;
 };
+using CostParams [[deprecated("renamed CostConfig")]] = CostConfig;
 
 /// The cost formula on its own: path length, yaw change, and the angle between the current
 /// velocity and the direction of departure (0 when at rest).
-double motionCost(double path_length_m, double yaw_change_rad, double departure_angle_rad, const CostParams& params);
+double motionCost(double path_length_m, double yaw_change_rad, double departure_angle_rad, const CostConfig& params);
 
 /// One evaluated leg.
 struct LegCost {
@@ -45,7 +46,7 @@ struct LegCost {
 /// Costs of legs on one map, for one thread (it owns a PathPlanner).
 class CostEvaluator {
  public:
-  CostEvaluator(const MapQuery& map, const CostParams& cost = {}, const PathParams& path = {});
+  CostEvaluator(const MapQuery& map, const CostConfig& cost = {}, const PathConfig& path = {});
 
   /// From the vehicle's state (the direction term applies when it moves).
   LegCost cost(const VehicleState& from, const FlatPose& to, std::uint64_t query_seed = 0);
@@ -53,10 +54,10 @@ class CostEvaluator {
   LegCost cost(const FlatPose& from, const FlatPose& to, std::uint64_t query_seed = 0);
 
   PathPlanner& planner() { return planner_; }
-  const CostParams& params() const { return params_; }
+  const CostConfig& params() const { return params_; }
 
  private:
-  CostParams params_;
+  CostConfig params_;
   PathPlanner planner_;
 };
 
@@ -73,7 +74,7 @@ struct TourTarget {
 /// targets are symmetric (both at rest), so each pair is planned once.
 class PairCostTable {
  public:
-  explicit PairCostTable(const CostParams& cost = {}, const PathParams& path = {});
+  explicit PairCostTable(const CostConfig& cost = {}, const PathConfig& path = {});
 
   /// Returns how many pairs were computed.
   std::size_t update(const MapQuery& map, const std::vector<TourTarget>& targets);
@@ -82,29 +83,29 @@ class PairCostTable {
   double cost(ClusterId from, ClusterId to) const;
   bool reachable(ClusterId from, ClusterId to) const;
   std::size_t pairCount() const { return pairs_.size(); }
-  const CostParams& costParams() const { return cost_; }
-  const PathParams& pathParams() const { return path_; }
+  const CostConfig& costParams() const { return cost_; }
+  const PathConfig& pathParams() const { return path_; }
 
  private:
   struct Entry {
     double cost_s = 0.0;
     bool reachable = false;
   };
-  CostParams cost_;
-  PathParams path_;
+  CostConfig cost_;
+  PathConfig path_;
   std::map<ClusterId, FlatPose> poses_;
   std::map<std::pair<ClusterId, ClusterId>, Entry> pairs_;  ///< key (low id, high id)
 };
 
 /// The open-tour matrix for the ATSP solver: node 0 is the vehicle, node i + 1 is targets[i].
 /// Row 0 holds the costs from the vehicle's state (`from_vehicle[i]`), column 0 is zero (the tour
-/// does not return), the rest comes from the table. Solve it with AtspOptions::open_from = 0.
+/// does not return), the rest comes from the table. Solve it with AtspConfig::open_from = 0.
 RealCostMatrix buildTourCostMatrix(const std::vector<double>& from_vehicle, const std::vector<TourTarget>& targets,
                                    const PairCostTable& table);
 
 /// Costs from the vehicle to every target (in parallel, seeded by cluster id).
 std::vector<LegCost> costsFromVehicle(const MapQuery& map, const VehicleState& vehicle,
-                                      const std::vector<TourTarget>& targets, const CostParams& cost = {},
-                                      const PathParams& path = {});
+                                      const std::vector<TourTarget>& targets, const CostConfig& cost = {},
+                                      const PathConfig& path = {});
 
 }  // namespace vdbmap::planner

@@ -15,9 +15,9 @@
 
 namespace vdbmap::planner {
 
-/// In ExplorationParams::escape the manager sets bounds_W, clearance_m and trajectory from its own
+/// In ExplorationManagerConfig::escape the manager sets bounds_W, clearance_m and trajectory from its own
 /// box, path clearance and trajectory parameters.
-struct EscapeParams {
+struct EscapeConfig {
   /// Ends stay inside this box (world frame); none: anywhere.
   std::optional<Eigen::AlignedBox3d> bounds_W;
   /// The clearance paths keep (an end must keep it in the current map); [0, 10]
@@ -28,15 +28,16 @@ struct EscapeParams {
   double retreat_reach_m = 3.0;
   /// How far a straight escape looks for a clear point; (0, 10]
   double escape_reach_m = 1.0;
-  TrajectoryParams trajectory;
+  TrajectoryConfig trajectory;
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
 };
+using EscapeParams [[deprecated("renamed EscapeConfig")]] = EscapeConfig;
 
 class EscapePlanner {
  public:
   /// Throws std::invalid_argument for invalid params.
-  explicit EscapePlanner(const EscapeParams& params);
+  explicit EscapePlanner(const EscapeConfig& params);
 
   /// Records the vehicle's position (kept when a voxel or more from the last one recorded).
   void recordFlown(const Vec3d& p_W, double voxel_m);
@@ -57,7 +58,7 @@ class EscapePlanner {
  private:
   bool inBounds(const Vec3d& p_W) const { return !params_.bounds_W || params_.bounds_W->contains(p_W); }
 
-  EscapeParams params_;
+  EscapeConfig params_;
   std::deque<Vec3d> flown_W_;  ///< one voxel apart, newest last, in the current estimate frame
 };
 

@@ -57,21 +57,21 @@
 
 namespace vdbmap::planner {
 
-struct ExplorationParams {
+struct ExplorationManagerConfig {
   /// The exploration box (world frame): frontiers, viewpoints and paths stay inside. Required.
   Eigen::AlignedBox3d box_W;
   /// The pieces' parameters. Their bounds_W are set from box_W by the manager (viewpoints use
   /// box_W shrunk by viewpoint.min_clearance_m, so that a viewpoint's clear ball lies in the box).
-  FrontierParams frontier;
-  ViewpointParams viewpoint;
-  CostParams cost;
+  FrontierConfig frontier;
+  ViewpointConfig viewpoint;
+  CostConfig cost;
   /// Paths the vehicle flies (a longer OMPL budget than the cost paths).
-  PathParams path = flightPathDefaults();
+  PathConfig path = flightPathDefaults();
   /// Paths only measured for costs (pair table, legs from the vehicle, refinement).
-  PathParams cost_path = costPathDefaults();
-  TourParams tour;
-  RefinementParams refinement;
-  TrajectoryParams trajectory;
+  PathConfig cost_path = costPathDefaults();
+  TourConfig tour;
+  RefinementConfig refinement;
+  TrajectoryConfig trajectory;
 
   /// Half-sizes of the box around the start position where unknown space reads free; each
   /// [0, 10]. FUEL clears a box around the start too.
@@ -125,7 +125,7 @@ struct ExplorationParams {
   double risk_check_spacing_vox = 0.5;
   /// Retreats and straight escapes out of a blocked start: how many flown positions are kept and
   /// how far each reaches (bounds_W, clearance_m and trajectory are set by the manager).
-  EscapeParams escape;
+  EscapeConfig escape;
   /// Straight escapes in a row (without a plan from a clear start in between) before giving up:
   /// a chain of them creeps wherever the map's errors push it; [0, 100]
   int max_chained_escapes = 3;
@@ -136,14 +136,15 @@ struct ExplorationParams {
   /// Active loop closure (active_loop_closure.hpp). Off by default, so that the manager is plain
   /// FUEL; alc.unreachable_cost_s is set from cost.unreachable_cost_s by the manager.
   bool alc_enabled = false;
-  AlcParams alc;
+  AlcConfig alc;
 
   /// The defaults of `path` and `cost_path` (0.1 s and 0.01 s OMPL budgets).
-  static PathParams flightPathDefaults();
-  static PathParams costPathDefaults();
+  static PathConfig flightPathDefaults();
+  static PathConfig costPathDefaults();
   /// Throws std::invalid_argument naming the field and its allowed range (including the pieces').
   void validate() const;
 };
+using ExplorationParams [[deprecated("renamed ExplorationManagerConfig")]] = ExplorationManagerConfig;
 
 enum class ExplorationStatus {
   Continue,    ///< no replan needed: keep following command()
@@ -228,7 +229,7 @@ struct ExplorationCounters {
   std::size_t holds = 0;                 ///< times the vehicle was stopped by a hold
   std::size_t escapes = 0;               ///< moves out of a start blocked by occupied voxels (retreats included)
   std::size_t retreats = 0;              ///< escapes back along the way flown
-  std::size_t revisit_rounds = 0;        ///< ExplorationParams::revisit_rounds done
+  std::size_t revisit_rounds = 0;        ///< ExplorationManagerConfig::revisit_rounds done
   std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
 };
 
@@ -236,10 +237,10 @@ class ExplorationManager {
  public:
   /// Starts at `start` (at rest) at time t_s. Throws std::invalid_argument for invalid params or a
   /// start outside the box.
-  ExplorationManager(const ExplorationParams& params, const VehicleState& start, double t_s);
+  ExplorationManager(const ExplorationManagerConfig& params, const VehicleState& start, double t_s);
   ~ExplorationManager();
 
-  const ExplorationParams& params() const { return params_; }
+  const ExplorationManagerConfig& params() const { return params_; }
 
   /// One cycle: refresh frontiers and viewpoints from `map` in `dirty` (the region changed since
   /// the last call; the first call scans the whole map), then decide and maybe replan from
@@ -353,7 +354,7 @@ class ExplorationManager {
   void startTrajectory(Trajectory trajectory, double t_s, FlightKind kind);
   void hold(const VehicleState& vehicle, double t_s);
 
-  ExplorationParams params_;
+  ExplorationManagerConfig params_;
   std::vector<Eigen::AlignedBox3d> free_boxes_;
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;

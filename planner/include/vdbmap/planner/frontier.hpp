@@ -32,7 +32,7 @@ namespace vdbmap::planner {
 
 using ClusterId = std::uint64_t;
 
-struct FrontierParams {
+struct FrontierConfig {
   /// FUEL's cluster_min: 26-connected components with fewer frontier voxels are dropped; [1, 1e8]
   int min_cluster_size = 100;
   /// FUEL's cluster_size_xy: a cluster with a voxel farther than this from its centroid in x-y
@@ -48,6 +48,7 @@ struct FrontierParams {
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
 };
+using FrontierParams [[deprecated("renamed FrontierConfig")]] = FrontierConfig;
 
 /// One cluster: a set of frontier voxels the planner plans a visit to.
 struct FrontierCluster {
@@ -75,9 +76,9 @@ bool isFrontierVoxel(MapReader& reader, const openvdb::Coord& ijk, const openvdb
 
 class FrontierMap {
  public:
-  explicit FrontierMap(const FrontierParams& params = {});
+  explicit FrontierMap(const FrontierConfig& params = {});
 
-  const FrontierParams& params() const { return params_; }
+  const FrontierConfig& params() const { return params_; }
 
   /// Refreshes frontiers after the map changed inside the index-space box `dirty` (e.g.
   /// vdbmap::Mapper::takeDirtyRegion(), which includes re-integration and pruning). An empty box
@@ -126,7 +127,7 @@ class FrontierMap {
   /// Removes these clusters (ids ascending) from clusters_.
   void dropClusters(const std::vector<ClusterId>& sorted_ids);
 
-  FrontierParams params_;
+  FrontierConfig params_;
   double voxel_size_m_ = 0.0;  ///< of the map seen first (0 before)
   std::unordered_map<openvdb::Coord, ComponentId, CoordHash> owner_;  ///< frontier voxel -> component
   std::map<ComponentId, Component> components_;

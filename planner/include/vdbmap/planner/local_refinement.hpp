@@ -18,7 +18,7 @@
 
 namespace vdbmap::planner {
 
-struct RefinementParams {
+struct RefinementConfig {
   int max_clusters = 7;           ///< FUEL refined_num: clusters of the tour refined; [1, 100]
   /// FUEL refined_radius: after the first two, stop at a cluster whose best viewpoint is farther
   /// than this from the vehicle; (0, 1e4]
@@ -32,6 +32,7 @@ struct RefinementParams {
 
   void validate() const;
 };
+using RefinementParams [[deprecated("renamed RefinementConfig")]] = RefinementConfig;
 
 /// The layers for refinement: `tour` lists, in tour order, each cluster's viewpoints (best first,
 /// as computeViewpoints returns them). Layers follow the tour for at most max_clusters clusters
@@ -39,7 +40,7 @@ struct RefinementParams {
 /// Clusters with no viewpoints end the layers.
 std::vector<std::vector<Viewpoint>> refinementLayers(const VehicleState& vehicle,
                                                      const std::vector<std::vector<Viewpoint>>& tour,
-                                                     const RefinementParams& params = {});
+                                                     const RefinementConfig& params = {});
 
 /// Edge costs of the layered graph: first[j] from the vehicle to layer 0's viewpoint j;
 /// between[l](k, j) from layer l's viewpoint k to layer l+1's viewpoint j.
@@ -59,12 +60,12 @@ RefinementResult shortestLayeredPath(const LayeredCosts& costs);
 
 /// Edge costs by CostEvaluator (paths on the map), computed in parallel with per-edge seeds.
 LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
-                          const std::vector<std::vector<Viewpoint>>& layers, const CostParams& cost = {},
-                          const PathParams& path = {});
+                          const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost = {},
+                          const PathConfig& path = {});
 
 /// layeredCosts + shortestLayeredPath.
 RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicle,
-                                 const std::vector<std::vector<Viewpoint>>& layers, const CostParams& cost = {},
-                                 const PathParams& path = {});
+                                 const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost = {},
+                                 const PathConfig& path = {});
 
 }  // namespace vdbmap::planner

@@ -29,7 +29,7 @@
 
 namespace vdbmap::planner {
 
-struct LoopClusterParams {
+struct LoopClusterConfig {
   /// Viewpoints younger than this are not clustered; [0, 1e6]. The authors' 20 s (their pose-graph
   /// filter), above the simulator's 15 s loop-detection age.
   double min_age_s = 20.0;
@@ -39,6 +39,7 @@ struct LoopClusterParams {
   double merge_distance_m = 2.0;  ///< runs with a centre this close join the cluster (authors: 2 m); [0, 100]
   void validate() const;
 };
+using LoopClusterParams [[deprecated("renamed LoopClusterConfig")]] = LoopClusterConfig;
 
 /// A cluster's id is its index in LoopClusters::clusters(); clusters are never removed.
 using LoopClusterId = std::size_t;
@@ -54,7 +55,7 @@ struct LoopCluster {
 
 class LoopClusters {
  public:
-  explicit LoopClusters(const LoopClusterParams& params = {});
+  explicit LoopClusters(const LoopClusterConfig& params = {});
 
   /// Takes the viewpoints of `history` that are at least min_age_s old at now_s (and not taken
   /// before), in order, into runs; every completed run becomes a cluster or joins one. Returns the
@@ -83,7 +84,7 @@ class LoopClusters {
 
   std::size_t taken() const { return cluster_of_.size(); }          ///< history viewpoints taken so far
   const std::vector<std::size_t>& openRun() const { return run_; }  ///< history indices of the open run
-  const LoopClusterParams& params() const { return params_; }
+  const LoopClusterConfig& params() const { return params_; }
 
  private:
   static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
@@ -92,7 +93,7 @@ class LoopClusters {
   void closeRun(const ViewpointHistory& history);
   void sortMembers(const ViewpointHistory& history, LoopCluster& cluster) const;
 
-  LoopClusterParams params_;
+  LoopClusterConfig params_;
   std::vector<LoopCluster> clusters_;
   PointIndex centres_;                   ///< centre positions; index = cluster id
   std::vector<std::size_t> cluster_of_;  ///< per taken history viewpoint: its cluster or kNone

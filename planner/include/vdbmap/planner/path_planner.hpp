@@ -28,7 +28,7 @@
 
 namespace vdbmap::planner {
 
-struct PathParams {
+struct PathConfig {
   /// Every voxel within this distance of the path is known-free: the vehicle's radius plus a
   /// margin (FUEL inflates obstacles by 0.2 m). 0.3 = the simulator's 0.2 m vehicle radius plus
   /// one 0.1 m voxel, since a free voxel's centre can lie up to a voxel from the surface it
@@ -54,6 +54,7 @@ struct PathParams {
 
   void validate() const;
 };
+using PathParams [[deprecated("renamed PathConfig")]] = PathConfig;
 
 enum class PathStatus {
   Straight,      ///< the straight segment is clear
@@ -81,12 +82,12 @@ class PathPlanner {
  public:
   /// The map must outlive the planner and not change during a query. Throws
   /// std::invalid_argument for bad parameters.
-  PathPlanner(const MapQuery& map, const PathParams& params = {});
+  PathPlanner(const MapQuery& map, const PathConfig& params = {});
   ~PathPlanner();
   PathPlanner(PathPlanner&&) noexcept;
   PathPlanner& operator=(PathPlanner&&) noexcept;
 
-  const PathParams& params() const { return params_; }
+  const PathConfig& params() const { return params_; }
 
   /// A path from start to goal. `query_seed` is mixed into the seed (e.g. a pair index, so that
   /// parallel queries do not depend on which thread runs them).
@@ -105,7 +106,7 @@ class PathPlanner {
   struct Ompl;
   PathResult searchOmpl(const Vec3d& start_W, const Vec3d& goal_W, std::uint64_t seed);
 
-  PathParams params_;
+  PathConfig params_;
   std::unique_ptr<Checker> checker_;
   std::unique_ptr<Ompl> ompl_;  ///< created on the first search that needs it
 };

@@ -12,7 +12,7 @@
 
 namespace vdbmap::planner {
 
-struct TourParams {
+struct TourConfig {
   double time_limit_s = 0.05;  ///< solver budget; (0, 60]
   std::uint64_t seed = 1;      ///< solver seed
   /// Solver rounds (0 = only the time limit). With a cap the tour no longer depends on machine
@@ -20,6 +20,7 @@ struct TourParams {
   std::uint64_t max_iterations = 0;
   void validate() const;
 };
+using TourParams [[deprecated("renamed TourConfig")]] = TourConfig;
 
 struct TourResult {
   std::vector<std::size_t> order;  ///< target indices in visiting order (node 0, the vehicle, left out)
@@ -35,7 +36,7 @@ double openTourCost(const RealCostMatrix& costs, const std::vector<std::size_t>&
 
 /// Solves the open tour from node 0 (the vehicle) over a buildTourCostMatrix matrix. With one or
 /// no target the answer is immediate.
-TourResult solveOpenTour(const RealCostMatrix& costs, const TourParams& params = {});
+TourResult solveOpenTour(const RealCostMatrix& costs, const TourConfig& params = {});
 
 /// Everything a replanning step needs for the tour: refreshes the pair table (only new clusters'
 /// pairs are planned), plans the legs from the vehicle (with the table's cost and path
@@ -46,6 +47,6 @@ struct GlobalTour {
   RealCostMatrix costs;               ///< node 0 = vehicle, node i + 1 = targets[i]
 };
 GlobalTour planGlobalTour(const MapQuery& map, const VehicleState& vehicle, const std::vector<TourTarget>& targets,
-                          PairCostTable& table, const TourParams& tour = {});
+                          PairCostTable& table, const TourConfig& tour = {});
 
 }  // namespace vdbmap::planner

@@ -34,7 +34,7 @@
 
 namespace vdbmap::planner {
 
-struct TrajectoryParams {
+struct TrajectoryConfig {
   double v_max_m_s = 2.0;             ///< (0, 100]
   double a_max_m_s2 = 2.0;            ///< (0, 100]
   double yaw_rate_max_rad_s = 0.9;    ///< (0, 100]
@@ -46,7 +46,7 @@ struct TrajectoryParams {
   double corner_fraction = 0.45;
   /// Spacing of the speed profile's grid; (0, 1]
   double ds_m = 0.05;
-  /// Clearance test of arcs and lead-ins: as PathParams (use the same values); [0, 5] and [0, 1]
+  /// Clearance test of arcs and lead-ins: as PathConfig (use the same values); [0, 5] and [0, 1]
   double clearance_m = 0.3;
   double check_step_m = 0.0;          ///< 0 = half a voxel
   /// How often an arc that is not clear is halved before the corner becomes a stop; [0, 30]
@@ -54,6 +54,7 @@ struct TrajectoryParams {
 
   void validate() const;
 };
+using TrajectoryParams [[deprecated("renamed TrajectoryConfig")]] = TrajectoryConfig;
 
 /// A time-parametrised trajectory: sample(t) for t in [0, duration()] (clamped outside).
 class Trajectory {
@@ -119,6 +120,6 @@ struct TrajectoryResult {
 /// point must be the vehicle's position within 1 mm, else std::invalid_argument) to rest at its
 /// last point with `goal_yaw_rad`. A single-point path turns on the spot.
 TrajectoryResult planTrajectory(const std::vector<Vec3d>& path_W, const VehicleState& start, double goal_yaw_rad,
-                                const MapQuery& map, const TrajectoryParams& params = {});
+                                const MapQuery& map, const TrajectoryConfig& params = {});
 
 }  // namespace vdbmap::planner

@@ -3,7 +3,7 @@
 // (docs/conventions.md): known when W > tau_w, occupied when known and tsdf below the occupancy
 // threshold, else free.
 //
-// Thin structure (TsdfMapQueryParams::thin_obstacles, on by default): a post or a board edge
+// Thin structure (TsdfMapQueryConfig::thin_obstacles, on by default): a post or a board edge
 // narrower than a voxel is often missing from those states. Rays passing beside it carve its
 // voxel, whose mean tsdf stays positive (a 4 cm shelf post in 0.1 m voxels reads 0.09-0.17 m,
 // free), and the vehicle flies into it. What is left of it is a valley of the tsdf: a known voxel
@@ -36,7 +36,7 @@ class TsdfVolume;
 
 namespace vdbmap::planner {
 
-struct TsdfMapQueryParams {
+struct TsdfMapQueryConfig {
   /// Read tsdf valleys (thin structure) as occupied.
   bool thin_obstacles = true;
   /// A valley's tsdf is below this many voxels; (0, 100]
@@ -51,10 +51,11 @@ struct TsdfMapQueryParams {
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
 };
+using TsdfMapQueryParams [[deprecated("renamed TsdfMapQueryConfig")]] = TsdfMapQueryConfig;
 
 class TsdfMapQuery : public MapQuery {
  public:
-  explicit TsdfMapQuery(const TsdfVolume& volume, const TsdfMapQueryParams& params = {});
+  explicit TsdfMapQuery(const TsdfVolume& volume, const TsdfMapQueryConfig& params = {});
 
   double voxelSize() const override;
   /// The box around every voxel with any weight (a superset of the known voxels).
@@ -65,7 +66,7 @@ class TsdfMapQuery : public MapQuery {
 
  private:
   const TsdfVolume* volume_;
-  TsdfMapQueryParams params_;
+  TsdfMapQueryConfig params_;
   std::shared_ptr<const TsdfMapQuery> sight_;  ///< null: sightMap() is this map
 };
 

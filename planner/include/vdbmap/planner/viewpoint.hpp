@@ -49,7 +49,7 @@ struct ViewpointFallback {
   /// Heights of the rings relative to the cluster's centroid; each in [-100, 100], non-empty.
   std::vector<double> height_offsets_m = {0.0, -0.5, 0.5, -1.0, 1.0};
   /// Every voxel within this distance of a fallback viewpoint is known-free; [0, 10]. Above
-  /// ViewpointParams::min_clearance_m: fallback viewpoints face shelving and clutter from close
+  /// ViewpointConfig::min_clearance_m: fallback viewpoints face shelving and clutter from close
   /// in, where thin posts (narrower than a voxel) can be missing from the map. 0.4 m rather than
   /// 0.5 m: the warehouse's shelf interiors are seen only from aisles 0.6-0.7 m wide, where no
   /// candidate keeps 0.5 m (docs/exploration.md, "Fallback viewpoints").
@@ -61,7 +61,7 @@ struct ViewpointFallback {
   void validate() const;
 };
 
-struct ViewpointParams {
+struct ViewpointConfig {
   double ring_radius_min_m = 1.5;  ///< FUEL candidate_rmin; (0, ring_radius_max_m]
   double ring_radius_max_m = 2.5;  ///< FUEL candidate_rmax; [ring_radius_min_m, 100]
   int ring_count = 4;              ///< radii evenly spaced from min to max (FUEL: rnum 3 steps = 4 rings); [1, 100]
@@ -82,6 +82,7 @@ struct ViewpointParams {
 
   void validate() const;
 };
+using ViewpointParams [[deprecated("renamed ViewpointConfig")]] = ViewpointConfig;
 
 struct Viewpoint {
   Vec3d position_W = Vec3d::Zero();
@@ -93,12 +94,12 @@ struct Viewpoint {
 /// deterministic): the ring candidates, or when none passes (and params.fallback.enabled) the
 /// fallback's. Empty when neither search finds one: the cluster cannot be observed for now.
 std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const MapQuery& map,
-                                         const ViewpointParams& params = {});
+                                         const ViewpointConfig& params = {});
 
 /// computeViewpoints for several clusters in parallel (one task per cluster); results in the
 /// order of `clusters`, identical to calling computeViewpoints on each.
 std::vector<std::vector<Viewpoint>> computeViewpoints(const std::vector<const FrontierCluster*>& clusters,
-                                                      const MapQuery& map, const ViewpointParams& params = {});
+                                                      const MapQuery& map, const ViewpointConfig& params = {});
 
 /// Yaw toward a set of voxels from `eye_W`: the circular mean of the horizontal directions.
 double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, const MapQuery& map);

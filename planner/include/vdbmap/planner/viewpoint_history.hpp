@@ -17,7 +17,7 @@
 
 namespace vdbmap::planner {
 
-struct ViewpointHistoryParams {
+struct ViewpointHistoryConfig {
   /// Record a pose when it is at least this far from the last recorded one; [0, 100]. A quarter of
   /// the loop detector's 0.5 m distance: every flown position has a recorded one within 0.125 m.
   double record_spacing_m = 0.25;
@@ -25,6 +25,7 @@ struct ViewpointHistoryParams {
   double record_yaw_step_rad = 0.1;
   void validate() const;
 };
+using ViewpointHistoryParams [[deprecated("renamed ViewpointHistoryConfig")]] = ViewpointHistoryConfig;
 
 /// One recorded viewpoint: where the vehicle was (world frame, as the planner estimated it, or as
 /// corrected later) and when.
@@ -36,7 +37,7 @@ struct FlownViewpoint {
 
 class ViewpointHistory {
  public:
-  explicit ViewpointHistory(const ViewpointHistoryParams& params = {});
+  explicit ViewpointHistory(const ViewpointHistoryConfig& params = {});
 
   /// Offers the vehicle's pose at `stamp_s`; records it (and returns true) when it is the first,
   /// or moved at least record_spacing_m or turned at least record_yaw_step_rad since the last
@@ -57,10 +58,10 @@ class ViewpointHistory {
   /// correction, looked up by stamp) and rebuilds the KD-tree; stamps and indices stay.
   void correct(const std::function<FlatPose(const FlownViewpoint&)>& corrected);
 
-  const ViewpointHistoryParams& params() const { return params_; }
+  const ViewpointHistoryConfig& params() const { return params_; }
 
  private:
-  ViewpointHistoryParams params_;
+  ViewpointHistoryConfig params_;
   std::vector<FlownViewpoint> viewpoints_;
   PointIndex index_;
   std::optional<double> last_offer_s_;

@@ -3,7 +3,7 @@
 //
 // For each seed k (1..seeds) both arms run with the same set-up (explorationConfigFor: drift seeded
 // with k, planner seeded with k, same start), one after the other: "no_alc" (plain FUEL) and "alc"
-// (ExplorationParams::alc_enabled, epsilon from the config). Each run is evaluated like `vdbmap
+// (ExplorationManagerConfig::alc_enabled, epsilon from the config). Each run is evaluated like `vdbmap
 // explore` (coverage of the observable surface, map RMSE and completeness against the world mesh)
 // and its folder OUTDIR/runs/<arm>_seed<k>/ gets summary.json and the trajectories (the log and
 // the map too with keep_runs).
@@ -37,7 +37,7 @@ struct AlcBenchmarkConfig {
   double voxel_size_m = 0.1;                                 ///< (0, 10]
   double max_time_s = ExplorationConfig::kDefaultMaxTime_s;  ///< per run; (0, 1e5]
   /// The ALC arm's parameters (its tour seed follows the run's seed).
-  planner::AlcParams alc;
+  planner::AlcConfig alc;
   LoopClosureMode loop_closure = SimulatorConfig{}.loop_closure;
   /// Also keep each run's log and map (large); summary.json and trajectories are always written.
   bool keep_runs = false;

@@ -61,7 +61,7 @@ struct ExplorationConfig {
   /// the camera's.
   MapperConfig mapper;
   /// The exploration manager; box_W is required (exploration_setup below gives defaults).
-  planner::ExplorationParams planner;
+  planner::ExplorationManagerConfig planner;
   /// Where the vehicle starts (true and estimated pose agree there), at t = 0.
   FlatPose start;
   static constexpr double kDefaultMaxTime_s = 900.0;
@@ -87,7 +87,7 @@ struct ExplorationProgress {
   planner::ExplorationStatus status = planner::ExplorationStatus::Continue;
 };
 
-struct ExplorationOptions {
+struct ExplorationRecordConfig {
   /// Record the flight as a log here (replayable by `vdbmap integrate`); empty: no log.
   std::filesystem::path log_dir;
   /// Measure coverage of this surface during the run (ExplorationResult::coverage_timeline), at
@@ -100,6 +100,7 @@ struct ExplorationOptions {
   /// Called after every frame.
   std::function<void(const ExplorationProgress&)> progress;
 };
+using ExplorationOptions [[deprecated("renamed ExplorationRecordConfig")]] = ExplorationRecordConfig;
 
 /// Something that happened in the run, for diagnosis: "loop_closure", "alc_detour" (a detour
 /// started), "alc_gave_up" (a detour given up without a loop closure), "collision" (a collision
@@ -159,7 +160,7 @@ struct ExplorationResult {
   /// that ended with a loop closure.
   planner::AlcStats alc;
   std::vector<ExplorationEvent> events;  ///< in time order
-  std::vector<CoverageSample> coverage_timeline;  ///< when ExplorationOptions::observable is set
+  std::vector<CoverageSample> coverage_timeline;  ///< when ExplorationRecordConfig::observable is set
   std::vector<CycleSample> cycles;                ///< every frame
   /// Simulated time per activity (indexed by ExplorationActivity): each frame interval counts for
   /// the activity the manager's update at its start left.
@@ -177,7 +178,7 @@ struct ExplorationResult {
 /// Runs the exploration. Throws std::invalid_argument for an invalid config or a start that is not
 /// clear of the world; std::runtime_error when the log cannot be written.
 ExplorationResult runExploration(const World& world, const ExplorationConfig& config,
-                                 const ExplorationOptions& options = {});
+                                 const ExplorationRecordConfig& options = {});
 
 /// The defaults for a world: the exploration box is the world's bounding box (after its ceiling
 /// clip), and the start is the point nearest the box's centre (x, y) at `start_height_m` above the
@@ -203,11 +204,11 @@ const char* toString(BudgetMode mode);
 /// Parses counted / wall-clock; throws std::invalid_argument listing the choices.
 BudgetMode parseBudgetMode(const std::string& text);
 
-/// RRTConnect iterations of a flight-path search (PathParams::max_iterations) in Counted mode.
+/// RRTConnect iterations of a flight-path search (PathConfig::max_iterations) in Counted mode.
 inline constexpr std::uint64_t kCountedFlightPathIterations = 3000;
 /// RRTConnect iterations of a cost-path search in Counted mode.
 inline constexpr std::uint64_t kCountedCostPathIterations = 300;
-/// Tour-solver rounds (TourParams::max_iterations) in Counted mode, for both ALC tours as well.
+/// Tour-solver rounds (TourConfig::max_iterations) in Counted mode, for both ALC tours as well.
 inline constexpr std::uint64_t kCountedTourIterations = 5000;
 /// Frames per re-integration cycle (ReintegrationConfig::budget_frames) in Counted mode.
 inline constexpr int kCountedReintegrationFrames = 4;
@@ -256,7 +257,7 @@ struct ExplorationSummary {
 /// The coverage fractions summary.json reports time_to_coverage_s for.
 inline constexpr std::array<double, 5> kCoverageMilestones = {0.5, 0.8, 0.9, 0.95, 0.99};
 
-struct ExplorationRunOptions {
+struct ExplorationRunConfig {
   SurfaceCoverageConfig coverage;  ///< max_view_distance_m and the fov are set from the planner's camera
   double completeness_threshold_vox = 2.0;  ///< (0, 100]
   bool overwrite = false;                   ///< replace a run already in the folder
@@ -270,12 +271,13 @@ struct ExplorationRunOptions {
   /// Called with a line of text at each stage after the flight (coverage, evaluation, files).
   std::function<void(const std::string&)> report;
 };
+using ExplorationRunOptions [[deprecated("renamed ExplorationRunConfig")]] = ExplorationRunConfig;
 
 /// Runs the exploration and writes the run folder: log/ (replayable), map.vdb, mesh.ply (unless
 /// turned off in the options), trajectory_true.txt and trajectory_odom.txt (TUM, sensor poses per
 /// frame, true and estimated), coverage.csv (CoverageSample every second), cycles.csv
 /// (CycleSample per frame) and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
 ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
-                                   const std::filesystem::path& run_dir, const ExplorationRunOptions& options = {});
+                                   const std::filesystem::path& run_dir, const ExplorationRunConfig& options = {});
 
 }  // namespace vdbmap::sim

@@ -19,13 +19,14 @@
 
 namespace vdbmap::sim {
 
-struct FlightOptions {
+struct FlightConfig {
   bool overwrite = false;  ///< allow writing into a folder that already holds a log
   /// Free text stored in simulation.json (e.g. the command line, the drift level's name).
   std::string description;
   /// Called after every frame with (frames done, frames to do).
   std::function<void(std::size_t, std::size_t)> progress;
 };
+using FlightOptions [[deprecated("renamed FlightConfig")]] = FlightConfig;
 
 struct FlightResult {
   std::size_t frames = 0;
@@ -91,6 +92,6 @@ class FlightRecorder {
 /// trajectory or an invalid config, std::runtime_error when `log_dir` holds a log and overwrite
 /// is false or a file cannot be written.
 FlightResult simulateFlight(const World& world, const SampledTrajectory& trajectory, const SimulatorConfig& config,
-                            const std::filesystem::path& log_dir, const FlightOptions& options = {});
+                            const std::filesystem::path& log_dir, const FlightConfig& options = {});
 
 }  // namespace vdbmap::sim

@@ -27,11 +27,12 @@ FlatPose relativePose(const FlatPose& a, const FlatPose& b);
 /// a composed with the relative pose r (inverse of relativePose: compose(a, relativePose(a, b)) = b).
 FlatPose compose(const FlatPose& a, const FlatPose& r);
 
-struct PoseGraphSolveOptions {
+struct PoseGraphSolveConfig {
   int max_iterations = 50;  ///< [1, 10000]
   double function_tolerance = 1e-10;
   void validate() const;
 };
+using PoseGraphSolveOptions [[deprecated("renamed PoseGraphSolveConfig")]] = PoseGraphSolveConfig;
 
 struct PoseGraphSummary {
   bool converged = false;
@@ -58,7 +59,7 @@ class PoseGraph4Dof {
   const std::vector<PoseGraphEdge>& edges() const { return edges_; }
 
   /// Optimizes all non-fixed nodes in place. Throws std::logic_error when the graph is empty.
-  PoseGraphSummary optimize(const PoseGraphSolveOptions& options = {});
+  PoseGraphSummary optimize(const PoseGraphSolveConfig& options = {});
 
  private:
   std::vector<FlatPose> nodes_;

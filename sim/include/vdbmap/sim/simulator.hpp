@@ -51,7 +51,7 @@ struct SimulatorConfig {
   /// Floor of the odometry edges' standard deviations, which otherwise follow from the drift
   /// variances over one frame interval (zero at s1). [1e-9, 1]
   double odometry_sigma_floor = 1e-4;
-  PoseGraphSolveOptions solve;
+  PoseGraphSolveConfig solve;
 
   void validate() const;
 };

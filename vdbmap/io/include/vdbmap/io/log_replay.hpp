@@ -21,7 +21,7 @@ enum class OnBadFrame { Fail, Skip };
 /// "fail" / "skip"; throws std::invalid_argument listing the choices.
 OnBadFrame parseOnBadFrame(const std::string& text);
 
-struct ReplayOptions {
+struct ReplayConfig {
   int frame_stride = 1;                    ///< integrate every k-th frame; [1, 1e6]
   OnBadFrame on_bad_frame = OnBadFrame::Fail;
   bool apply_corrections = true;           ///< false: ignore corrections/ whatever the mode
@@ -30,6 +30,7 @@ struct ReplayOptions {
 
   void validate() const;
 };
+using ReplayOptions [[deprecated("renamed ReplayConfig")]] = ReplayConfig;
 
 struct BadFrame {
   std::size_t index = 0;
@@ -60,6 +61,6 @@ struct ReplayResult {
 /// Replays `source` into `mapper`. With OnBadFrame::Fail the first bad frame throws
 /// io::BadFrameError naming the frame and file, and nothing is returned; with Skip it is listed
 /// in the result and the rest is integrated.
-ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const ReplayOptions& options);
+ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const ReplayConfig& options);
 
 }  // namespace vdbmap

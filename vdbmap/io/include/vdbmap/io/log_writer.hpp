@@ -14,7 +14,7 @@
 
 namespace vdbmap::io {
 
-struct LogWriterOptions {
+struct LogWriterConfig {
   /// Extension of point frames: ".bin" (raw float32 xyz), ".ply" or ".pcd".
   std::string points_extension = ".bin";
   /// Rewrite frames.csv (atomically) every this many frames, so a crash loses at most this many
@@ -26,13 +26,14 @@ struct LogWriterOptions {
 
   void validate() const;
 };
+using LogWriterOptions [[deprecated("renamed LogWriterConfig")]] = LogWriterConfig;
 
 class LogWriter {
  public:
   /// Creates `folder` (and parents) and writes sensor.json. Throws std::invalid_argument on an
   /// invalid sensor or options, std::runtime_error when the folder already holds a log and
   /// overwrite is false, or on a write error.
-  LogWriter(const std::filesystem::path& folder, const SensorInfo& sensor, LogWriterOptions options = {});
+  LogWriter(const std::filesystem::path& folder, const SensorInfo& sensor, LogWriterConfig options = {});
   /// Calls close(); errors are swallowed here, so call close() yourself to see them.
   ~LogWriter();
   LogWriter(const LogWriter&) = delete;
@@ -72,7 +73,7 @@ class LogWriter {
 
   std::filesystem::path folder_;
   SensorInfo sensor_;
-  LogWriterOptions options_;
+  LogWriterConfig options_;
   std::vector<Listed> frames_;
   std::vector<StampedPose> ground_truth_;
   bool closed_ = false;

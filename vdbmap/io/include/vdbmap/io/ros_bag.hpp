@@ -47,7 +47,7 @@ struct RosBagInfo {
 /// missing, truncated or malformed bag, or a build without bag support.
 RosBagInfo inspectRosBag(const std::filesystem::path& bag);
 
-struct RosBagOptions {
+struct RosBagConfig {
   std::string depth_topic;        ///< empty: the bag's only sensor_msgs/Image topic
   std::string camera_info_topic;  ///< empty: the only sensor_msgs/CameraInfo topic
   std::string pose_topic;         ///< empty: the only Odometry, PoseStamped or TransformStamped topic
@@ -58,11 +58,12 @@ struct RosBagOptions {
 
   void validate() const;
 };
+using RosBagOptions [[deprecated("renamed RosBagConfig")]] = RosBagConfig;
 
 /// The bag as a frame source (format "rosbag"): frames loaded from the bag on demand (thread-safe).
 /// Throws FileError (std::runtime_error) naming the file, topic and stamp for a missing topic, a
 /// missing CameraInfo, an unknown encoding or message type, non-increasing stamps, no frame in the
 /// pose stream's span, or a bag that cannot be read.
-std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& bag, const RosBagOptions& options = {});
+std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& bag, const RosBagConfig& options = {});
 
 }  // namespace vdbmap::io
