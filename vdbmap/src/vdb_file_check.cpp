@@ -74,12 +74,40 @@ class MappedFile {
   std::uint64_t size_ = 0;
 };
 
+/// Names a part of the file in error messages: a parent, a text and an optional number ("grid 0
+/// ('tsdf') leaf 17 value mask"). The string is built only when an error is reported, so a walk
+/// over millions of leaves builds none. A Where refers to its parent and text: it lives within the
+/// full expression that makes it, or as a named object below a named parent.
+class Where {
+ public:
+  Where(const char* text) : text_(text) {}                 // NOLINT: a literal names a part
+  Where(const std::string& text) : text_(text.c_str()) {}  // NOLINT: so does a label read from the file
+  Where(const Where& parent, const char* text) : parent_(&parent), text_(text) {}
+  Where(const Where& parent, const char* text, std::uint64_t index)
+      : parent_(&parent), text_(text), index_(index), has_index_(true) {}
+  std::string str() const {
+    std::string s = parent_ ? parent_->str() : std::string();
+    s += text_;
+    if (has_index_) s += std::to_string(index_);
+    return s;
+  }
+
+ private:
+  const Where* parent_ = nullptr;
+  const char* text_ = "";
+  std::uint64_t index_ = 0;
+  bool has_index_ = false;
+};
+/// `where + " part"` names a part lazily; adding a std::string builds the message (errors only).
+Where operator+(const Where& parent, const char* text) { return Where(parent, text); }
+std::string operator+(const Where& where, const std::string& more) { return where.str() + more; }
+
 /// Reads little-endian values from the mapped file, never past `end`, naming `path` in every error.
 class Walker {
  public:
   Walker(const std::filesystem::path& path, const MappedFile& file) : path_(path), file_(file), end_(file.size()) {}
   template <typename T>
-  T get(const std::string& what) {
+  T get(const Where& what) {
     T v{};
     need(sizeof(T), what);
     std::memcpy(&v, file_.data() + pos_, sizeof(T));
@@ -87,22 +115,22 @@ class Walker {
     return v;
   }
   /// A length-prefixed string: the length is checked before anything is read.
-  std::string string(const std::string& what) {
+  std::string string(const Where& what) {
     const auto n = get<std::uint32_t>(what + " length");
-    need(n, what + " (" + std::to_string(n) + " bytes)");
+    need(n, what, true);
     std::string s(reinterpret_cast<const char*>(file_.data() + pos_), n);
     pos_ += n;
     return s;
   }
   /// The next `n` bytes, which stay mapped while the walker lives.
-  const unsigned char* take(std::uint64_t n, const std::string& what) {
-    need(n, what + " (" + std::to_string(n) + " bytes)");
+  const unsigned char* take(std::uint64_t n, const Where& what) {
+    need(n, what, true);
     const unsigned char* p = file_.data() + pos_;
     pos_ += n;
     return p;
   }
-  void skip(std::uint64_t n, const std::string& what) { take(n, what); }
-  void seek(std::uint64_t to, const std::string& what) {
+  void skip(std::uint64_t n, const Where& what) { take(n, what); }
+  void seek(std::uint64_t to, const Where& what) {
     if (to > file_.size())
       fail(what + " points to byte " + std::to_string(to) + ", beyond the file's " + std::to_string(file_.size()));
     pos_ = to;
@@ -111,13 +139,16 @@ class Walker {
   void setEnd(std::uint64_t end) { end_ = end; }
   std::uint64_t pos() const { return pos_; }
   std::uint64_t left() const { return end_ > pos_ ? end_ - pos_ : 0; }
-  [[noreturn]] void fail(const std::string& what) const {
-    throw FileError("cannot read map " + path_.string() + ": " + what + " (truncated or damaged file)");
+  [[noreturn]] void fail(const Where& what) const {
+    throw FileError("cannot read map " + path_.string() + ": " + what.str() + " (truncated or damaged file)");
   }
 
  private:
-  void need(std::uint64_t n, const std::string& what) {
-    if (n > left()) fail(what + " runs past the end, " + std::to_string(left()) + " bytes left");
+  /// `n` more bytes must be there; `show_size` names n in the error.
+  void need(std::uint64_t n, const Where& what, bool show_size = false) {
+    if (n <= left()) return;
+    fail(what.str() + (show_size ? " (" + std::to_string(n) + " bytes)" : std::string()) + " runs past the end, " +
+         std::to_string(left()) + " bytes left");
   }
   const std::filesystem::path& path_;
   const MappedFile& file_;
@@ -144,7 +175,7 @@ std::uint32_t fixedMetadataBytes(const std::string& type) {
 /// `expect` to `expect_max` uncompressed ones: OpenVDB sizes its buffers from the header and Blosc
 /// reads what it declares.
 void checkBloscChunk(Walker& w, std::uint64_t bytes, std::uint64_t expect, std::uint64_t expect_max,
-                     const std::string& what) {
+                     const Where& what) {
   if (bytes < 16) w.fail(what + ": a " + std::to_string(bytes) + "-byte Blosc chunk, shorter than its 16-byte header");
   const unsigned char* h = w.take(bytes, what);
   std::uint32_t nbytes = 0, blocksize = 0, cbytes = 0;
@@ -157,7 +188,7 @@ void checkBloscChunk(Walker& w, std::uint64_t bytes, std::uint64_t expect, std::
            "), expected " + std::to_string(expect) +
            (expect_max == expect ? std::string() : " to " + std::to_string(expect_max)) + " uncompressed");
 }
-void checkBloscChunk(Walker& w, std::uint64_t bytes, std::uint64_t expect, const std::string& what) {
+void checkBloscChunk(Walker& w, std::uint64_t bytes, std::uint64_t expect, const Where& what) {
   checkBloscChunk(w, bytes, expect, expect, what);
 }
 
@@ -167,7 +198,7 @@ std::uint64_t paddedArrayBytes(std::uint64_t bytes) { return std::max<std::uint6
 
 /// io::DelayedLoadMetadata: a leaf count, the leaves' compression codes and (optionally) their
 /// compressed sizes, each raw or as one Blosc chunk. OpenVDB allocates from every count it holds.
-void walkDelayedLoadMetadata(Walker& w, std::uint32_t bytes, std::uint64_t max_leaves, const std::string& what) {
+void walkDelayedLoadMetadata(Walker& w, std::uint32_t bytes, std::uint64_t max_leaves, const Where& what) {
   if (bytes == 0) return;
   const std::uint64_t end = w.pos() + bytes;
   const std::uint64_t outer_end = w.pos() + w.left();
@@ -200,7 +231,7 @@ struct MetadataFacts {
 
 /// A MetaMap: count, then per entry its name, type name and sized value. `max_leaves` bounds the
 /// leaf count of delayed-load metadata.
-MetadataFacts walkMetadata(Walker& w, const std::string& where, std::uint64_t max_leaves) {
+MetadataFacts walkMetadata(Walker& w, const Where& where, std::uint64_t max_leaves) {
   MetadataFacts facts;
   const auto count = w.get<std::int32_t>(where + " metadata count");
   // The smallest entry is three 4-byte lengths.
@@ -208,9 +239,9 @@ MetadataFacts walkMetadata(Walker& w, const std::string& where, std::uint64_t ma
     w.fail(where + " declares " + std::to_string(count) + " metadata entries, more than " + std::to_string(w.left()) +
            " bytes can hold");
   for (std::int32_t k = 0; k < count; ++k) {
-    const std::string entry = where + " metadata entry " + std::to_string(k);
+    const Where entry(where, " metadata entry ", std::uint64_t(k));
     const std::string name = w.string(entry + " name");
-    const std::string label = entry + " ('" + name + "')";
+    const std::string label = entry.str() + " ('" + name + "')";
     const std::string type = w.string(label + " type");
     const auto bytes = w.get<std::uint32_t>(label + " value size");
     // OpenVDB reads sizeof(T) for its fixed-size types, whatever size the entry declares.
@@ -264,7 +295,7 @@ ValueBytes valueBytes(std::string type, bool half) {
 }
 
 /// Reads a node mask of `bits` bits and returns how many are on.
-std::uint64_t walkMask(Walker& w, std::uint64_t bits, const std::string& what, std::vector<bool>* on = nullptr) {
+std::uint64_t walkMask(Walker& w, std::uint64_t bits, const Where& what, std::vector<bool>* on = nullptr) {
   const unsigned char* m = w.take(bits / 8, what);
   std::uint64_t count = 0;
   if (on) on->assign(bits, false);
@@ -283,7 +314,7 @@ struct ValueCodec {
   ValueBytes value;
   bool half = false;
 
-  void walk(Walker& w, std::uint64_t count, std::uint64_t active, const std::string& what) const {
+  void walk(Walker& w, std::uint64_t count, std::uint64_t active, const Where& what) const {
     const auto meta = w.get<std::int8_t>(what + " compression code");
     if (meta < kNoMaskOrInactiveVals || meta > kNoMaskAndAllVals)
       w.fail(what + " has compression code " + std::to_string(meta) + " (0 to 6 exist)");
@@ -315,8 +346,7 @@ struct ValueCodec {
 /// A grid's tree: topology [pos, block_pos), then every leaf's values [block_pos, end_pos), as
 /// Tree::readTopology and Tree::readBuffers read them. Each count is bounded by the bytes that
 /// must follow it before anything is walked.
-void walkTree(Walker& w, const ValueCodec& codec, std::uint64_t block_pos, std::uint64_t end_pos,
-              const std::string& grid) {
+void walkTree(Walker& w, const ValueCodec& codec, std::uint64_t block_pos, std::uint64_t end_pos, const Where& grid) {
   const std::uint64_t v = codec.value.full;
   w.setEnd(block_pos);
   w.get<std::int32_t>(grid + " buffer count");
@@ -331,14 +361,14 @@ void walkTree(Walker& w, const ValueCodec& codec, std::uint64_t block_pos, std::
   std::uint64_t leaves = 0;
   std::vector<bool> child_on, child4_on;
   for (std::uint32_t c = 0; c < children; ++c) {
-    const std::string node = grid + " root child " + std::to_string(c);
+    const Where node(grid, " root child ", c);
     w.skip(12, node + " origin");
     walkMask(w, 32768, node + " child mask", &child_on);
     const std::uint64_t active5 = walkMask(w, 32768, node + " value mask");
     codec.walk(w, 32768, active5, node + " tile values");
     for (std::uint64_t i = 0; i < 32768; ++i) {
       if (!child_on[i]) continue;
-      const std::string node4 = node + " child " + std::to_string(i);
+      const Where node4(node, " child ", i);
       walkMask(w, 4096, node4 + " child mask", &child4_on);
       const std::uint64_t active4 = walkMask(w, 4096, node4 + " value mask");
       codec.walk(w, 4096, active4, node4 + " tile values");
@@ -357,7 +387,7 @@ void walkTree(Walker& w, const ValueCodec& codec, std::uint64_t block_pos, std::
     w.fail(grid + " has " + std::to_string(leaves) + " leaves, more than its " + std::to_string(w.left()) +
            " bytes of data can hold");
   for (std::uint64_t l = 0; l < leaves; ++l) {
-    const std::string leaf = grid + " leaf " + std::to_string(l);
+    const Where leaf(grid, " leaf ", l);
     const std::uint64_t active = walkMask(w, 512, leaf + " value mask");
     codec.walk(w, 512, active, leaf);
   }
