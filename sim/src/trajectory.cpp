@@ -19,12 +19,6 @@ Pose3d bodyPose(const Vec3d& position_W, double yaw_rad) {
   return T;
 }
 
-double angleDifference(double to, double from) {
-  double d = std::remainder(to - from, 2.0 * M_PI);  // in [-pi, pi]
-  if (d <= -M_PI) d += 2.0 * M_PI;
-  return d;
-}
-
 void MotionLimits::validate() const {
   auto check = [](double v, const char* name) {
     if (!(v > 0.0 && v <= 100.0))

@@ -31,6 +31,8 @@ using TrajectoryState [[deprecated("merged into VehicleState")]] = VehicleState;
 
 /// An angle wrapped to (-pi, pi].
 double wrapAngle(double a_rad);
+/// The shortest signed angle from `from_rad` to `to_rad`, in (-pi, pi]: wrapAngle(to - from).
+double angleDifference(double to_rad, double from_rad);
 /// |b - a| wrapped to [0, pi].
 double yawDistance(double a_rad, double b_rad);
 

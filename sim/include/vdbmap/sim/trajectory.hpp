@@ -22,6 +22,7 @@
 
 namespace vdbmap::sim {
 
+using planner::angleDifference;
 using planner::FlatPose;
 using planner::VehicleState;
 
@@ -88,8 +89,5 @@ std::vector<FlatPose> readWaypoints(const std::filesystem::path& path);
 
 /// Writes waypoints as readWaypoints reads them (with yaw).
 void writeWaypoints(const std::filesystem::path& path, const std::vector<FlatPose>& waypoints);
-
-/// The shortest signed angle from `from` to `to`, in (-pi, pi].
-double angleDifference(double to, double from);
 
 }  // namespace vdbmap::sim
