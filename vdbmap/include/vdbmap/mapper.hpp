@@ -163,7 +163,6 @@ class Mapper {
   static Mapper load(const std::filesystem::path& map_path, const ReintegrationConfig& reintegration = {});
 
  private:
-
   MapperConfig config_;
   std::unique_ptr<internal::MapperLedger> ledger_;
   std::unique_ptr<internal::ConsistencyPolicy> policy_;
