@@ -323,7 +323,6 @@ void setBudgets(ExplorationConfig& config, BudgetMode mode) {
   const planner::PathConfig flight = planner::ExplorationManagerConfig::flightPathDefaults();
   const planner::PathConfig cost = planner::ExplorationManagerConfig::costPathDefaults();
   const planner::TourConfig tour;
-  const ReintegrationConfig reintegration;
   const bool counted = mode == BudgetMode::Counted;
   const double backstop = counted ? 20.0 : 1.0;
   p.path.time_limit_s = backstop * flight.time_limit_s;
@@ -334,8 +333,14 @@ void setBudgets(ExplorationConfig& config, BudgetMode mode) {
     t->time_limit_s = backstop * tour.time_limit_s;
     t->max_iterations = counted ? kCountedTourIterations : 0;
   }
-  config.mapper.reintegration.budget_ms = counted ? 1e6 : reintegration.budget_ms;
-  config.mapper.reintegration.budget_frames = counted ? kCountedReintegrationFrames : reintegration.budget_frames;
+  setReintegrationBudget(config.mapper.reintegration, mode);
+}
+
+void setReintegrationBudget(ReintegrationConfig& reintegration, BudgetMode mode) {
+  const ReintegrationConfig defaults;
+  const bool counted = mode == BudgetMode::Counted;
+  reintegration.budget_ms = counted ? 1e6 : defaults.budget_ms;
+  reintegration.budget_frames = counted ? kCountedReintegrationFrames : defaults.budget_frames;
 }
 
 ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,

@@ -5,6 +5,7 @@
 #include "sim/sim_test_helpers.hpp"
 #include "vdbmap/io/mesh_io.hpp"
 #include "vdbmap/sim/drift_benchmark.hpp"
+#include "vdbmap/sim/exploration.hpp"
 #include "vdbmap/test_io_helpers.hpp"
 
 #include <fstream>
@@ -62,4 +63,35 @@ TEST_CASE("bench drift: one flight per level, every mode replayed and evaluated,
 
   c.levels = {"s7"};
   CHECK_THROWS_WITH(runDriftBenchmark(c, dir / "bad"), Catch::Contains("s7"));
+}
+
+TEST_CASE("bench drift with counted re-integration budgets gives the same keyframes row on every run",
+          "[sim][bench]") {
+  test::TempDir dir;
+  io::writePlyMesh(dir / "room.ply", test::roomWithBox());
+  test::writeText(dir / "path.txt",
+                  "-2 -1.2 1.2 0\n2 -1.2 1.2 1.57\n2 1.2 1.2 3.14\n-2 1.2 1.2 4.71\n-2 -1.2 1.2 6.28\n");
+  DriftBenchmarkConfig c;
+  c.world_mesh = dir / "room.ply";
+  c.trajectory_file = dir / "path.txt";
+  c.levels = {"s4"};
+  c.modes = {ConsistencyMode::Keyframes};
+  c.simulator.camera.intrinsics = {80, 60, 48.4, 48.4, 40.0, 30.0};
+  c.simulator.loop.min_age_s = 8.0;
+  c.write_meshes = false;
+  setReintegrationBudget(c.mapper.reintegration, BudgetMode::Counted);
+  CHECK(c.mapper.reintegration.budget_frames == kCountedReintegrationFrames);
+  const DriftBenchmarkResult a = runDriftBenchmark(c, dir / "a");
+  const DriftBenchmarkResult b = runDriftBenchmark(c, dir / "b");
+  REQUIRE(a.rows.size() == 1);
+  REQUIRE(b.rows.size() == 1);
+  CHECK(a.rows[0].reintegrated_frames > 0);  // the correction was worked off in counted cycles
+  CHECK(a.rows[0].reintegrated_frames == b.rows[0].reintegrated_frames);
+  CHECK(a.rows[0].keyframes_kept == b.rows[0].keyframes_kept);
+  CHECK(a.rows[0].accuracy_rmse_m == b.rows[0].accuracy_rmse_m);
+  CHECK(a.rows[0].completeness == b.rows[0].completeness);
+
+  setReintegrationBudget(c.mapper.reintegration, BudgetMode::WallClock);
+  CHECK(c.mapper.reintegration.budget_ms == ReintegrationConfig{}.budget_ms);
+  CHECK(c.mapper.reintegration.budget_frames == ReintegrationConfig{}.budget_frames);
 }

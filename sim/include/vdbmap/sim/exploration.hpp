@@ -216,6 +216,9 @@ inline constexpr int kCountedReintegrationFrames = 4;
 /// Sets the budgets of config.planner (path, cost_path, tour, alc.tour) and
 /// config.mapper.reintegration for `mode`, overwriting what was there.
 void setBudgets(ExplorationConfig& config, BudgetMode mode);
+/// The mapper's part of setBudgets: re-integration cycles of 20 ms (wall clock) or of
+/// kCountedReintegrationFrames frames (counted); e.g. for `bench drift --budgets counted`.
+void setReintegrationBudget(ReintegrationConfig& reintegration, BudgetMode mode);
 
 /// `vdbmap explore`'s set-up of a world: drift `drift_level` (Table I) seeded with `seed`, which
 /// also seeds the planner's path sampling and tours; voxel size; the default box and start (yaw
