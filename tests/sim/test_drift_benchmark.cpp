@@ -13,21 +13,30 @@
 using namespace vdbmap;
 using namespace vdbmap::sim;
 
-TEST_CASE("bench drift: one flight per level, every mode replayed and evaluated, table.json and table.md",
-          "[sim][bench]") {
-  test::TempDir dir;
+namespace {
+
+/// The benchmark on a room with a box, written into `dir`: once round the room and back to the
+/// start facing as at first (the loop closes there), with 80x60 frames to keep it quick.
+DriftBenchmarkConfig smallRoomBenchmark(const test::TempDir& dir) {
   io::writePlyMesh(dir / "room.ply", test::roomWithBox());
-  // Once round the room and back to the start facing as at first (the loop closes there), with
-  // 80x60 frames to keep it quick.
   test::writeText(dir / "path.txt",
                   "-2 -1.2 1.2 0\n2 -1.2 1.2 1.57\n2 1.2 1.2 3.14\n-2 1.2 1.2 4.71\n-2 -1.2 1.2 6.28\n");
   DriftBenchmarkConfig c;
   c.world_mesh = dir / "room.ply";
   c.trajectory_file = dir / "path.txt";
-  c.levels = {"s1", "s4"};
-  c.modes = {ConsistencyMode::None, ConsistencyMode::Keyframes};
   c.simulator.camera.intrinsics = {80, 60, 48.4, 48.4, 40.0, 30.0};
   c.simulator.loop.min_age_s = 8.0;
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("bench drift: one flight per level, every mode replayed and evaluated, table.json and table.md",
+          "[sim][bench]") {
+  test::TempDir dir;
+  DriftBenchmarkConfig c = smallRoomBenchmark(dir);
+  c.levels = {"s1", "s4"};
+  c.modes = {ConsistencyMode::None, ConsistencyMode::Keyframes};
   std::vector<std::string> lines;
   c.report = [&](const std::string& line) { lines.push_back(line); };
   const DriftBenchmarkResult r = runDriftBenchmark(c, dir / "out");
@@ -68,16 +77,9 @@ TEST_CASE("bench drift: one flight per level, every mode replayed and evaluated,
 TEST_CASE("bench drift with counted re-integration budgets gives the same keyframes row on every run",
           "[sim][bench]") {
   test::TempDir dir;
-  io::writePlyMesh(dir / "room.ply", test::roomWithBox());
-  test::writeText(dir / "path.txt",
-                  "-2 -1.2 1.2 0\n2 -1.2 1.2 1.57\n2 1.2 1.2 3.14\n-2 1.2 1.2 4.71\n-2 -1.2 1.2 6.28\n");
-  DriftBenchmarkConfig c;
-  c.world_mesh = dir / "room.ply";
-  c.trajectory_file = dir / "path.txt";
+  DriftBenchmarkConfig c = smallRoomBenchmark(dir);
   c.levels = {"s4"};
   c.modes = {ConsistencyMode::Keyframes};
-  c.simulator.camera.intrinsics = {80, 60, 48.4, 48.4, 40.0, 30.0};
-  c.simulator.loop.min_age_s = 8.0;
   c.write_meshes = false;
   setReintegrationBudget(c.mapper.reintegration, BudgetMode::Counted);
   CHECK(c.mapper.reintegration.budget_frames == kCountedReintegrationFrames);
