@@ -66,7 +66,20 @@ class DirectPolicy final : public ConsistencyPolicy {
 
 // ---- submap --------------------------------------------------------------------------------
 
-/// Resamples `in` (index space of a submap) into the world grid `out` by the rigid T_W_A.
+/// A rigid map between index spaces for openvdb::tools::GridResampler, computing each output
+/// voxel's input position from the voxel itself. (Declared not affine for that: the affine path
+/// steps from each input leaf's corner, so a voxel that two leaves reach gets positions differing
+/// in the last bits, and which of the two the parallel merge keeps depends on the threads; the
+/// fused map then differed between runs.)
+struct PointwiseTransform {
+  openvdb::Mat4R mat, inv;
+  bool isAffine() const { return false; }
+  openvdb::Vec3R transform(const openvdb::Vec3R& p) const { return mat.transformH(p); }
+  openvdb::Vec3R invTransform(const openvdb::Vec3R& p) const { return inv.transformH(p); }
+};
+
+/// Resamples `in` (index space of a submap) into the world grid `out` by the rigid T_W_A, with
+/// trilinear (box) sampling; the same on every run, whatever the threads.
 void resampleInto(const openvdb::FloatGrid& in, openvdb::FloatGrid& out, const Pose3d& T_W_A, double voxel_size_m) {
   // Index-space map: i_W = S^-1 T_W_A S i_A with S = voxel scaling. OpenVDB matrices act on row
   // vectors, so the transpose goes in.
@@ -76,8 +89,8 @@ void resampleInto(const openvdb::FloatGrid& in, openvdb::FloatGrid& out, const P
   openvdb::Mat4R xform;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) xform(c, r) = M(r, c);
-  openvdb::tools::GridTransformer transformer(xform);
-  transformer.transformGrid<openvdb::tools::BoxSampler, openvdb::FloatGrid>(in, out);
+  openvdb::tools::GridResampler resampler;
+  resampler.transformGrid<openvdb::tools::BoxSampler>(PointwiseTransform{xform, xform.inverse()}, in, out);
 }
 
 class SubmapPolicy final : public ConsistencyPolicy {
