@@ -126,7 +126,7 @@ bool isFrontierVoxel(MapReader& reader, const openvdb::Coord& ijk, const openvdb
   return false;
 }
 
-std::size_t FrontierMap::CoordHash::operator()(const openvdb::Coord& c) const noexcept {
+std::size_t CoordHash::operator()(const openvdb::Coord& c) const noexcept {
   std::uint64_t h = std::uint64_t(std::uint32_t(c.x())) * 0x9E3779B97F4A7C15ULL;
   h ^= std::uint64_t(std::uint32_t(c.y())) * 0xC2B2AE3D27D4EB4FULL + (h << 6) + (h >> 2);
   h ^= std::uint64_t(std::uint32_t(c.z())) * 0x165667B19E3779F9ULL + (h << 6) + (h >> 2);

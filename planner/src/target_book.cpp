@@ -20,11 +20,15 @@ TargetBook::TargetBook(int max_failures) : max_failures_(max_failures) {
   if (max_failures < 1 || max_failures > 100) FieldCheck("TargetBook").fail("max_failures", "[1, 100]", max_failures);
 }
 
-int TargetBook::failures(const FrontierCluster& cluster) const {
-  if (voxel_failures_.empty() || cluster.voxels.empty()) return 0;
+int TargetBook::failures(const FrontierCluster& cluster) const { return failures(cluster.voxels); }
+
+void TargetBook::addFailure(const FrontierCluster& cluster) { addFailure(cluster.voxels); }
+
+int TargetBook::failures(const std::vector<openvdb::Coord>& voxels) const {
+  if (voxel_failures_.empty() || voxels.empty()) return 0;
   std::vector<int> counts;
-  counts.reserve(cluster.voxels.size());
-  for (const openvdb::Coord& v : cluster.voxels) {
+  counts.reserve(voxels.size());
+  for (const openvdb::Coord& v : voxels) {
     const auto it = voxel_failures_.find(v);
     counts.push_back(it == voxel_failures_.end() ? 0 : it->second);
   }
@@ -33,9 +37,9 @@ int TargetBook::failures(const FrontierCluster& cluster) const {
   return *mid;
 }
 
-void TargetBook::addFailure(const FrontierCluster& cluster) {
-  const int count = failures(cluster) + 1;
-  for (const openvdb::Coord& v : cluster.voxels) {
+void TargetBook::addFailure(const std::vector<openvdb::Coord>& voxels) {
+  const int count = failures(voxels) + 1;
+  for (const openvdb::Coord& v : voxels) {
     int& f = voxel_failures_[v];
     f = std::max(f, count);
   }
@@ -64,9 +68,7 @@ double TargetBook::coveredFraction(const FrontierMap& frontiers) const {
 
 void TargetBook::addTargetFailure() {
   if (target_ == 0 || target_voxels_.empty()) return;
-  FrontierCluster target;
-  target.voxels = target_voxels_;
-  addFailure(target);
+  addFailure(target_voxels_);
 }
 
 void TargetBook::judgeVisit(const FrontierMap& frontiers, double covered_fraction) {

@@ -32,6 +32,11 @@ namespace vdbmap::planner {
 
 using ClusterId = std::uint64_t;
 
+/// A hash of voxel coordinates, for unordered containers of voxels.
+struct CoordHash {
+  std::size_t operator()(const openvdb::Coord& c) const noexcept;
+};
+
 struct FrontierConfig {
   /// FUEL's cluster_min: 26-connected components with fewer frontier voxels are dropped; [1, 1e8]
   int min_cluster_size = 100;
@@ -103,9 +108,6 @@ class FrontierMap {
   std::size_t componentCount() const { return components_.size(); }
 
  private:
-  struct CoordHash {
-    std::size_t operator()(const openvdb::Coord& c) const noexcept;
-  };
   using ComponentId = std::uint64_t;
   struct Component {
     std::vector<openvdb::Coord> voxels;  ///< sorted

@@ -52,11 +52,10 @@ class TargetBook {
   std::size_t findTarget(const std::vector<ClusterId>& clusters, const FrontierMap& frontiers) const;
 
  private:
-  struct CoordHash {
-    std::size_t operator()(const openvdb::Coord& c) const noexcept {
-      return std::size_t(c.x()) * 73856093u ^ std::size_t(c.y()) * 19349663u ^ std::size_t(c.z()) * 83492791u;
-    }
-  };
+  /// failures() and addFailure() on a cluster's voxels.
+  int failures(const std::vector<openvdb::Coord>& voxels) const;
+  void addFailure(const std::vector<openvdb::Coord>& voxels);
+
   int max_failures_;
   std::unordered_map<openvdb::Coord, int, CoordHash> voxel_failures_;
   std::size_t failures_added_ = 0;
