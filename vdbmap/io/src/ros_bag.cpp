@@ -318,9 +318,10 @@ DepthImage decodeDepth(const sensor_msgs::Image& img, const CameraIntrinsics& K,
 
 class RosBagSource final : public FrameSource {
  public:
+  /// The camera is the one in contents.sensor (CameraInfo's).
   RosBagSource(FrameSourceContents contents, std::unique_ptr<rosbag::Bag> bag, std::vector<rosbag::MessageInstance> depth,
-               CameraIntrinsics K, std::string topic)
-      : FrameSource(std::move(contents)), bag_(std::move(bag)), depth_(std::move(depth)), K_(K), topic_(std::move(topic)) {}
+               std::string topic)
+      : FrameSource(std::move(contents)), bag_(std::move(bag)), depth_(std::move(depth)), topic_(std::move(topic)) {}
 
   Frame load(std::size_t i) const override {
     const FrameRecord& r = record(i);  // std::out_of_range past the end
@@ -331,7 +332,7 @@ class RosBagSource final : public FrameSource {
     const std::lock_guard<std::mutex> lock(mutex_);  // rosbag's reader is not thread-safe
     try {
       const auto img = instantiateChecked<sensor_msgs::Image>(depth_[i], root());
-      f.data = SensorFrame::depth(decodeDepth(*img, K_, root(), topic_), sharedIntrinsics());
+      f.data = SensorFrame::depth(decodeDepth(*img, *sharedIntrinsics(), root(), topic_), sharedIntrinsics());
     } catch (const FileError& e) {
       throw BadFrameError(i, e.what());
     } catch (const std::exception& e) {
@@ -343,7 +344,6 @@ class RosBagSource final : public FrameSource {
  private:
   std::unique_ptr<rosbag::Bag> bag_;
   std::vector<rosbag::MessageInstance> depth_;
-  CameraIntrinsics K_;
   std::string topic_;
   mutable std::mutex mutex_;
 };
@@ -636,7 +636,7 @@ std::unique_ptr<FrameSource> openRosBag(const std::filesystem::path& path, const
       d << "; corrections from " << corrections_topic << ": " << c.corrections.size() << " events (" << events_skipped
         << " before the first frame or empty skipped, " << poses_left_out << " poses outside the frames left out)";
     c.description = d.str();
-    return std::make_unique<RosBagSource>(std::move(c), std::move(bag), std::move(depth), K, depth_topic);
+    return std::make_unique<RosBagSource>(std::move(c), std::move(bag), std::move(depth), depth_topic);
   } catch (const FileError&) {
     throw;
   } catch (const std::exception& e) {
