@@ -64,6 +64,9 @@ void bindSetCoverConfig(py::module_& m) {
       .def_readwrite("cell_size_vox", &SetCoverConfig::cell_size_vox, "coarse cell edge in voxels; [1, 64]")
       .def_readwrite("solve_period_frames", &SetCoverConfig::solve_period_frames,
                      "the mapper re-solves dirty blocks every this many frames; [1, 1e6]")
+      .def_readwrite("solve_in_background", &SetCoverConfig::solve_in_background,
+                     "run each solve on a worker thread, collected when the next is due (True), or inside "
+                     "the frame that triggers it (False)")
       .def("validate", &SetCoverConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }
 

@@ -153,19 +153,23 @@ TEST_CASE("a solve dropping many frames de-integrates them in background cycles 
   c.reintegration.budget_frames = 2;
   c.reintegration.budget_ms = 1e6;
   c.set_cover.solve_period_frames = 16;
+  c.set_cover.solve_in_background = GENERATE(false, true);
+  INFO("solve_in_background " << c.set_cover.solve_in_background);
   Mapper mapper(c);
-  // Sixteen equal views: the set cover keeps n_ob = 3 and drops 13 at the 16th frame.
-  const int n = 16;
+  // Equal views: the first solve, at the 16th frame, keeps n_ob = 3 and drops 13. Its drops are
+  // queued at once, or from the background when the next solve is due, at the 32nd frame.
+  const int n = c.set_cover.solve_in_background ? 32 : 16;
   std::vector<DepthImage> depths;
   std::vector<Pose3d> poses;
   for (int i = 0; i < n; ++i) {
     poses.push_back(lookingPose({0.3, 0.1, 1.2}, 0.4, 0.2));
     depths.push_back(kScene.renderDepth(*K, poses.back(), 5.0));
     mapper.addFrame(i, 0.1 * i, SensorFrame::depth(depths.back(), K), poses.back());
+    if (c.set_cover.solve_in_background && i == 30) CHECK(mapper.queuedFrames() == 0);  // not yet collected
   }
-  REQUIRE(mapper.stats().pruning_solves == 1);
+  REQUIRE(mapper.stats().pruning_solves == std::size_t(n / 16));
   const std::size_t dropped = mapper.queuedFrames();
-  REQUIRE(dropped == std::size_t(n - c.set_cover.n_ob));
+  REQUIRE(dropped == std::size_t(16 - c.set_cover.n_ob));
   // The solve itself de-integrated nothing: every frame is still in the map.
   CHECK(mapper.volume().frameCount() == std::size_t(n));
   CHECK(mapper.stats().frames_dropped == 0);
@@ -190,6 +194,64 @@ TEST_CASE("a solve dropping many frames de-integrates them in background cycles 
   Mapper only_kept(config(ConsistencyMode::All));
   for (const auto& [id, kf] : mapper.keyframes()) only_kept.addFrame(id, kf.timestamp, SensorFrame::depth(depths[id], K), poses[id]);
   CHECK(mapper.volume().exactlyEquals(only_kept.volume()));
+}
+
+TEST_CASE("solves in the background give the map and keyframes of solves in the frame's cycle",
+          "[mapper][pruning][determinism]") {
+  const auto K = smallCamera();
+  // A slow sweep with repeated views, so that each solve drops frames, and a correction of every
+  // frame at frame 40 (while the solve of frame 32 is in flight in the background).
+  const int n = 70;
+  std::vector<Pose3d> odom, corrected;
+  std::vector<DepthImage> depths;
+  for (int i = 0; i < n; ++i) {
+    odom.push_back(lookingPose({0.3 + 0.01 * (i % 35), 0.1, 1.2}, 0.4 + 0.01 * i, 0.2));
+    corrected.push_back(moved(odom.back(), {0.03, -0.02, 0.0}, 0.02));
+    depths.push_back(kScene.renderDepth(*K, odom.back(), 5.0));
+  }
+  const auto run = [&](bool background) {
+    MapperConfig c = config(ConsistencyMode::Keyframes);
+    c.set_cover.solve_period_frames = 8;
+    c.set_cover.solve_in_background = background;
+    c.reintegration.budget_frames = 2;
+    c.reintegration.budget_ms = 1e6;
+    auto mapper = std::make_unique<Mapper>(c);
+    for (int i = 0; i < n; ++i) {
+      mapper->addFrame(i, 0.1 * i, SensorFrame::depth(depths[std::size_t(i)], K), odom[std::size_t(i)]);
+      if (i == 40) {
+        std::map<FrameId, Pose3d> T;
+        for (int j = 0; j <= i; ++j) T[FrameId(j)] = corrected[std::size_t(j)];
+        mapper->updatePoses(T);
+      }
+      mapper->reintegrate(odom[std::size_t(i)].translation());
+    }
+    mapper->reintegrateAll(odom.back().translation());
+    return mapper;
+  };
+  const auto in_cycle = run(false);
+  const auto in_background = run(true);
+  REQUIRE(in_cycle->stats().frames_dropped > 10);
+  CHECK(in_background->stats().pruning_solves == in_cycle->stats().pruning_solves);
+  CHECK(in_background->stats().frames_dropped > 10);
+  // Either way the map is exactly its kept frames at the poses they were last given.
+  for (const Mapper* mapper : {in_cycle.get(), in_background.get()}) {
+    Mapper only_kept(config(ConsistencyMode::All));
+    for (const auto& [id, kf] : mapper->keyframes()) {
+      CHECK(kf.T_W_S_integrated.isApprox(id <= 40 ? corrected[id] : odom[id]));
+      only_kept.addFrame(id, kf.timestamp, SensorFrame::depth(depths[id], K), kf.T_W_S_integrated);
+    }
+    CHECK(mapper->volume().exactlyEquals(only_kept.volume()));
+  }
+
+  // Without corrections the two keep the same frames and build the same map, bit for bit.
+  corrected = odom;
+  const auto plain_cycle = run(false);
+  const auto plain_background = run(true);
+  std::vector<FrameId> kept_cycle, kept_background;
+  for (const auto& [id, kf] : plain_cycle->keyframes()) kept_cycle.push_back(id);
+  for (const auto& [id, kf] : plain_background->keyframes()) kept_background.push_back(id);
+  CHECK(kept_cycle == kept_background);
+  CHECK(plain_cycle->volume().exactlyEquals(plain_background->volume()));
 }
 
 TEST_CASE("after a correction the pruner's cells of a re-integrated frame equal those of integrating it fresh",

@@ -10,6 +10,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -201,6 +202,33 @@ TEST_CASE("CellSet stores sorted unique cells compactly and round-trips", "[set_
   const CellSet solid = CellSet::fromCoords(box);
   CHECK(solid.size() == box.size());
   CHECK(double(solid.memoryBytes()) / double(solid.size()) < 1.2);
+}
+
+TEST_CASE("CellSet's z runs are maximal and hold exactly its cells", "[set_cover][cells]") {
+  std::mt19937 rng(5);
+  for (int k = 0; k < kInstances; ++k) {
+    // Columns of random z spans, some touching, some at the packable range's ends (z's field full).
+    std::vector<Coord> cells;
+    std::uniform_int_distribution<int> xy(-3, 3), z0(-40, 40), len(1, 30);
+    for (int c = std::uniform_int_distribution<int>(0, 12)(rng); c > 0; --c) {
+      const int x = xy(rng), y = xy(rng), z = z0(rng), n = len(rng);
+      for (int i = 0; i < n; ++i) cells.emplace_back(x, y, z + i);
+    }
+    if (k % 3 == 0) cells.emplace_back(0, 0, (1 << 20) - 1), cells.emplace_back(0, 1, -(1 << 20));
+    const CellSet set = CellSet::fromCoords(cells);
+    std::vector<Coord> from_runs;
+    bool maximal = true;
+    Coord previous_end(INT_MAX);
+    set.forEachRun([&](const Coord& first, int length) {
+      REQUIRE(length >= 1);
+      if (first == previous_end) maximal = false;  // would continue the previous run
+      for (int i = 0; i < length; ++i) from_runs.emplace_back(first.x(), first.y(), first.z() + i);
+      previous_end = Coord(first.x(), first.y(), first.z() + length);
+    });
+    INFO("instance " << k);
+    CHECK(from_runs == set.toCoords());
+    CHECK(maximal);
+  }
 }
 
 TEST_CASE("Cells are unions of voxels and the cell transform maps to cell centres", "[set_cover][cells]") {
@@ -443,6 +471,28 @@ TEST_CASE("Greedy equals the brute-force minimum where it is provably optimal", 
   }
 }
 
+TEST_CASE("The greedy over sets of long z runs equals the plain greedy", "[set_cover][greedy]") {
+  // Frustum-like sets: boxes of columns whose z spans cross the counters' 8-cell leaves, with
+  // negative coordinates, overlapping so that counters go to zero and below within a span.
+  std::mt19937 rng(23);
+  for (int k = 0; k < 60; ++k) {
+    Sets sets(std::size_t(std::uniform_int_distribution<int>(1, 10)(rng)));
+    std::uniform_int_distribution<int> lo(-12, 4), extent(1, 9), zlo(-20, 10), zlen(1, 25);
+    for (auto& s : sets) {
+      const int x0 = lo(rng), y0 = lo(rng), nx = extent(rng), ny = extent(rng);
+      for (int x = x0; x < x0 + nx; ++x)
+        for (int y = y0; y < y0 + ny; ++y) {
+          const int z = zlo(rng), n = zlen(rng);
+          for (int i = 0; i < n; ++i) s.emplace_back(x, y, z + i);
+        }
+    }
+    INFO("instance " << k);
+    const int n_ob = std::uniform_int_distribution<int>(1, 4)(rng);
+    const double tau = std::uniform_int_distribution<int>(0, 40)(rng);
+    CHECK(greedyCover(sets, n_ob, tau) == plainGreedy(sets, n_ob, tau));
+  }
+}
+
 TEST_CASE("FramePruner re-solves only the blocks that got frames", "[set_cover][pruner]") {
   initializeOpenVdb();
   SetCoverConfig config;
@@ -496,6 +546,64 @@ TEST_CASE("FramePruner re-solves only the blocks that got frames", "[set_cover][
   pruner.removeFrame(4);
   CHECK(pruner.blockCount() == 1);
   CHECK_THROWS_AS(pruner.addFrame(9, Vec3d(std::nan(""), 0, 0), cells(0, 1)), std::invalid_argument);
+}
+
+TEST_CASE("A solve taken, run apart and finished drops only frames unchanged since it was taken",
+          "[set_cover][pruner]") {
+  initializeOpenVdb();
+  SetCoverConfig config;
+  config.n_ob = 1;
+  config.tau_gain = 0.0;
+  const Vec3d in_a(1.0, 1.0, 1.0), in_b(7.0, 1.0, 1.0);
+  const auto cells = [](int lo, int hi) {
+    std::vector<Coord> c;
+    for (int i = lo; i < hi; ++i) c.emplace_back(i, 0, 0);
+    return c;
+  };
+  const auto fill = [&](FramePruner& p) {
+    p.addFrame(1, in_a, cells(0, 10));
+    p.addFrame(2, in_a, cells(0, 5));  // redundant
+    p.addFrame(3, in_a, cells(2, 6));  // redundant
+    p.addFrame(4, in_a, cells(8, 9));  // redundant
+    p.addFrame(5, in_b, cells(0, 10));
+    p.addFrame(6, in_b, cells(0, 3));  // redundant
+  };
+
+  // Nothing changes in between: the same as solve().
+  FramePruner at_once(config, 0.05), split(config, 0.05);
+  fill(at_once);
+  fill(split);
+  const FramePruner::Result expected = at_once.solve();
+  PruningSolve job = split.beginSolve();
+  CHECK(job.blockCount() == 2);
+  CHECK(split.dirtyBlockCount() == 0);  // taken
+  CHECK(split.beginSolve().blockCount() == 0);
+  CHECK_THROWS_AS(split.finishSolve(PruningSolve(job)), std::logic_error);  // not run yet
+  job.run();
+  CHECK(job.hasRun());
+  CHECK_THROWS_AS(job.run(), std::logic_error);
+  const FramePruner::Result r = split.finishSolve(std::move(job));
+  CHECK(r.dropped == expected.dropped);
+  CHECK(r.dropped == (std::vector<FrameId>{2, 3, 4, 6}));
+  CHECK(r.solved_blocks == expected.solved_blocks);
+  CHECK(r.frames_kept == expected.frames_kept);
+
+  // Changes while the solve runs: an updated frame (3), a removed one (4) and a new one (7).
+  FramePruner p(config, 0.05);
+  fill(p);
+  PruningSolve running = p.beginSolve();
+  p.updateFrame(3, in_a, CellSet::fromCoords(cells(20, 30)));  // re-integrated elsewhere: now needed
+  p.removeFrame(4);
+  p.addFrame(7, in_b, cells(0, 10));  // the same as frame 5: the next solve drops one
+  running.run();
+  const FramePruner::Result late = p.finishSolve(std::move(running));
+  CHECK(late.dropped == (std::vector<FrameId>{2, 6}));  // not 3 (changed) nor 4 (gone)
+  CHECK(p.isKept(3));
+  CHECK(p.isKept(7));
+  CHECK(p.dirtyBlockCount() == 2);  // 3's block and 7's: the next solve sees them as they are
+  const FramePruner::Result next = p.solve();
+  CHECK(next.dropped == std::vector<FrameId>{7});  // ties go to the older frame
+  CHECK(p.isKept(3));
 }
 
 TEST_CASE("FramePruner keeps each block's coverage and its counters match", "[set_cover][pruner]") {

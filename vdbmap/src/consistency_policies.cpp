@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -313,6 +314,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   std::size_t finishAll(const Vec3d& robot_W) override {
     std::size_t n = 0;
     while (true) {
+      collectSolve();
       while (pendingFrames() > 0) {
         const CycleReport r = runCycle(robot_W);
         n += r.frames + r.frames_deintegrated;
@@ -360,13 +362,34 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     ++ledger_.stats.reintegrated_frames;
   }
 
-  /// Solves the dirty blocks; the frames it drops wait in drops_ for the background cycles (a
-  /// dropped frame stays in the map until its turn, which is correct, only redundant).
+  /// Starts a solve of the dirty blocks, after collecting the previous one. In the background it
+  /// runs on a worker thread until the next solve is due (or the mapper drains); the frames a
+  /// solve drops wait in drops_ for the background cycles (a dropped frame stays in the map until
+  /// its turn, which is correct, only redundant).
   void prune() {
+    collectSolve();
     frames_since_solve_ = 0;
-    const FramePruner::Result result = pruner_->solve();
+    auto job = std::make_unique<PruningSolve>(pruner_->beginSolve());
     ++ledger_.stats.pruning_solves;
-    for (const FrameId id : result.dropped) {
+    if (!config_.set_cover.solve_in_background || job->blockCount() == 0) {
+      job->run();
+      takeDrops(std::move(*job));
+      return;
+    }
+    solving_ = std::move(job);
+    solving_done_ = std::async(std::launch::async, [job = solving_.get()] { job->run(); });
+  }
+
+  /// Waits for the solve in flight, if any, and queues its drops.
+  void collectSolve() {
+    if (!solving_) return;
+    const std::unique_ptr<PruningSolve> job = std::move(solving_);
+    solving_done_.get();  // rethrows what the worker threw
+    takeDrops(std::move(*job));
+  }
+
+  void takeDrops(PruningSolve&& job) {
+    for (const FrameId id : pruner_->finishSolve(std::move(job)).dropped) {
       queue_.erase(id);
       drops_.insert(id);
     }
@@ -387,6 +410,8 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   std::set<FrameId> queue_;              ///< moved frames awaiting re-integration
   std::set<FrameId> drops_;              ///< frames set cover dropped, awaiting de-integration
   std::unique_ptr<FramePruner> pruner_;  ///< keyframes mode
+  std::unique_ptr<PruningSolve> solving_;  ///< the solve on the worker thread, if any
+  std::future<void> solving_done_;         ///< declared after solving_: waits for the worker first
   std::size_t frames_since_solve_ = 0;
   double reintegrate_ms_estimate_ = 0.0;  ///< recent time per re-integration (moving average)
   double drop_ms_estimate_ = 0.0;         ///< recent time per de-integration of a dropped frame

@@ -68,21 +68,57 @@ class CounterGrid {
   using Tree = openvdb::Int32Tree;
   using Leaf = Tree::LeafNodeType;
 
-  explicit CounterGrid(int n_ob) : tree_(std::make_shared<Tree>(n_ob)), acc_(*tree_), background_(n_ob) {}
+  explicit CounterGrid(int n_ob) : tree_(std::make_shared<Tree>(n_ob)), acc_(*tree_) {}
 
-  int value(const openvdb::Coord& c) {
-    seek(c, false);
-    return leaf_ ? leaf_->getValue(Leaf::coordToOffset(c)) : background_;
-  }
   void decrement(const openvdb::Coord& c) {
     seek(c, true);
     const openvdb::Index n = Leaf::coordToOffset(c);
     leaf_->buffer().data()[n] -= 1;
     leaf_->setActiveState(n, true);
   }
+  /// Counters > 0 among the `length` cells from `first` along z (cells of untouched leaves hold
+  /// the background n_ob >= 1).
+  std::size_t positiveInRun(const openvdb::Coord& first, int length) {
+    std::size_t n = 0;
+    forEachLeafSpan(first, length, false, [&](const int* values, int count) {
+      if (!values) {
+        n += std::size_t(count);
+        return;
+      }
+      for (int i = 0; i < count; ++i) n += values[i] > 0;
+    });
+    return n;
+  }
+  /// decrement() of each of the `length` cells from `first` along z.
+  void decrementRun(const openvdb::Coord& first, int length) {
+    forEachLeafSpan(first, length, true, [&](int* values, int count) {
+      for (int i = 0; i < count; ++i) values[i] -= 1;
+    });
+  }
   Tree::Ptr tree() const { return tree_; }
 
  private:
+  /// Splits a z run at leaf boundaries; calls fn(values, count) with the leaf's contiguous values
+  /// of those cells (z is the fastest index within a leaf), or values == nullptr for cells of an
+  /// absent leaf when !create. With create, the cells are also marked active.
+  template <typename Fn>
+  void forEachLeafSpan(openvdb::Coord c, int length, bool create, Fn&& fn) {
+    while (length > 0) {
+      const int count = std::min(length, int(Leaf::DIM) - (c.z() & int(Leaf::DIM - 1)));
+      seek(c, create);
+      if (leaf_) {
+        const openvdb::Index n = Leaf::coordToOffset(c);
+        if (create)
+          for (int i = 0; i < count; ++i) leaf_->setActiveState(n + openvdb::Index(i), true);
+        fn(leaf_->buffer().data() + n, count);
+      } else {
+        fn(static_cast<int*>(nullptr), count);
+      }
+      c.z() += count;
+      length -= count;
+    }
+  }
+
   void seek(const openvdb::Coord& c, bool create) {
     const openvdb::Coord origin = c & ~(Leaf::DIM - 1);
     if (origin == origin_ && (leaf_ || !create)) return;
@@ -92,7 +128,6 @@ class CounterGrid {
 
   Tree::Ptr tree_;
   openvdb::tree::ValueAccessor<Tree> acc_;
-  int background_;
   Leaf* leaf_ = nullptr;
   openvdb::Coord origin_{INT_MAX};
 };
@@ -357,12 +392,12 @@ std::vector<std::size_t> greedyCover(const std::vector<const CellSet*>& sets, in
     if (evaluated_at[top.index] == selected.size()) {
       // Exact and not below any other entry's upper bound: the true greedy choice. Its gain is
       // > tau_gain because entries at or below tau_gain are never pushed.
-      sets[top.index]->forEach([&](const openvdb::Coord& c) { counters.decrement(c); });
+      sets[top.index]->forEachRun([&](const openvdb::Coord& c, int n) { counters.decrementRun(c, n); });
       selected.push_back(top.index);
       continue;
     }
     std::size_t gain = 0;
-    sets[top.index]->forEach([&](const openvdb::Coord& c) { gain += counters.value(c) > 0; });
+    sets[top.index]->forEachRun([&](const openvdb::Coord& c, int n) { gain += counters.positiveInRun(c, n); });
     evaluated_at[top.index] = selected.size();
     if (double(gain) > tau_gain) heap.push({gain, top.index});  // gains only fall: else never again
   }
@@ -412,7 +447,7 @@ void FramePruner::addFrame(FrameId id, const Vec3d& camera_position_W, CellSet c
   Block& block = blocks_[key];
   block.frames.insert(std::upper_bound(block.frames.begin(), block.frames.end(), id), id);
   block.dirty = true;
-  frames_.emplace(id, Frame{key, std::move(cells)});
+  frames_.emplace(id, Frame{key, std::make_shared<const CellSet>(std::move(cells))});
 }
 
 void FramePruner::removeFrame(FrameId id) {
@@ -435,7 +470,7 @@ void FramePruner::updateFrame(FrameId id, const Vec3d& camera_position_W, CellSe
 const CellSet& FramePruner::cellsOf(FrameId id) const {
   const auto it = frames_.find(id);
   if (it == frames_.end()) throw std::invalid_argument("FramePruner::cellsOf: frame " + std::to_string(id) + " is not held");
-  return it->second.cells;
+  return *it->second.cells;
 }
 
 std::size_t FramePruner::dirtyBlockCount() const {
@@ -449,43 +484,60 @@ std::vector<FrameId> FramePruner::framesInBlock(const BlockKey& block) const {
   return it == blocks_.end() ? std::vector<FrameId>{} : it->second.frames;
 }
 
-FramePruner::Result FramePruner::solve() {
-  Result result;
-  std::vector<std::pair<BlockKey, Block*>> dirty;
-  for (auto& [key, block] : blocks_)
-    if (block.dirty) dirty.emplace_back(key, &block);
-
-  // Blocks are independent (own counters, disjoint frames): solve them in parallel, then apply.
-  std::vector<std::vector<std::size_t>> selections(dirty.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, dirty.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t d = r.begin(); d != r.end(); ++d) {
-      const Block& block = *dirty[d].second;
-      std::vector<const CellSet*> sets;
-      sets.reserve(block.frames.size());
-      for (const FrameId id : block.frames) sets.push_back(&frames_.at(id).cells);
-      selections[d] = greedyCover(sets, config_.n_ob, config_.tau_gain);
-    }
+void PruningSolve::run() {
+  if (has_run_) throw std::logic_error("PruningSolve::run: the solve has already run");
+  // Blocks are independent (own counters, disjoint frames).
+  const auto solveBlock = [this](Block& block) {
+    std::vector<const CellSet*> sets;
+    sets.reserve(block.sets.size());
+    for (const auto& set : block.sets) sets.push_back(set.get());
+    block.selected = greedyCover(sets, n_ob_, tau_gain_);
+  };
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks_.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t b = r.begin(); b != r.end(); ++b) solveBlock(blocks_[b]);
   });
+  has_run_ = true;
+}
 
-  for (std::size_t d = 0; d < dirty.size(); ++d) {
-    Block& block = *dirty[d].second;
-    std::vector<char> keep(block.frames.size(), 0);
-    for (const std::size_t i : selections[d]) keep[i] = 1;
-    std::vector<FrameId> kept;
-    for (std::size_t i = 0; i < block.frames.size(); ++i) {
-      if (keep[i]) {
-        kept.push_back(block.frames[i]);
-      } else {
-        result.dropped.push_back(block.frames[i]);
-        frames_.erase(block.frames[i]);
-      }
-    }
-    block.frames = std::move(kept);
+FramePruner::Result FramePruner::solve() {
+  PruningSolve job = beginSolve();
+  job.run();
+  return finishSolve(std::move(job));
+}
+
+PruningSolve FramePruner::beginSolve() {
+  PruningSolve job;
+  job.n_ob_ = config_.n_ob;
+  job.tau_gain_ = config_.tau_gain;
+  for (auto& [key, block] : blocks_) {
+    if (!block.dirty) continue;
+    PruningSolve::Block taken;
+    taken.key = key;
+    taken.ids = block.frames;
+    taken.sets.reserve(block.frames.size());
+    for (const FrameId id : block.frames) taken.sets.push_back(frames_.at(id).cells);
+    job.blocks_.push_back(std::move(taken));
     block.dirty = false;
-    result.solved_blocks.push_back(dirty[d].first);
   }
-  for (auto it = blocks_.begin(); it != blocks_.end();) it = it->second.frames.empty() ? blocks_.erase(it) : std::next(it);
-  result.blocks_solved = dirty.size();
+  return job;
+}
+
+FramePruner::Result FramePruner::finishSolve(PruningSolve&& job) {
+  if (!job.has_run_) throw std::logic_error("FramePruner::finishSolve: the solve has not run");
+  Result result;
+  for (const PruningSolve::Block& taken : job.blocks_) {
+    std::vector<char> keep(taken.ids.size(), 0);
+    for (const std::size_t i : taken.selected) keep[i] = 1;
+    for (std::size_t i = 0; i < taken.ids.size(); ++i) {
+      const auto it = frames_.find(taken.ids[i]);
+      // Unchanged since beginSolve: still held with the very cell set the solve saw.
+      if (keep[i] || it == frames_.end() || it->second.cells != taken.sets[i]) continue;
+      result.dropped.push_back(taken.ids[i]);
+      removeFrame(taken.ids[i]);
+    }
+    result.solved_blocks.push_back(taken.key);
+  }
+  result.blocks_solved = job.blocks_.size();
   result.frames_kept = frames_.size();
   return result;
 }
@@ -495,7 +547,7 @@ std::size_t FramePruner::memoryBytes() const {
   // unordered_map: one node per frame (value + next pointer + cached hash) and the bucket array.
   bytes += frames_.size() * (sizeof(std::pair<const FrameId, Frame>) + 2 * sizeof(void*)) +
            frames_.bucket_count() * sizeof(void*);
-  for (const auto& [id, frame] : frames_) bytes += frame.cells.memoryBytes();
+  for (const auto& [id, frame] : frames_) bytes += sizeof(CellSet) + frame.cells->memoryBytes();
   // std::map: one node per block (value + three pointers + colour).
   for (const auto& [key, block] : blocks_)
     bytes += sizeof(std::pair<const BlockKey, Block>) + 4 * sizeof(void*) + block.frames.capacity() * sizeof(FrameId);
@@ -507,7 +559,8 @@ openvdb::Int32Grid::Ptr FramePruner::visibilityCounters(const BlockKey& block) c
   CounterGrid counters(config_.n_ob);
   const auto it = blocks_.find(block);
   if (it != blocks_.end())
-    for (const FrameId id : it->second.frames) frames_.at(id).cells.forEach([&](const openvdb::Coord& c) { counters.decrement(c); });
+    for (const FrameId id : it->second.frames)
+      frames_.at(id).cells->forEach([&](const openvdb::Coord& c) { counters.decrement(c); });
   auto grid = openvdb::Int32Grid::create(counters.tree());
   grid->setTransform(cellTransform(voxel_size_m_, config_.cell_size_vox));
   grid->setName("visibility_counters");

@@ -32,6 +32,7 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
@@ -54,6 +55,12 @@ struct SetCoverConfig {
   /// is re-solved over all its current frames, so solving more often costs more time but keeps
   /// fewer redundant frames in memory between solves. [1, 1e6]
   int solve_period_frames = 20;
+  /// Where the mapper runs a solve. true: on a worker thread, started every solve_period_frames
+  /// frames and collected when the next one is due or the mapper drains, so no frame's cycle waits
+  /// for the greedy unless the previous solve is still running; the frames it drops wait one
+  /// period longer. false: inside the addFrame that triggers it, its drops queued at once. Either
+  /// way the results depend on frame counts only, never on timing.
+  bool solve_in_background = true;
 
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
@@ -80,6 +87,11 @@ class CellSet {
   /// Calls fn(const openvdb::Coord&) for every cell in key order (x, then y, then z ascending).
   template <typename Fn>
   void forEach(Fn&& fn) const;
+  /// Calls fn(const openvdb::Coord& first, int length) for every maximal run of cells consecutive
+  /// along z (first, first + (0, 0, 1), ..., first + (0, 0, length - 1)), in key order. A frame's
+  /// cells come in long z runs, so per-run work (e.g. one tree lookup) replaces per-cell work.
+  template <typename Fn>
+  void forEachRun(Fn&& fn) const;
 
   friend bool operator==(const CellSet& a, const CellSet& b) { return a.size_ == b.size_ && a.bytes_ == b.bytes_; }
 
@@ -131,6 +143,32 @@ std::vector<std::size_t> greedyCover(const std::vector<std::vector<openvdb::Coor
                                      double tau_gain);
 std::vector<std::size_t> greedyCover(const std::vector<const CellSet*>& sets, int n_ob, double tau_gain);
 
+/// One solve of a FramePruner's dirty blocks over the cell sets they held when
+/// FramePruner::beginSolve() took them. run() reads only what it holds (cell sets are shared,
+/// immutable), so it may run on another thread while the pruner takes new frames, updates and
+/// removals; FramePruner::finishSolve() applies it.
+class PruningSolve {
+ public:
+  /// Runs the greedy on each block taken (blocks in parallel). Call once.
+  void run();
+  bool hasRun() const { return has_run_; }
+  /// Blocks taken by beginSolve().
+  std::size_t blockCount() const { return blocks_.size(); }
+
+ private:
+  friend class FramePruner;
+  struct Block {
+    openvdb::Coord key;
+    std::vector<FrameId> ids;                          ///< ascending
+    std::vector<std::shared_ptr<const CellSet>> sets;  ///< sets[i] is ids[i]'s, as taken
+    std::vector<std::size_t> selected;                 ///< greedyCover's result, after run()
+  };
+  std::vector<Block> blocks_;
+  int n_ob_ = 1;
+  double tau_gain_ = 0.0;
+  bool has_run_ = false;
+};
+
 /// Incremental pruner. Frames are added with their cells and camera position; the camera position
 /// picks the frame's block (floor(p / block_size_m) per axis). solve() re-solves only blocks that
 /// got frames since their last solve, each from scratch over all its current frames (the paper's
@@ -164,8 +202,16 @@ class FramePruner {
     std::size_t frames_kept = 0;    ///< frames held after the solve, over all blocks
     std::vector<BlockKey> solved_blocks;  ///< which blocks were re-solved, in key order
   };
-  /// Re-solves every dirty block; clean blocks are not touched.
+  /// Re-solves every dirty block; clean blocks are not touched. The same as
+  /// finishSolve(run beginSolve()).
   Result solve();
+  /// Takes the dirty blocks' frames and cells for a solve and marks the blocks clean (a frame
+  /// added or updated later makes its block dirty again).
+  PruningSolve beginSolve();
+  /// Drops the frames the solve left out, except frames updated or removed since beginSolve():
+  /// their new cells were not in the solve (an updated frame's block is dirty, so the next solve
+  /// sees it where it now is). Throws std::logic_error when the solve has not run.
+  Result finishSolve(PruningSolve&& solve);
 
   std::size_t dirtyBlockCount() const;
   std::size_t blockCount() const { return blocks_.size(); }
@@ -193,7 +239,7 @@ class FramePruner {
  private:
   struct Frame {
     BlockKey block;
-    CellSet cells;
+    std::shared_ptr<const CellSet> cells;  ///< shared with solves in flight; replaced, never changed
   };
   struct BlockKeyLess {
     bool operator()(const BlockKey& a, const BlockKey& b) const { return a < b; }
@@ -229,6 +275,36 @@ void CellSet::forEach(Fn&& fn) const {
     key += delta;
     fn(unpackCell(key));
   }
+}
+
+template <typename Fn>
+void CellSet::forEachRun(Fn&& fn) const {
+  constexpr std::uint64_t z_mask = (std::uint64_t(1) << 21) - 1;
+  std::uint64_t key = 0, first = 0;
+  int length = 0;
+  const std::uint8_t* p = bytes_.data();
+  for (std::size_t i = 0; i < size_; ++i) {
+    std::uint64_t delta = 0;
+    int shift = 0;
+    std::uint8_t byte;
+    do {
+      byte = *p++;
+      delta |= std::uint64_t(byte & 0x7f) << shift;
+      shift += 7;
+    } while (byte & 0x80);
+    // The next key continues the run when it is the next z of the same column (z's field does not
+    // carry into y's).
+    if (length > 0 && delta == 1 && (key & z_mask) != z_mask) {
+      key += 1;
+      ++length;
+      continue;
+    }
+    if (length > 0) fn(unpackCell(first), length);
+    key += delta;
+    first = key;
+    length = 1;
+  }
+  if (length > 0) fn(unpackCell(first), length);
 }
 
 inline openvdb::Coord unpackCell(std::uint64_t key) {
