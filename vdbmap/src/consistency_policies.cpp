@@ -213,6 +213,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   }
 
   IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) override {
+    settleCompression();
     if (store_.contains(id)) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
     if (pruner_) checkPackable(id, T_W_S, config_.tsdf, config_.integrator, config_.set_cover.cell_size_vox);
     ++ledger_.stats.frames_total;
@@ -227,7 +228,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     kf.T_W_S_integrated = kf.T_W_S_latest = T_W_S;
     kf.integrated = true;
     kf.data = std::move(data);
-    store_.add(std::move(kf));
+    startCompression(store_.add(std::move(kf)));
 
     if (pruner_) {
       pruner_->addFrame(id, T_W_S.translation(), std::move(cells));
@@ -237,6 +238,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   }
 
   void restore(TsdfVolume volume, KeyframeStore store) override {
+    settleCompression();
     if (store_.size() != 0 || pruner_)
       throw std::logic_error("a saved map is taken over by a new all-mode mapper only");
     volume_ = std::move(volume);
@@ -267,6 +269,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   /// likely overrun the time budget (by the recent cost per frame) or after budget_frames frames,
   /// and always does at least one, so progress never stops.
   CycleReport runCycle(const Vec3d& robot_W) override {
+    settleCompression();
     CycleReport report;
     if (queue_.empty() && drops_.empty()) return report;
     const Stopwatch cycle;
@@ -312,6 +315,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   }
 
   std::size_t finishAll(const Vec3d& robot_W) override {
+    settleCompression();
     std::size_t n = 0;
     while (true) {
       collectSolve();
@@ -326,10 +330,31 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
 
   std::size_t pendingFrames() const override { return queue_.size() + drops_.size(); }
   const TsdfVolume& volume() const override { return volume_; }
-  const KeyframeStore& keyframes() const override { return store_; }
+  const KeyframeStore& keyframes() const override {
+    settleCompression();
+    return store_;
+  }
   const FramePruner* pruner() const override { return pruner_.get(); }
 
  private:
+  /// Compresses the new frame's payload on a worker thread while the caller goes on; the store
+  /// holds it raw meanwhile, which decodes alike.
+  void startCompression(const Keyframe& kf) {
+    compressing_id_ = kf.id;
+    compressing_ = std::async(std::launch::async, [raw = kf.data] { return raw.compressed(); });
+  }
+
+  /// Puts the compressed payload in the store, waiting for it if need be. Logically const (the
+  /// frame decodes the same), so const readers settle too: keyframes() then returns the store as
+  /// a save writes it. Only addFrame starts a compression, so once a reader has settled, none is
+  /// in flight for any concurrent reader.
+  void settleCompression() const {
+    const std::lock_guard<std::mutex> lock(compress_mutex_);
+    if (!compressing_.valid()) return;
+    EncodedFrame packed = compressing_.get();  // rethrows what the worker threw
+    if (store_.contains(compressing_id_)) store_.at(compressing_id_).data = std::move(packed);
+  }
+
   /// Integrates a decoded frame; with `cells`, also its set for the pruner: the coarse cells its
   /// integration touches, recorded by the same pass under projective integration.
   IntegrationStats integrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S, CellSet* cells) {
@@ -406,12 +431,15 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
   const MapperConfig config_;  // a copy: the Mapper, and with it its config, may move
   MapperLedger& ledger_;
   TsdfVolume volume_;
-  KeyframeStore store_;
+  mutable KeyframeStore store_;          ///< mutable for settleCompression() only
   std::set<FrameId> queue_;              ///< moved frames awaiting re-integration
   std::set<FrameId> drops_;              ///< frames set cover dropped, awaiting de-integration
   std::unique_ptr<FramePruner> pruner_;  ///< keyframes mode
   std::unique_ptr<PruningSolve> solving_;  ///< the solve on the worker thread, if any
   std::future<void> solving_done_;         ///< declared after solving_: waits for the worker first
+  mutable std::mutex compress_mutex_;
+  mutable std::future<EncodedFrame> compressing_;  ///< the newest frame's payload, compressed
+  FrameId compressing_id_ = 0;
   std::size_t frames_since_solve_ = 0;
   double reintegrate_ms_estimate_ = 0.0;  ///< recent time per re-integration (moving average)
   double drop_ms_estimate_ = 0.0;         ///< recent time per de-integration of a dropped frame

@@ -97,6 +97,19 @@ EncodedFrame EncodedFrame::encode(const SensorFrame& frame, double unit_m, bool 
                          : fromPoints(frame.points_S(), unit_m, compress);
 }
 
+EncodedFrame EncodedFrame::compressed() const {
+  if (compressed_) return *this;
+  EncodedFrame f;
+  f.kind_ = kind_;
+  f.intrinsics_ = intrinsics_;
+  f.unit_m_ = unit_m_;
+  f.stride_ = stride_;
+  f.count_ = count_;
+  f.compressed_ = true;
+  f.payload_ = deflateBytes(payload_.data(), payload_.size());
+  return f;
+}
+
 SensorFrame EncodedFrame::decodeFrame() const {
   return isDepth() ? SensorFrame::depth(decodeDepth(), intrinsics_) : SensorFrame::points(decode());
 }

@@ -63,9 +63,9 @@ Mapper::~Mapper() = default;
 Mapper::Mapper(Mapper&&) noexcept = default;
 
 IntegrationStats Mapper::addFrame(FrameId id, double timestamp_s, const SensorFrame& frame, const Pose3d& T_W_S) {
-  // Frames the mapper keeps are compressed; in none mode a frame is decoded once and dropped.
-  const bool store = config_.mode != ConsistencyMode::None;
-  return policy_->addFrame(id, timestamp_s, EncodedFrame::encode(frame, config_.depth_unit_m, store), T_W_S);
+  // Quantized only: the policy integrates the decoded frame, and the policies that keep frames
+  // compress them off this thread.
+  return policy_->addFrame(id, timestamp_s, EncodedFrame::encode(frame, config_.depth_unit_m, false), T_W_S);
 }
 
 std::size_t Mapper::updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) {

@@ -48,6 +48,12 @@ class EncodedFrame {
   DepthImage decodeDepth() const;
   /// The camera of a depth frame (nullptr for points).
   const std::shared_ptr<const CameraIntrinsics>& intrinsics() const { return intrinsics_; }
+  /// Whether the payload is zlib-compressed (else it holds the raw codes).
+  bool isCompressed() const { return compressed_; }
+  /// This frame with its payload zlib-compressed (a copy when it already is). It decodes exactly
+  /// as this one, and its bytes are those of encoding with `compress` true, so a frame may be
+  /// encoded raw for integration and compressed later, e.g. on another thread.
+  EncodedFrame compressed() const;
   /// Bytes held (compressed payload plus bookkeeping).
   std::size_t bytes() const { return sizeof(*this) + payload_.capacity(); }
   bool empty() const { return payload_.empty(); }
