@@ -66,6 +66,32 @@ TEST_CASE("the keyframe store encodes a sensor frame and decodes it as its typed
              (!typed[i].allFinite() && !p.points_S()[i].allFinite())));
 }
 
+TEST_CASE("a frame encoded raw and compressed later equals one encoded compressed", "[sensor_frame][keyframes]") {
+  const auto K = smallCamera();
+  const testing::AnalyticScene scene = testing::AnalyticScene::demoRoom();
+  const DepthImage depth = scene.renderDepth(*K, lookingPose({0.5, 0.2, 1.2}, 0.7, 0.2), 5.0);
+  for (const SensorFrame& frame : {SensorFrame::depth(depth, K), SensorFrame::points(backProject(depth, *K, 3))}) {
+    const EncodedFrame raw = EncodedFrame::encode(frame, 0.001, false);
+    const EncodedFrame direct = EncodedFrame::encode(frame, 0.001, true);
+    const EncodedFrame later = raw.compressed();
+    CHECK_FALSE(raw.isCompressed());
+    CHECK(later.isCompressed());
+    CHECK(later.bytes() == direct.bytes());
+    CHECK(later.bytes() < raw.bytes());
+    // The same points from all three (NaN marks invalid points in a cloud).
+    const PointCloud a = raw.decode(), b = later.decode(), c = direct.decode();
+    REQUIRE(a.size() == c.size());
+    REQUIRE(b.size() == c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      const bool valid = c[i].allFinite();
+      REQUIRE(a[i].allFinite() == valid);
+      REQUIRE(b[i].allFinite() == valid);
+      if (valid) REQUIRE(((a[i].array() == c[i].array()).all() && (b[i].array() == c[i].array()).all()));
+    }
+    CHECK(later.compressed().bytes() == later.bytes());  // already compressed: a copy
+  }
+}
+
 TEST_CASE("the volume integrates a sensor frame bit-identically to the typed calls, and undoes it exactly",
           "[sensor_frame][tsdf]") {
   const auto K = smallCamera();
@@ -115,6 +141,9 @@ TEST_CASE("Mapper::addFrame integrates what the store decodes, as the volume wou
   }
   CHECK(mapper.volume().exactlyEquals(reference));
   CHECK(mapper.keyframesKept() == 4);
+  // The newest frame is compressed off the caller's thread; a reader of the store sees every
+  // frame compressed, as a save writes it.
+  for (const auto& [id, kf] : mapper.keyframes()) CHECK(kf.data.isCompressed());
 }
 
 TEST_CASE("the deprecated addDepthFrame and addPointFrame still integrate as addFrame does", "[sensor_frame][mapper]") {
