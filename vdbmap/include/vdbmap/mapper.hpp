@@ -126,7 +126,9 @@ class Mapper {
   /// Works off every waiting frame and the last pruning solve (end of a log); returns frames
   /// processed.
   std::size_t reintegrateAll(const Vec3d& robot_W);
-  /// Frames waiting for background work (re-integrations and drops).
+  /// Frames waiting for background work (re-integrations and drops). The drops of a set-cover
+  /// solve running in the background (SetCoverConfig::solve_in_background) count once it is
+  /// collected: when the next solve is due, or in reintegrateAll.
   std::size_t queuedFrames() const;
 
   /// The map: in submap mode the fusion of all submaps (rebuilt when a submap changed,
@@ -144,7 +146,8 @@ class Mapper {
   std::size_t keyframeStoreBytes() const { return keyframes().bytes(); }
   const KeyframeStore& keyframes() const;
   /// The set-cover pruner in keyframes mode (each held frame's cells where the map now holds
-  /// it), else nullptr.
+  /// it), else nullptr. While a solve runs in the background it still holds the frames that solve
+  /// will drop.
   const FramePruner* pruner() const;
 
   // ---- files: correcting a saved map later -----------------------------------------------------

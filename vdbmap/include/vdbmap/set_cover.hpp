@@ -96,6 +96,19 @@ class CellSet {
   friend bool operator==(const CellSet& a, const CellSet& b) { return a.size_ == b.size_ && a.bytes_ == b.bytes_; }
 
  private:
+  /// Reads one LEB128 varint at p and moves p past it.
+  static std::uint64_t readVarint(const std::uint8_t*& p) {
+    std::uint64_t value = 0;
+    int shift = 0;
+    std::uint8_t byte;
+    do {
+      byte = *p++;
+      value |= std::uint64_t(byte & 0x7f) << shift;
+      shift += 7;
+    } while (byte & 0x80);
+    return value;
+  }
+
   std::vector<std::uint8_t> bytes_;
   std::size_t size_ = 0;
 };
@@ -264,15 +277,7 @@ void CellSet::forEach(Fn&& fn) const {
   std::uint64_t key = 0;
   const std::uint8_t* p = bytes_.data();
   for (std::size_t i = 0; i < size_; ++i) {
-    std::uint64_t delta = 0;
-    int shift = 0;
-    std::uint8_t byte;
-    do {
-      byte = *p++;
-      delta |= std::uint64_t(byte & 0x7f) << shift;
-      shift += 7;
-    } while (byte & 0x80);
-    key += delta;
+    key += readVarint(p);
     fn(unpackCell(key));
   }
 }
@@ -284,14 +289,7 @@ void CellSet::forEachRun(Fn&& fn) const {
   int length = 0;
   const std::uint8_t* p = bytes_.data();
   for (std::size_t i = 0; i < size_; ++i) {
-    std::uint64_t delta = 0;
-    int shift = 0;
-    std::uint8_t byte;
-    do {
-      byte = *p++;
-      delta |= std::uint64_t(byte & 0x7f) << shift;
-      shift += 7;
-    } while (byte & 0x80);
+    const std::uint64_t delta = readVarint(p);
     // The next key continues the run when it is the next z of the same column (z's field does not
     // carry into y's).
     if (length > 0 && delta == 1 && (key & z_mask) != z_mask) {
