@@ -3,7 +3,8 @@
 // A frame is stored quantized and compressed (depth images: 16-bit depth in `depth_unit_m`
 // steps, row-delta coded and zlib-compressed; point clouds: 32-bit integer coordinates in
 // `point_unit_m` steps, zlib-compressed). The mapper integrates the *decoded* frame, so what it
-// later de-integrates is bit-identical to what it integrated.
+// later de-integrates is bit-identical to what it integrated. (It compresses a new frame on a
+// worker thread and holds it raw meanwhile: a raw and a compressed frame decode alike.)
 #pragma once
 
 #include "vdbmap/camera.hpp"
