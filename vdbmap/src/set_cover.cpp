@@ -70,12 +70,6 @@ class CounterGrid {
 
   explicit CounterGrid(int n_ob) : tree_(std::make_shared<Tree>(n_ob)), acc_(*tree_) {}
 
-  void decrement(const openvdb::Coord& c) {
-    seek(c, true);
-    const openvdb::Index n = Leaf::coordToOffset(c);
-    leaf_->buffer().data()[n] -= 1;
-    leaf_->setActiveState(n, true);
-  }
   /// Counters > 0 among the `length` cells from `first` along z (cells of untouched leaves hold
   /// the background n_ob >= 1).
   std::size_t positiveInRun(const openvdb::Coord& first, int length) {
@@ -89,7 +83,7 @@ class CounterGrid {
     });
     return n;
   }
-  /// decrement() of each of the `length` cells from `first` along z.
+  /// Decrements the counters of the `length` cells from `first` along z, marking them active.
   void decrementRun(const openvdb::Coord& first, int length) {
     forEachLeafSpan(first, length, true, [&](int* values, int count) {
       for (int i = 0; i < count; ++i) values[i] -= 1;
@@ -560,7 +554,7 @@ openvdb::Int32Grid::Ptr FramePruner::visibilityCounters(const BlockKey& block) c
   const auto it = blocks_.find(block);
   if (it != blocks_.end())
     for (const FrameId id : it->second.frames)
-      frames_.at(id).cells->forEach([&](const openvdb::Coord& c) { counters.decrement(c); });
+      frames_.at(id).cells->forEachRun([&](const openvdb::Coord& c, int n) { counters.decrementRun(c, n); });
   auto grid = openvdb::Int32Grid::create(counters.tree());
   grid->setTransform(cellTransform(voxel_size_m_, config_.cell_size_vox));
   grid->setName("visibility_counters");
