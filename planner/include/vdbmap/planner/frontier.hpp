@@ -18,6 +18,7 @@
 // under its id, so callers recompute viewpoints and costs only for the ids reported as added.
 #pragma once
 
+#include "vdbmap/planner/coord_hash.hpp"
 #include "vdbmap/planner/map_query.hpp"
 
 #include <Eigen/Geometry>
@@ -31,11 +32,6 @@
 namespace vdbmap::planner {
 
 using ClusterId = std::uint64_t;
-
-/// A hash of voxel coordinates, for unordered containers of voxels.
-struct CoordHash {
-  std::size_t operator()(const openvdb::Coord& c) const noexcept;
-};
 
 struct FrontierConfig {
   /// FUEL's cluster_min: 26-connected components with fewer frontier voxels are dropped; [1, 1e8]

@@ -1,0 +1,111 @@
+// The last few seconds of depth frames, as a drift-free view of the vehicle's surroundings.
+//
+// The global map holds every surface where the pose estimate put it when it was seen: under
+// drift, a wall seen a minute ago may sit half a metre from where it is now relative to the
+// vehicle, and the map reads the space in between as free. Frames from the last window_s seconds
+// agree with the vehicle's current estimate (drift over a few seconds is millimetres to
+// centimetres), so they tell what is really near the vehicle now:
+//  - surfaces: every recent frame's surface points, as the voxels that hold them
+//    (surfaceVoxels()); a voxel a recent frame saw a surface in is an obstacle, whatever the
+//    global map says (recent_obstacle_map.hpp);
+//  - free space: a point is seen free when a recent frame's ray through it ends on a surface at
+//    least free_margin_m beyond it, within max_range_m (seesFree()); a point no recent frame saw
+//    free is not trusted for flight near the vehicle, even where the global map calls it free.
+//
+// Frames are stored small: each block of pool_px x pool_px pixels keeps its nearest valid depth
+// (min pooling), so that a block reads as free only up to its nearest surface, and that nearest
+// pixel's point as the block's surface point (exactly on the surface; at 4 px and 387 px focal
+// length, blocks are 1 cm wide per metre of range). Poses are in the frame of the vehicle's estimate; shift() moves
+// them with it when a loop closure re-anchors the estimate, so the recent frames stay consistent with each other and
+// with the vehicle.
+//
+// Not thread-safe; reading (seesFree) from several threads at once is fine between changes.
+#pragma once
+
+#include "vdbmap/camera.hpp"
+#include "vdbmap/planner/coord_hash.hpp"
+#include "vdbmap/types.hpp"
+
+#include <openvdb/Types.h>
+
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <deque>
+#include <unordered_map>
+#include <vector>
+
+namespace vdbmap::planner {
+
+struct RecentFramesConfig {
+  /// Frames older than this (behind the newest frame's time) are forgotten; (0, 600]. At the
+  /// paper's strongest drift (s4) 10 s of odometry move a frame by about 6 cm per axis and
+  /// 0.08 rad (one sigma), within the margins near the vehicle; shorter windows forget the way
+  /// back that the vehicle just flew, and make it turn to look again.
+  double window_s = 10.0;
+  /// Side of the pixel blocks depth is pooled over; [1, 64]
+  int pool_px = 4;
+  /// Surfaces farther than this are not kept, and points farther than this are never seen free
+  /// (the camera's trusted range); (0, 1000]
+  double max_range_m = 4.5;
+  /// A point is seen free when the surface behind it along the ray is at least this much farther
+  /// (the vehicle's radius: its body, not only its centre, must fit in front of the surface); [0, 10]
+  double free_margin_m = 0.15;
+
+  void validate() const;
+};
+
+/// Voxels holding a recent surface point, with the number of recent frames that saw one there.
+using SurfaceVoxels = std::unordered_map<openvdb::Coord, int, CoordHash>;
+
+class RecentFrames {
+ public:
+  /// Throws std::invalid_argument for an invalid config.
+  explicit RecentFrames(const RecentFramesConfig& config = {});
+
+  const RecentFramesConfig& config() const { return config_; }
+
+  /// Adds a frame captured at t_s with the sensor pose T_W_S (estimate frame) and forgets the
+  /// frames older than t_s - window_s. Throws std::invalid_argument when t_s goes back in time,
+  /// the image's size differs from K's, or the pose is not finite.
+  void add(double t_s, const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S);
+
+  /// The estimate frame moved: a pose P in the old frame is now shift * P (every stored frame moves).
+  void shift(const Eigen::Isometry3d& shift);
+
+  /// Forgets every frame.
+  void clear();
+
+  std::size_t size() const { return frames_.size(); }
+  bool empty() const { return frames_.empty(); }
+
+  /// True when some recent frame saw p_W free (see the header comment).
+  bool seesFree(const Vec3d& p_W) const;
+
+  /// The voxels (of size voxel_size_m, OpenVDB's convention) that hold a surface point of a recent
+  /// frame. Kept up to date incrementally between calls with the same voxel size; valid until the
+  /// next non-const call.
+  const SurfaceVoxels& surfaceVoxels(double voxel_size_m);
+
+ private:
+  struct Frame {
+    double t_s = 0.0;
+    Pose3d T_W_S = Pose3d::Identity();
+    Pose3d T_S_W = Pose3d::Identity();
+    int width = 0, height = 0;                      ///< in blocks
+    double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  ///< of the pooled image (block units)
+    std::vector<float> depth_m;                     ///< nearest valid depth per block; 0: none
+    std::vector<Vec3f> surface_S;                   ///< each block's nearest point within max_range_m, sensor frame
+    std::vector<openvdb::Coord> voxels;             ///< distinct voxels of surface_S (when counted)
+    bool counted = false;                           ///< voxels are in voxels_
+  };
+  void count(Frame& frame);
+  void uncount(Frame& frame);
+
+  RecentFramesConfig config_;
+  std::deque<Frame> frames_;  ///< oldest first
+  SurfaceVoxels voxels_;
+  double voxel_size_m_ = 0.0;  ///< of voxels_ (0: none counted yet)
+};
+
+}  // namespace vdbmap::planner

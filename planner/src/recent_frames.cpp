@@ -1,0 +1,139 @@
+#include "vdbmap/planner/recent_frames.hpp"
+#include "vdbmap/field_check.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+
+namespace vdbmap::planner {
+
+void RecentFramesConfig::validate() const {
+  const FieldCheck check("RecentFramesConfig");
+  if (!(window_s > 0.0 && window_s <= 600.0)) check.fail("window_s", "(0, 600]", window_s);
+  if (pool_px < 1 || pool_px > 64) check.fail("pool_px", "[1, 64]", pool_px);
+  if (!(max_range_m > 0.0 && max_range_m <= 1000.0)) check.fail("max_range_m", "(0, 1000]", max_range_m);
+  check.inRange("free_margin_m", free_margin_m, 0.0, 10.0);
+}
+
+RecentFrames::RecentFrames(const RecentFramesConfig& config) : config_(config) { config_.validate(); }
+
+void RecentFrames::add(double t_s, const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S) {
+  if (!std::isfinite(t_s) || (!frames_.empty() && t_s < frames_.back().t_s))
+    throw std::invalid_argument("RecentFrames::add: frame times must be finite and not go back in time");
+  if (depth.width != K.width || depth.height != K.height ||
+      depth.depth_m.size() != std::size_t(depth.width) * std::size_t(depth.height))
+    throw std::invalid_argument("RecentFrames::add: the depth image's size differs from the intrinsics'");
+  if (!T_W_S.matrix().allFinite()) throw std::invalid_argument("RecentFrames::add: the pose is not finite");
+
+  while (!frames_.empty() && frames_.front().t_s < t_s - config_.window_s) {
+    uncount(frames_.front());
+    frames_.pop_front();
+  }
+
+  // Pool: block (bu, bv) covers pixels [bu p, bu p + p) x [bv p, bv p + p); its centre ray goes
+  // through pixel bu p + (p - 1) / 2, so the pooled camera has f / p and c' = (c - (p - 1) / 2) / p.
+  const int p = config_.pool_px;
+  Frame f;
+  f.t_s = t_s;
+  f.T_W_S = T_W_S;
+  f.T_S_W = T_W_S.inverse();
+  f.width = (depth.width + p - 1) / p;
+  f.height = (depth.height + p - 1) / p;
+  f.fx = K.fx / p;
+  f.fy = K.fy / p;
+  f.cx = (K.cx - 0.5 * (p - 1)) / p;
+  f.cy = (K.cy - 0.5 * (p - 1)) / p;
+  f.depth_m.assign(std::size_t(f.width) * std::size_t(f.height), 0.0f);
+  std::vector<std::int32_t> nearest(f.depth_m.size(), -1);  // the pixel that holds each block's depth
+  for (int v = 0; v < depth.height; ++v)
+    for (int u = 0; u < depth.width; ++u) {
+      const float d = depth.at(u, v);
+      if (!(d > 0.0f) || !std::isfinite(d)) continue;
+      const std::size_t b = std::size_t(v / p) * std::size_t(f.width) + std::size_t(u / p);
+      if (nearest[b] < 0 || d < f.depth_m[b]) {
+        f.depth_m[b] = d;
+        nearest[b] = v * depth.width + u;
+      }
+    }
+  // Each block's surface point is its nearest pixel on that pixel's own ray: exactly on the
+  // surface (the block's centre ray would put it in front of a wall seen at a grazing angle).
+  for (std::size_t b = 0; b < nearest.size(); ++b) {
+    const float d = f.depth_m[b];
+    if (nearest[b] < 0 || d > config_.max_range_m) continue;
+    const int u = nearest[b] % depth.width, v = nearest[b] / depth.width;
+    f.surface_S.emplace_back(float((u - K.cx) * d / K.fx), float((v - K.cy) * d / K.fy), d);
+  }
+  frames_.push_back(std::move(f));
+  if (voxel_size_m_ > 0.0) count(frames_.back());
+}
+
+void RecentFrames::shift(const Eigen::Isometry3d& shift) {
+  if (!shift.matrix().allFinite()) throw std::invalid_argument("RecentFrames::shift: the shift is not finite");
+  for (Frame& f : frames_) {
+    uncount(f);
+    f.T_W_S = shift * f.T_W_S;
+    f.T_S_W = f.T_W_S.inverse();
+  }
+  for (Frame& f : frames_)
+    if (voxel_size_m_ > 0.0) count(f);
+}
+
+void RecentFrames::clear() {
+  frames_.clear();
+  voxels_.clear();
+}
+
+bool RecentFrames::seesFree(const Vec3d& p_W) const {
+  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it) {  // the newest first
+    const Frame& f = *it;
+    const Vec3d p = f.T_S_W * p_W;
+    if (!(p.z() > 0.0 && p.z() <= config_.max_range_m)) continue;
+    const double u = f.fx * p.x() / p.z() + f.cx, v = f.fy * p.y() / p.z() + f.cy;
+    const double bu = std::floor(u + 0.5), bv = std::floor(v + 0.5);
+    if (bu < 0.0 || bv < 0.0 || bu >= f.width || bv >= f.height) continue;
+    const float d = f.depth_m[std::size_t(bv) * std::size_t(f.width) + std::size_t(bu)];
+    if (d > 0.0f && p.z() + config_.free_margin_m <= double(d)) return true;
+  }
+  return false;
+}
+
+const SurfaceVoxels& RecentFrames::surfaceVoxels(double voxel_size_m) {
+  if (!(voxel_size_m > 0.0 && std::isfinite(voxel_size_m)))
+    throw std::invalid_argument("RecentFrames::surfaceVoxels: voxel_size_m must be finite and > 0");
+  if (voxel_size_m != voxel_size_m_) {
+    voxels_.clear();
+    for (Frame& f : frames_) f.counted = false;
+    voxel_size_m_ = voxel_size_m;
+    for (Frame& f : frames_) count(f);
+  }
+  return voxels_;
+}
+
+void RecentFrames::count(Frame& frame) {
+  if (frame.counted) return;
+  frame.voxels.clear();
+  frame.voxels.reserve(frame.surface_S.size());
+  const double inv = 1.0 / voxel_size_m_;
+  for (const Vec3f& s : frame.surface_S) {
+    const Vec3d p = frame.T_W_S * s.cast<double>();
+    frame.voxels.emplace_back(int(std::floor(p.x() * inv + 0.5)), int(std::floor(p.y() * inv + 0.5)),
+                              int(std::floor(p.z() * inv + 0.5)));
+  }
+  std::sort(frame.voxels.begin(), frame.voxels.end());
+  frame.voxels.erase(std::unique(frame.voxels.begin(), frame.voxels.end()), frame.voxels.end());
+  for (const openvdb::Coord& c : frame.voxels) ++voxels_[c];
+  frame.counted = true;
+}
+
+void RecentFrames::uncount(Frame& frame) {
+  if (!frame.counted) return;
+  for (const openvdb::Coord& c : frame.voxels) {
+    const auto it = voxels_.find(c);
+    if (--it->second == 0) voxels_.erase(it);
+  }
+  frame.voxels.clear();
+  frame.counted = false;
+}
+
+}  // namespace vdbmap::planner

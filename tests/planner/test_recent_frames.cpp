@@ -1,0 +1,237 @@
+// The safety layer's pieces: RecentFrames (what the last seconds of depth frames saw free and
+// where they saw surfaces) against brute-force references on full-resolution images, and
+// RecentObstacleMap (those surfaces as obstacles over another map).
+#include "planner/planner_test_maps.hpp"
+
+#include "vdbmap/planner/recent_frames.hpp"
+#include "vdbmap/planner/recent_obstacle_map.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+#include <set>
+
+using namespace vdbmap;
+using namespace vdbmap::planner;
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+namespace {
+/// A small camera with the default camera's field of view (80 x 60 deg).
+CameraIntrinsics smallCamera() {
+  CameraIntrinsics K;
+  K.width = 160;
+  K.height = 120;
+  K.fx = K.fy = 387.229 / 4.0;
+  K.cx = 79.5;
+  K.cy = 59.5;
+  return K;
+}
+
+/// Depth of a wall facing the camera at `distance_m` along its optical axis.
+DepthImage flatWall(const CameraIntrinsics& K, float distance_m) { return DepthImage(K.width, K.height, distance_m); }
+
+/// Random depths: tiles of 10 x 10 pixels at 1-6 m, each pixel varied by up to 0.2 m, with
+/// invalid pixels (0 and NaN) mixed in.
+DepthImage randomDepth(const CameraIntrinsics& K, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> tile_depth(1.0f, 6.0f), noise(-0.1f, 0.1f);
+  std::uniform_int_distribution<int> kind(0, 39);
+  std::vector<float> tiles(std::size_t((K.width / 10 + 1) * (K.height / 10 + 1)));
+  for (float& z : tiles) z = tile_depth(rng);
+  DepthImage d(K.width, K.height);
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u) {
+      const int k = kind(rng);
+      const float z = tiles[std::size_t((v / 10) * (K.width / 10 + 1) + u / 10)] + noise(rng);
+      d.at(u, v) = k == 0 ? 0.0f : k == 1 ? std::nanf("") : z;
+    }
+  return d;
+}
+
+/// Brute force of seesFree for one frame: p projects into a block whose every valid pixel has
+/// depth >= z + margin, with at least one valid pixel, and z within the range.
+bool bruteSeesFree(const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S, const RecentFramesConfig& c,
+                   const Vec3d& p_W) {
+  const Vec3d p = T_W_S.inverse() * p_W;
+  if (!(p.z() > 0.0 && p.z() <= c.max_range_m)) return false;
+  const double u = K.fx * p.x() / p.z() + K.cx, v = K.fy * p.y() / p.z() + K.cy;
+  const int bu = int(std::floor((u + 0.5) / c.pool_px)), bv = int(std::floor((v + 0.5) / c.pool_px));
+  if (u + 0.5 < 0.0 || v + 0.5 < 0.0 || bu * c.pool_px >= K.width || bv * c.pool_px >= K.height) return false;
+  bool any = false;
+  for (int y = bv * c.pool_px; y < std::min(K.height, (bv + 1) * c.pool_px); ++y)
+    for (int x = bu * c.pool_px; x < std::min(K.width, (bu + 1) * c.pool_px); ++x) {
+      const float d = depth.at(x, y);
+      if (!(d > 0.0f) || !std::isfinite(d)) continue;
+      any = true;
+      if (p.z() + c.free_margin_m > double(d)) return false;
+    }
+  return any;
+}
+}  // namespace
+
+TEST_CASE("RecentFramesConfig::validate names the field", "[planner][safety]") {
+  RecentFramesConfig c;
+  CHECK_NOTHROW(c.validate());
+  c.pool_px = 0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.pool_px"));
+  c = {};
+  c.window_s = 0.0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.window_s"));
+  c = {};
+  c.free_margin_m = -1.0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.free_margin_m"));
+}
+
+TEST_CASE("A wall 3 m ahead is seen free up to free_margin_m before it, never behind it or outside the view",
+          "[planner][safety]") {
+  const CameraIntrinsics K = smallCamera();
+  RecentFrames recent;                                                     // margin 0.15 m, range 4.5 m
+  CHECK_FALSE(recent.seesFree(Vec3d(1, 0, 0)));                            // nothing seen yet
+  recent.add(0.0, flatWall(K, 3.0f), K, lookingPose(Vec3d::Zero(), 0.0));  // looking along +x
+  CHECK(recent.seesFree(Vec3d(1.0, 0.0, 0.0)));
+  CHECK(recent.seesFree(Vec3d(2.84, 0.5, 0.3)));
+  CHECK_FALSE(recent.seesFree(Vec3d(2.86, 0.0, 0.0)));  // within the margin of the wall
+  CHECK_FALSE(recent.seesFree(Vec3d(3.5, 0.0, 0.0)));   // behind it
+  CHECK_FALSE(recent.seesFree(Vec3d(1.0, 2.0, 0.0)));   // outside the 80 deg field of view
+  CHECK_FALSE(recent.seesFree(Vec3d(-1.0, 0.0, 0.0)));  // behind the camera
+  // Beyond the trusted range nothing is seen free, even in front of a far wall.
+  RecentFrames far;
+  far.add(0.0, flatWall(K, 30.0f), K, lookingPose(Vec3d::Zero(), 0.0));
+  CHECK(far.seesFree(Vec3d(4.4, 0.0, 0.0)));
+  CHECK_FALSE(far.seesFree(Vec3d(4.6, 0.0, 0.0)));
+}
+
+TEST_CASE("seesFree equals a brute force over the full-resolution pixels of each frame", "[planner][safety]") {
+  const CameraIntrinsics K = smallCamera();
+  for (const int pool : {1, 3, 4, 7}) {
+    RecentFramesConfig c;
+    c.pool_px = pool;
+    c.window_s = 100.0;
+    RecentFrames recent(c);
+    std::vector<DepthImage> images;
+    std::vector<Pose3d> poses;
+    for (int f = 0; f < 3; ++f) {
+      images.push_back(randomDepth(K, std::uint32_t(17 * pool + f)));
+      poses.push_back(lookingPose(Vec3d(0.3 * f, -0.2 * f, 1.0), 0.7 * f, 0.1 * f));
+      recent.add(double(f), images.back(), K, poses.back());
+    }
+    std::mt19937 rng{std::uint32_t(pool)};
+    std::uniform_real_distribution<double> coord(-4.0, 4.0);
+    int free = 0;
+    for (int i = 0; i < 20000; ++i) {
+      const Vec3d p(coord(rng), coord(rng), 1.0 + 0.3 * coord(rng));
+      bool expected = false;
+      for (int f = 0; f < 3; ++f) expected = expected || bruteSeesFree(images[f], K, poses[f], c, p);
+      free += expected;
+      INFO("pool " << pool << " point " << p.transpose());
+      REQUIRE(recent.seesFree(p) == expected);
+    }
+    CHECK(free > 1000);  // the comparison covered both answers
+  }
+}
+
+TEST_CASE("Frames older than the window are forgotten, with their surface voxels", "[planner][safety]") {
+  const CameraIntrinsics K = smallCamera();
+  RecentFramesConfig c;
+  c.window_s = 1.0;
+  RecentFrames recent(c);
+  recent.add(0.0, flatWall(K, 3.0f), K, lookingPose(Vec3d::Zero(), 0.0));       // looks along +x
+  recent.add(0.5, flatWall(K, 2.0f), K, lookingPose(Vec3d::Zero(), M_PI / 2));  // along +y
+  CHECK(recent.size() == 2);
+  const std::size_t both = recent.surfaceVoxels(0.1).size();
+  CHECK(recent.seesFree(Vec3d(1, 0, 0)));
+  recent.add(1.2, flatWall(K, 2.0f), K, lookingPose(Vec3d::Zero(), M_PI / 2));
+  CHECK(recent.size() == 2);  // the first is 1.2 s old
+  CHECK_FALSE(recent.seesFree(Vec3d(1, 0, 0)));
+  CHECK(recent.seesFree(Vec3d(0, 1, 0)));
+  // Only the wall at y = 2 m is left: every surface voxel is in its plane.
+  const SurfaceVoxels& voxels = recent.surfaceVoxels(0.1);
+  CHECK(voxels.size() < both);
+  for (const auto& [ijk, n] : voxels) {
+    CHECK(ijk.y() == 20);
+    CHECK(n == 2);  // both frames at y = 2 m saw it
+  }
+  recent.clear();
+  CHECK(recent.empty());
+  CHECK(recent.surfaceVoxels(0.1).empty());
+}
+
+TEST_CASE("Surface voxels hold exactly each block's nearest point within range, and move with shift()",
+          "[planner][safety]") {
+  const CameraIntrinsics K = smallCamera();
+  RecentFramesConfig c;
+  c.pool_px = 4;
+  RecentFrames recent(c);
+  const DepthImage depth = randomDepth(K, 5);
+  const Pose3d T_W_S = lookingPose(Vec3d(0.4, -0.3, 1.2), 0.3, 0.05);
+  recent.add(0.0, depth, K, T_W_S);
+  // Brute force: each block's nearest valid pixel, back-projected.
+  const auto bruteVoxels = [&](const Pose3d& pose) {
+    std::set<Coord> voxels;
+    for (int bv = 0; bv < K.height / 4; ++bv)
+      for (int bu = 0; bu < K.width / 4; ++bu) {
+        float d = 0.0f;
+        int un = 0, vn = 0;
+        for (int y = 4 * bv; y < 4 * bv + 4; ++y)
+          for (int x = 4 * bu; x < 4 * bu + 4; ++x) {
+            const float z = depth.at(x, y);
+            if (z > 0.0f && std::isfinite(z) && (d == 0.0f || z < d)) {
+              d = z;
+              un = x;
+              vn = y;
+            }
+          }
+        if (!(d > 0.0f && d <= c.max_range_m)) continue;
+        const Vec3d p = pose * Vec3d((un - K.cx) * d / K.fx, (vn - K.cy) * d / K.fy, d);
+        voxels.insert(Coord(int(std::floor(p.x() / 0.1 + 0.5)), int(std::floor(p.y() / 0.1 + 0.5)),
+                            int(std::floor(p.z() / 0.1 + 0.5))));
+      }
+    return voxels;
+  };
+  const auto voxelsOf = [](const SurfaceVoxels& counted) {
+    std::set<Coord> voxels;
+    for (const auto& [ijk, n] : counted) voxels.insert(ijk);
+    return voxels;
+  };
+  CHECK(voxelsOf(recent.surfaceVoxels(0.1)) == bruteVoxels(T_W_S));
+  // The estimate frame moves: the frame's surfaces move with it.
+  Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+  shift.rotate(Eigen::AngleAxisd(0.4, Vec3d::UnitZ()));
+  shift.translation() = Vec3d(0.5, -0.2, 0.1);
+  recent.shift(shift);
+  CHECK(voxelsOf(recent.surfaceVoxels(0.1)) == bruteVoxels(shift * T_W_S));
+  // A new voxel size recounts from the stored points.
+  CHECK(recent.surfaceVoxels(0.2).size() < bruteVoxels(shift * T_W_S).size());
+}
+
+TEST_CASE("RecentObstacleMap reads recent surface voxels occupied and everything else as its base",
+          "[planner][safety]") {
+  const DenseMap base = test::makeRoom(Eigen::Vector3i(20, 20, 10));
+  SurfaceVoxels surface;
+  surface[Coord(5, 5, 5)] = 1;  // free in the base
+  surface[Coord(6, 5, 5)] = 2;
+  surface[Coord(0, 3, 3)] = 1;   // occupied in the base already
+  surface[Coord(30, 3, 3)] = 1;  // unknown in the base (outside the room)
+  const RecentObstacleMap map(base, surface);
+  CHECK(map.voxelSize() == base.voxelSize());
+  CHECK(map.knownBounds().isInside(Coord(30, 3, 3)));
+  auto reader = map.reader();
+  auto base_reader = base.reader();
+  const CoordBBox all(Coord(-2), Coord(31, 21, 11));
+  for (auto it = all.begin(); it; ++it) {
+    const Occupancy expected = surface.count(*it) ? Occupancy::Occupied : base_reader->at(*it);
+    REQUIRE(reader->at(*it) == expected);
+  }
+  // readBox equals at() voxel by voxel, for a box smaller than the set and one larger.
+  for (const CoordBBox& box : {CoordBBox(Coord(5, 5, 5), Coord(6, 5, 5)), CoordBBox(Coord(-1), Coord(30, 10, 8))}) {
+    std::vector<Occupancy> out(box.volume());
+    reader->readBox(box, out.data());
+    std::size_t i = 0;
+    for (int x = box.min().x(); x <= box.max().x(); ++x)
+      for (int y = box.min().y(); y <= box.max().y(); ++y)
+        for (int z = box.min().z(); z <= box.max().z(); ++z) REQUIRE(out[i++] == reader->at(Coord(x, y, z)));
+  }
+  CHECK(&map.sightMap() == &base.sightMap());
+}
