@@ -13,6 +13,7 @@ constexpr double kMovingSpeed_m_s = 1e-3;     ///< slower than this counts as at
 constexpr double kMinTurn_rad = 1e-6;         ///< straighter corners are dropped
 constexpr double kReversal_rad = M_PI - 1e-3; ///< sharper corners are taken stopping
 constexpr double kStartTolerance_m = 1e-3;
+constexpr double kYawTrackStep_s = 0.01;  ///< the tracked yaw's sampling (TrajectoryConfig::yaw_along_travel)
 
 /// A corner of the polyline and how it is taken.
 struct Corner {
@@ -42,6 +43,9 @@ void TrajectoryConfig::validate() const {
   if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) check.fail("clearance_m", "[0, 5]");
   if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) check.fail("check_step_m", "[0, 1]");
   if (corner_shrink_steps < 0 || corner_shrink_steps > 30) check.fail("corner_shrink_steps", "[0, 30]");
+  if (!(yaw_lead_s > 0.0 && yaw_lead_s <= 10.0)) check.fail("yaw_lead_s", "(0, 10]", yaw_lead_s);
+  if (!(start_facing_rad >= 0.0 && start_facing_rad <= M_PI))
+    check.fail("start_facing_rad", "[0, pi]", start_facing_rad);
 }
 
 // ---- sampling ----------------------------------------------------------------------------------
@@ -79,6 +83,16 @@ Vec3d Trajectory::startVelocity() const {
 }
 
 void Trajectory::sampleYaw(double t, double& yaw, double& rate) const {
+  if (!yaw_track_.empty()) {
+    const std::size_t last = yaw_track_.size() - 1;
+    const std::size_t i = std::min<std::size_t>(std::size_t(std::max(0.0, t / kYawTrackStep_s)), last);
+    const double tau = std::clamp(t - double(i) * kYawTrackStep_s, 0.0, kYawTrackStep_s);
+    const double r0 = yaw_rate_track_[i], r1 = i < last ? yaw_rate_track_[i + 1] : r0;
+    const double acc = i < last ? (r1 - r0) / kYawTrackStep_s : 0.0;
+    yaw = wrapAngle(yaw_track_[i] + r0 * tau + 0.5 * acc * tau * tau);
+    rate = i < last ? r0 + acc * tau : 0.0;
+    return;
+  }
   const double sign = yaw_delta_ < 0.0 ? -1.0 : 1.0;
   const double total = std::abs(yaw_delta_);
   double angle = 0.0, w = 0.0;
@@ -107,6 +121,11 @@ VehicleState Trajectory::sample(double t_s) const {
   sampleYaw(t, st.yaw_rad, st.yaw_rate_rad_s);
   if (pieces_.empty() || t >= motion_s_) {
     st.position_W = end_W_;
+    return st;
+  }
+  if (t < node_t_.front()) {  // turning on the spot before the motion starts
+    Vec3d tangent, curvature;
+    geometry(0.0, st.position_W, tangent, curvature);
     return st;
   }
   // The grid interval holding t: constant tangential acceleration inside it.
@@ -165,7 +184,10 @@ class TrajectoryBuilder {
       }
     }
     const bool matched = matches(best);
-    fitYaw(best, start.yaw_rad, goal_yaw);
+    if (p_.yaw_along_travel && best.motion_s_ > 0.0)
+      trackYaw(best, start.yaw_rad, goal_yaw);
+    else
+      fitYaw(best, start.yaw_rad, goal_yaw);
     result.trajectory = std::move(best);
     result.status = matched ? TrajectoryStatus::Ok : TrajectoryStatus::StartVelocityReduced;
     return result;
@@ -333,6 +355,61 @@ class TrajectoryBuilder {
     const double disc = std::max(0.0, alpha * alpha * T * T - 4.0 * alpha * total);
     traj.yaw_peak_rate_ = std::min(w, 0.5 * (alpha * T - std::sqrt(disc)));
     traj.yaw_ramp_s_ = traj.yaw_peak_rate_ / alpha;
+  }
+
+  /// The shortest time to turn `angle` from rest to rest within the limits.
+  double turnTime(double angle) const {
+    const double w = p_.yaw_rate_max_rad_s, alpha = p_.yaw_acc_max_rad_s2, total = std::abs(angle);
+    return total >= w * w / alpha ? total / w + w / alpha : 2.0 * std::sqrt(total / alpha);
+  }
+
+  /// TrajectoryConfig::yaw_along_travel: every kYawTrackStep_s, the yaw rate moves (by at most
+  /// yaw_acc_max per second) toward the time-optimal rate to the target, sqrt(2 alpha |error|)
+  /// capped at yaw_rate_max, so that it arrives at rest. The target is the direction to the
+  /// position yaw_lead_s ahead (kept while that is vertical or at rest), until the motion left is
+  /// no longer than the turn to the goal yaw; from then on the goal yaw, which the track ends
+  /// within 1 mrad of (the discrete law settles to that, not to zero error).
+  void trackYaw(Trajectory& traj, double yaw0, double goal_yaw) const {
+    const double h = kYawTrackStep_s, w = p_.yaw_rate_max_rad_s, alpha = p_.yaw_acc_max_rad_s2;
+    const auto step = [&](double target, double& yaw, double& rate) {
+      const double error = wrapAngle(target - yaw);
+      const double wanted = std::copysign(std::min(w, std::sqrt(2.0 * alpha * std::abs(error))), error);
+      const double next = rate + std::clamp(wanted - rate, -alpha * h, alpha * h);
+      yaw += 0.5 * (rate + next) * h;
+      rate = next;
+    };
+    const Eigen::Vector2d way =
+        (traj.sample(std::min(p_.yaw_lead_s, traj.motion_s_)).position_W - traj.sample(0.0).position_W).head<2>();
+    const double heading = way.norm() > 0.01 ? std::atan2(way.y(), way.x()) : yaw0;
+    if (traj.startVelocity().norm() == 0.0) {
+      // From rest: the motion waits until the way lies within start_facing_rad of the yaw.
+      double yaw = yaw0, rate = 0.0;
+      int k = 0;
+      for (; k < 100000 && std::abs(wrapAngle(heading - yaw)) > p_.start_facing_rad; ++k) step(heading, yaw, rate);
+      for (double& t : traj.node_t_) t += k * h;
+      traj.motion_s_ += k * h;
+    }
+    const double T = traj.motion_s_;
+    double yaw = yaw0, rate = 0.0, target = heading;
+    bool to_goal = false;
+    traj.yaw_track_ = {yaw};
+    traj.yaw_rate_track_ = {rate};
+    constexpr int kMaxSteps = 1000000;  // 10^4 s: a bound the tracker never reaches
+    for (int k = 0; k < kMaxSteps; ++k) {
+      const double t = k * h;
+      if (!to_goal) {
+        const Eigen::Vector2d ahead =
+            (traj.sample(std::min(t + p_.yaw_lead_s, T)).position_W - traj.sample(std::min(t, T)).position_W).head<2>();
+        if (ahead.norm() > 0.01) target = std::atan2(ahead.y(), ahead.x());
+        to_goal = T - t <= turnTime(wrapAngle(goal_yaw - yaw)) + h || t >= T;
+      }
+      if (to_goal) target = goal_yaw;
+      if (t >= T && std::abs(wrapAngle(target - yaw)) < 1e-3 && std::abs(rate) <= alpha * h) break;  // within 1 mrad
+      step(target, yaw, rate);
+      traj.yaw_track_.push_back(yaw);
+      traj.yaw_rate_track_.push_back(rate);
+    }
+    traj.duration_s_ = std::max(T, double(traj.yaw_track_.size() - 1) * h);
   }
 
   TrajectoryConfig p_;

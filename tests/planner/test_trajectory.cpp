@@ -182,3 +182,57 @@ TEST_CASE("TrajectoryConfig::validate names the field", "[planner][trajectory]")
   p.corner_fraction = 0.6;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("corner_fraction"));
 }
+
+TEST_CASE(
+    "With yaw_along_travel the camera faces the way while moving, within the yaw limits, and ends at the "
+    "goal yaw",
+    "[planner][trajectory]") {
+  const DenseMap map = test::makeRoom(Eigen::Vector3i(100, 100, 30));
+  TrajectoryConfig tp;
+  tp.yaw_along_travel = true;
+  VehicleState start;
+  start.position_W = Vec3d(1, 1, 1.2);
+  start.yaw_rad = M_PI / 2;  // facing +y; the way goes +x, then +y
+  const std::vector<Vec3d> path{start.position_W, Vec3d(8, 1, 1.2), Vec3d(8, 8, 1.2)};
+  const double goal_yaw = M_PI;
+  const TrajectoryResult r = planTrajectory(path, start, goal_yaw, map, tp);
+  REQUIRE(r.status == TrajectoryStatus::Ok);
+  const Trajectory& traj = r.trajectory;
+  checkTrajectory(traj, tp, &map);
+  // Yaw acceleration within the limit between 1 ms samples.
+  for (double t = 1e-3; t <= traj.duration(); t += 1e-3)
+    REQUIRE(std::abs(traj.sample(t).yaw_rate_rad_s - traj.sample(t - 1e-3).yaw_rate_rad_s) <=
+            tp.yaw_acc_max_rad_s2 * 1e-3 * (1 + 1e-6) + 1e-12);
+  // Once turned to the way (a quarter turn from rest: 2.2 s at most), the direction of travel stays
+  // within the camera's half field of view (40 deg) until the turn to the goal yaw begins (a
+  // quarter turn before the end of the motion).
+  const double quarter = M_PI / 2 / tp.yaw_rate_max_rad_s + tp.yaw_rate_max_rad_s / tp.yaw_acc_max_rad_s2;
+  const double half_fov = std::atan(320.0 / 387.229);
+  int checked = 0;
+  for (double t = quarter; t < traj.motionDuration() - quarter - 0.1; t += 0.05) {
+    const VehicleState s = traj.sample(t);
+    if (s.velocity_W.head<2>().norm() < 0.2) continue;
+    CHECK(yawDistance(s.yaw_rad, std::atan2(s.velocity_W.y(), s.velocity_W.x())) <= half_fov);
+    ++checked;
+  }
+  CHECK(checked > 50);
+  CHECK(yawDistance(traj.sample(traj.duration()).yaw_rad, goal_yaw) < 1e-3);
+  CHECK(traj.sample(traj.duration()).position_W.isApprox(path.back(), 1e-12));
+  // Without it the same path spreads the turn to the goal over the whole motion: the camera looks
+  // away from the way for much of it.
+  tp.yaw_along_travel = false;
+  const Trajectory spread = planTrajectory(path, start, goal_yaw, map, tp).trajectory;
+  int away = 0;
+  for (double t = quarter; t < spread.motionDuration() - quarter - 0.1; t += 0.05) {
+    const VehicleState s = spread.sample(t);
+    away += s.velocity_W.head<2>().norm() >= 0.2 &&
+            yawDistance(s.yaw_rad, std::atan2(s.velocity_W.y(), s.velocity_W.x())) > half_fov;
+  }
+  CHECK(away > 20);
+}
+
+TEST_CASE("TrajectoryConfig::validate names yaw_lead_s", "[planner][trajectory]") {
+  TrajectoryConfig tp;
+  tp.yaw_lead_s = 0.0;
+  CHECK_THROWS_WITH(tp.validate(), Catch::Contains("TrajectoryConfig.yaw_lead_s"));
+}

@@ -21,10 +21,19 @@
 // Start state: when the vehicle is moving, the trajectory starts with exactly its velocity when it
 // can: along the path if the velocity points along it and there is room to brake, else through a
 // short lead-in along the current velocity (if clear), curving onto the path. When neither works
-// (e.g. flying at a wall) the status says the start velocity was reduced. The trajectory ends at rest at the last waypoint. Yaw follows a trapezoidal
-// yaw-rate profile from the current yaw to the goal yaw (|yaw rate| <= yaw_rate_max, |yaw
-// acceleration| <= yaw_acc_max), spread over the whole motion; if turning takes longer than moving,
-// the vehicle waits at the goal until it has turned (this also turns it on the spot).
+// (e.g. flying at a wall) the status says the start velocity was reduced. The trajectory ends at
+// rest at the last waypoint.
+//
+// Yaw, |yaw rate| <= yaw_rate_max and |yaw acceleration| <= yaw_acc_max throughout, one of two ways:
+//  - by default a trapezoidal yaw-rate profile from the current yaw to the goal yaw, spread over
+//    the whole motion;
+//  - with yaw_along_travel, the camera faces the way: the yaw tracks the direction toward where
+//    the vehicle will be yaw_lead_s later (time-optimally within the limits, sampled every 10 ms),
+//    and turns to the goal yaw only when the time left in the motion is what that turn needs,
+//    ending within 1 mrad of it. A trajectory from rest first turns on the spot until the way
+//    lies within start_facing_rad of the yaw (motionStart()).
+// Either way, if turning takes longer than moving, the vehicle waits at the goal until it has
+// turned (this also turns it on the spot).
 #pragma once
 
 #include "vdbmap/planner/map_query.hpp"
@@ -51,6 +60,14 @@ struct TrajectoryConfig {
   double check_step_m = 0.0;          ///< 0 = half a voxel
   /// How often an arc that is not clear is halved before the corner becomes a stop; [0, 30]
   int corner_shrink_steps = 6;
+  /// Face the direction of travel while moving (see the header comment), e.g. so that a camera
+  /// sees the way before the vehicle flies it.
+  bool yaw_along_travel = false;
+  /// With yaw_along_travel: the yaw faces the point this much later on the trajectory; (0, 10]
+  double yaw_lead_s = 0.5;
+  /// With yaw_along_travel, from rest: the motion starts once the way lies within this angle of
+  /// the yaw (below a camera's half field of view, so that it sees the way first); [0, pi]
+  double start_facing_rad = 0.5;
 
   void validate() const;
 };
@@ -68,8 +85,11 @@ class Trajectory {
   /// The commanded state at t_s (world frame).
   VehicleState sample(double t_s) const;
 
-  /// Time spent moving (the rest of duration() is turning in place at the goal).
+  /// When the motion ends (the rest of duration() is turning in place at the goal).
   double motionDuration() const { return motion_s_; }
+  /// When the motion starts: 0, or the time a trajectory from rest turns on the spot first
+  /// (TrajectoryConfig::start_facing_rad).
+  double motionStart() const { return node_t_.empty() ? 0.0 : node_t_.front(); }
   double length_m() const { return node_s_.empty() ? 0.0 : node_s_.back(); }
   /// The polyline the rounded path was built on (the lead-in point included, if any).
   const std::vector<Vec3d>& corners() const { return corners_; }
@@ -98,8 +118,11 @@ class Trajectory {
   double motion_s_ = 0.0;
   double duration_s_ = 0.0;
   int stop_corners_ = 0;
-  // Yaw: trapezoidal rate profile of total angle `yaw_delta_` over duration_s_.
+  // Yaw: trapezoidal rate profile of total angle `yaw_delta_` over duration_s_; or, when
+  // yaw_track_ is not empty, the tracked yaw (unwrapped) and its rate every kYawTrackStep_s, with
+  // constant yaw acceleration between samples.
   double yaw0_ = 0.0, yaw_delta_ = 0.0, yaw_acc_ = 0.0, yaw_peak_rate_ = 0.0, yaw_ramp_s_ = 0.0;
+  std::vector<double> yaw_track_, yaw_rate_track_;
 };
 
 enum class TrajectoryStatus {
