@@ -1,6 +1,6 @@
 // `vdbmap explore [--world W.ply] [--drift s1..s4] [--seed N] [--voxel-size M] [--max-time-s T]
 // [--mode keyframes|all|none|submap] [--start x,y,z] [--box ...] [--ceiling Z] [--alc on|off]
-// [--epsilon E] [--budgets counted|wall-clock] [--report] -o RUNDIR`: explores
+// [--epsilon E] [--safety on|off] [--budgets counted|wall-clock] [--report] -o RUNDIR`: explores
 // the world with the simulated vehicle, the mapper and the exploration planner in closed loop, and
 // writes the run folder (see sim/exploration.hpp).
 #include "cli_util.hpp"
@@ -31,6 +31,8 @@ struct ExploreOptions {
   double start_yaw = 0.0;
   std::vector<double> start, box;
   std::string alc = "off";
+  std::string safety = planner::SafetyConfig{}.enabled ? "on" : "off";
+  double safety_window_s = planner::RecentFramesConfig{}.window_s;
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   int min_cluster_size = planner::FrontierConfig{}.min_cluster_size;
@@ -78,6 +80,8 @@ void runExplore(const ExploreOptions& o) {
   config.planner.initial_turn = !o.no_initial_turn;
   config.planner.alc_enabled = o.alc == "on";
   config.planner.alc.epsilon = o.epsilon;
+  config.planner.safety.enabled = o.safety == "on";
+  config.planner.safety.recent.window_s = o.safety_window_s;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.final_min_cluster_size = o.final_min_cluster_size;
@@ -87,12 +91,14 @@ void runExplore(const ExploreOptions& o) {
                                      : Vec3d(o.start[0], o.start[1], o.start[2]);
   config.start.yaw_rad = o.start_yaw;
 
-  std::string description = "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " +
-                            std::to_string(o.seed) + " --mode " + o.mode + " --min-cluster-size " +
-                            std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
-                            std::to_string(o.final_min_cluster_size) + " --revisit-rounds " +
-                            std::to_string(o.revisit_rounds) + " --budgets " + o.budgets + " --alc " + o.alc +
-                            (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string());
+  std::string description =
+      "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " + std::to_string(o.seed) +
+      " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
+      std::to_string(o.final_min_cluster_size) + " --revisit-rounds " + std::to_string(o.revisit_rounds) +
+      " --budgets " + o.budgets + " --alc " + o.alc +
+      (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string()) + " --safety " +
+      o.safety +
+      (config.planner.safety.enabled ? " --safety-window-s " + std::to_string(o.safety_window_s) : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
                o.world.c_str(), world.stats().triangles, b.min().x(), b.min().y(), b.min().z(), b.max().x(),
@@ -113,6 +119,9 @@ void runExplore(const ExploreOptions& o) {
   if (s.alc_enabled)
     std::printf("active loop closure: %zu detours (%zu closed a loop, %zu given up), %.1f s on detours\n",
                 s.alc_detours, s.alc_detour_loops, s.alc_give_ups, s.alc_time_s);
+  if (config.planner.safety.enabled)
+    std::printf("safety layer: %zu emergency stops, %zu stops to look along the way\n", s.emergency_stops,
+                s.look_stops);
   std::printf("planner %.1f ms median, %.1f ms max per replan; %zu frames, %zu keyframes kept; map RMSE %.4f m, "
               "completeness %.3f; %.0f s wall\n",
               s.planner_ms_median, s.planner_ms_max, s.frames_total, s.keyframes_kept, s.accuracy_rmse_m,
@@ -156,6 +165,15 @@ const Registration registration("explore", [](CLI::App& app) {
   sub->add_option("--epsilon", o->epsilon,
                   "ALC: take the loop-closure detour when it costs at most (1 + epsilon) times the frontier tour")
       ->check(CLI::Range(0.0, 100.0));
+  sub->add_option("--safety", o->safety,
+                  "The drift-free safety layer: the last seconds of depth frames are obstacles over the global map, "
+                  "a trajectory they see blocked is replanned at once (an emergency stop), and the vehicle brakes "
+                  "and looks before flying into space they have not seen free")
+      ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--safety-window-s", o->safety_window_s,
+                  "The safety layer trusts the depth frames of the last this many seconds (drift within them is "
+                  "small)")
+      ->check(CLI::Range(0.1, 600.0));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
                   "small unknown pockets of cluttered places (e.g. 50 for shelving)")

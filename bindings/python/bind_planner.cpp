@@ -116,6 +116,12 @@ void bindCostsAndPaths(py::module_& m) {
       .def_readwrite("clearance_m", &TrajectoryConfig::clearance_m, "clearance of arcs and lead-ins; [0, 5]")
       .def_readwrite("check_step_m", &TrajectoryConfig::check_step_m, "0 = half a voxel; [0, 1]")
       .def_readwrite("corner_shrink_steps", &TrajectoryConfig::corner_shrink_steps, "arc halvings; [0, 30]")
+      .def_readwrite("yaw_along_travel", &TrajectoryConfig::yaw_along_travel,
+                     "face the direction of travel while moving, turning to the goal yaw at the end")
+      .def_readwrite("yaw_lead_s", &TrajectoryConfig::yaw_lead_s,
+                     "with yaw_along_travel, face the point this much later on the trajectory; (0, 10]")
+      .def_readwrite("start_facing_rad", &TrajectoryConfig::start_facing_rad,
+                     "with yaw_along_travel, from rest: move once the way lies within this of the yaw; [0, pi]")
       .def("validate", &TrajectoryConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }
 
@@ -151,6 +157,31 @@ void bindExplorationParams(py::module_& m) {
                      "how far a straight escape looks for a clear point; (0, 10]")
       .def("validate", &EscapeConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
+  py::class_<RecentFramesConfig> rf(m, "RecentFramesConfig",
+                                    "The safety layer's recent depth frames (max_range_m and free_margin_m are set by "
+                                    "the exploration manager).");
+  addStructProtocol(rf);
+  rf.def_readwrite("window_s", &RecentFramesConfig::window_s, "frames older than this are forgotten; (0, 600]")
+      .def_readwrite("pool_px", &RecentFramesConfig::pool_px, "side of the pixel blocks depth is pooled over; [1, 64]")
+      .def_readwrite("max_range_m", &RecentFramesConfig::max_range_m, "trusted range; (0, 1000]")
+      .def_readwrite("free_margin_m", &RecentFramesConfig::free_margin_m,
+                     "seen free: the surface behind lies at least this much farther; [0, 10]")
+      .def("validate", &RecentFramesConfig::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::class_<SafetyConfig> sc(m, "SafetyConfig",
+                              "The drift-free safety layer near the vehicle: recent depth frames as obstacles, "
+                              "emergency stops, looking along the way before flying it.");
+  addStructProtocol(sc);
+  sc.def_readwrite("enabled", &SafetyConfig::enabled, "the layer is on (off by default)")
+      .def_readwrite("face_travel", &SafetyConfig::face_travel,
+                     "trajectories face the direction of travel while moving")
+      .def_readwrite("recent", &SafetyConfig::recent, "RecentFramesConfig")
+      .def_readwrite("look_margin_m", &SafetyConfig::look_margin_m,
+                     "the way ahead seen free: braking distance plus this; [0, 10]")
+      .def_readwrite("max_chained_looks", &SafetyConfig::max_chained_looks,
+                     "looks in a row that leave the way unseen before the target gets a failure; [1, 100]")
+      .def("validate", &SafetyConfig::validate, "Raises ValueError naming the field and its allowed range.");
+
   py::class_<ExplorationManagerConfig> e(m, "ExplorationManagerConfig",
                                   "The exploration manager (FUEL-style). box_W is required; the pieces' bounds are "
                                   "set from it. Nested structs are edited in place.");
@@ -168,7 +199,8 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("refinement", &ExplorationManagerConfig::refinement, "RefinementConfig")
       .def_readwrite("trajectory", &ExplorationManagerConfig::trajectory, "TrajectoryConfig")
       .def_property(
-          "start_free_half_size_m", [](const ExplorationManagerConfig& self) { return toArray(self.start_free_half_size_m); },
+          "start_free_half_size_m",
+          [](const ExplorationManagerConfig& self) { return toArray(self.start_free_half_size_m); },
           [](ExplorationManagerConfig& self, py::handle v) {
             self.start_free_half_size_m = toVec3(v, "start_free_half_size_m");
           },
@@ -178,11 +210,13 @@ void bindExplorationParams(py::module_& m) {
                      "viewpoints keep this far from the box's bottom and top; [0, 10]")
       .def_readwrite("alc_enabled", &ExplorationManagerConfig::alc_enabled, "active loop closure (off: plain FUEL)")
       .def_readwrite("alc", &ExplorationManagerConfig::alc, "AlcConfig")
+      .def_readwrite("safety", &ExplorationManagerConfig::safety, "SafetyConfig")
       .def_readwrite("replan_time_left_s", &ExplorationManagerConfig::replan_time_left_s,
                      "replan when less trajectory is left (FUEL thresh_replan1); [0, 100]")
       .def_readwrite("replan_covered_after_s", &ExplorationManagerConfig::replan_covered_after_s,
                      "replan when the target is covered after this long (thresh_replan2); [0, 100]")
-      .def_readwrite("replan_period_s", &ExplorationManagerConfig::replan_period_s, "replan at least this often; (0, 1000]")
+      .def_readwrite("replan_period_s", &ExplorationManagerConfig::replan_period_s,
+                     "replan at least this often; (0, 1000]")
       .def_readwrite("covered_fraction", &ExplorationManagerConfig::covered_fraction,
                      "a target is covered when this share of its frontier is gone; (0, 1]")
       .def_readwrite("collision_radius_m", &ExplorationManagerConfig::collision_radius_m,
@@ -194,7 +228,8 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("final_min_cluster_size", &ExplorationManagerConfig::final_min_cluster_size,
                      "when no target is left, the frontier's min cluster size drops to this once, for a final "
                      "sweep of the small clusters (0: off); [0, 1e8]")
-      .def_readwrite("max_targets_per_replan", &ExplorationManagerConfig::max_targets_per_replan, "targets tried per replan")
+      .def_readwrite("max_targets_per_replan", &ExplorationManagerConfig::max_targets_per_replan,
+                     "targets tried per replan")
       .def_readwrite("keep_target", &ExplorationManagerConfig::keep_target,
                      "periodic and frame-shift replans keep flying to the current target while it is live "
                      "(off: the tour's first target wins every replan, as in FUEL)")
@@ -207,7 +242,8 @@ void bindExplorationParams(py::module_& m) {
                      "straight escapes in a row before giving up; [0, 100]")
       .def_readwrite("max_chained_backtracks", &ExplorationManagerConfig::max_chained_backtracks,
                      "goings back the way flown in a row after every target failed; [0, 100]")
-      .def("validate", &ExplorationManagerConfig::validate, "Raises ValueError naming the field and its allowed range.");
+      .def("validate", &ExplorationManagerConfig::validate,
+           "Raises ValueError naming the field and its allowed range.");
 
   py::enum_<ExplorationStatus> status(m, "ExplorationStatus", "What one exploration update decided.");
   status.value("Continue", ExplorationStatus::Continue, "keep following the trajectory")
@@ -229,9 +265,14 @@ void bindExplorationParams(py::module_& m) {
       .def_readonly("escapes", &ExplorationCounters::escapes,
                     "moves out of a start blocked by occupied voxels (retreats included)")
       .def_readonly("retreats", &ExplorationCounters::retreats, "escapes back along the way flown")
-      .def_readonly("revisit_rounds", &ExplorationCounters::revisit_rounds, "ExplorationManagerConfig.revisit_rounds done")
+      .def_readonly("revisit_rounds", &ExplorationCounters::revisit_rounds,
+                    "ExplorationManagerConfig.revisit_rounds done")
       .def_readonly("final_sweep_clusters", &ExplorationCounters::final_sweep_clusters,
                     "clusters the final sweep (ExplorationManagerConfig.final_min_cluster_size) added")
+      .def_readonly("emergency_stops", &ExplorationCounters::emergency_stops,
+                    "replans because the recent frames saw the trajectory blocked (SafetyConfig)")
+      .def_readonly("look_stops", &ExplorationCounters::look_stops,
+                    "brakings to look along a way the recent frames had not seen free (SafetyConfig)")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 }
 

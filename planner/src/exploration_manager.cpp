@@ -3,9 +3,11 @@
 #include "vdbmap/timing.hpp"
 
 #include "vdbmap/planner/assume_free_map.hpp"
+#include "vdbmap/planner/recent_obstacle_map.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -14,6 +16,9 @@ namespace vdbmap::planner {
 
 namespace {
 double yawOf(const Eigen::Isometry3d& T) { return std::atan2(T.linear()(1, 0), T.linear()(0, 0)); }
+
+/// The replan was triggered by the trajectory being blocked: if no new one is found, the vehicle stops.
+bool blocked(ReplanReason r) { return r == ReplanReason::CollisionRisk || r == ReplanReason::EmergencyStop; }
 
 /// The parameters with the pieces' bounds and the trajectory's clearance set from the manager's.
 ExplorationManagerConfig derivedParams(ExplorationManagerConfig p) {
@@ -26,10 +31,13 @@ ExplorationManagerConfig derivedParams(ExplorationManagerConfig p) {
   p.path.bounds_W = p.box_W;
   p.cost_path.bounds_W = p.box_W;
   p.trajectory.clearance_m = p.path.clearance_m;
+  if (p.safety.enabled && p.safety.face_travel) p.trajectory.yaw_along_travel = true;
   p.trajectory.check_step_m = p.path.check_step_m;
   p.escape.bounds_W = p.box_W;
   p.escape.clearance_m = p.path.clearance_m;
   p.escape.trajectory = p.trajectory;
+  p.safety.recent.max_range_m = p.viewpoint.camera.max_range_m;
+  p.safety.recent.free_margin_m = p.collision_radius_m;
   if (p.alc_enabled) p.alc.unreachable_cost_s = p.cost.unreachable_cost_s;  // ALC's sums skip the legs M_frt marks so
   return p;
 }
@@ -64,6 +72,7 @@ const char* toString(FlightKind k) {
     case FlightKind::LoopDetour: return "loop_detour";
     case FlightKind::Escape: return "escape";
     case FlightKind::Retreat: return "retreat";
+    case FlightKind::Look: return "look";
   }
   return "?";
 }
@@ -94,6 +103,8 @@ const char* toString(ReplanReason r) {
     case ReplanReason::FrameShift: return "frame_shift";
     case ReplanReason::Retry: return "retry";
     case ReplanReason::LoopDetourTimeout: return "loop_detour_timeout";
+    case ReplanReason::EmergencyStop: return "emergency_stop";
+    case ReplanReason::LookAhead: return "look_ahead";
   }
   return "?";
 }
@@ -110,6 +121,13 @@ PathConfig ExplorationManagerConfig::costPathDefaults() {
   return p;
 }
 
+void SafetyConfig::validate() const {
+  const FieldCheck check("SafetyConfig");
+  recent.validate();
+  check.inRange("look_margin_m", look_margin_m, 0.0, 10.0);
+  if (max_chained_looks < 1 || max_chained_looks > 100) check.fail("max_chained_looks", "[1, 100]", max_chained_looks);
+}
+
 void ExplorationManagerConfig::validate() const {
   const FieldCheck check("ExplorationManagerConfig");
   if (box_W.isEmpty() || !box_W.min().allFinite() || !box_W.max().allFinite())
@@ -123,6 +141,7 @@ void ExplorationManagerConfig::validate() const {
   refinement.validate();
   trajectory.validate();
   escape.validate();
+  safety.validate();
   for (int a = 0; a < 3; ++a)
     if (!(start_free_half_size_m[a] >= 0.0 && start_free_half_size_m[a] <= 10.0))
       check.fail("start_free_half_size_m", "[0, 10] per axis");
@@ -160,6 +179,7 @@ ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, c
   trajectory_t0_ = t_s;
   last_t_ = t_s;
   if (params_.alc_enabled) alc_ = std::make_unique<ActiveLoopClosure>(params_.alc, t_s);
+  if (params_.safety.enabled) recent_ = std::make_unique<RecentFrames>(params_.safety.recent);
 }
 
 ExplorationManager::~ExplorationManager() = default;
@@ -178,7 +198,13 @@ VehicleState ExplorationManager::command(double t_s) const {
 void ExplorationManager::shiftFrame(const Eigen::Isometry3d& shift) {
   shift_ = shift * shift_;
   escapes_.shiftFrame(shift);
+  if (recent_) recent_->shift(shift);
   pending_.frame_shift = true;
+}
+
+void ExplorationManager::addDepthFrame(double t_s, const DepthImage& depth, const CameraIntrinsics& K,
+                                       const Pose3d& T_W_S) {
+  if (recent_) recent_->add(t_s, depth, K, T_W_S);
 }
 
 void ExplorationManager::notifyLoopClosure(double t_s,
@@ -207,7 +233,8 @@ ExplorationActivity ExplorationManager::activity(double t_s) const {
     return flight_ == FlightKind::Retreat ? ExplorationActivity::Retreating : ExplorationActivity::Escaping;
   const double t_rel = t_s - trajectory_t0_;
   if (t_rel >= trajectory_.duration()) return ExplorationActivity::Holding;
-  if (t_rel >= trajectory_.motionDuration()) return ExplorationActivity::Turning;
+  if (t_rel >= trajectory_.motionDuration() || t_rel < trajectory_.motionStart() || flight_ == FlightKind::Look)
+    return ExplorationActivity::Turning;
   if (flight_ == FlightKind::LoopDetour) return ExplorationActivity::LoopDetour;
   return phase_ == ExplorationPhase::FinalSweep ? ExplorationActivity::FinalSweep : ExplorationActivity::ToTarget;
 }
@@ -280,7 +307,38 @@ bool ExplorationManager::remainingTrajectoryClear(const MapQuery& map, double t_
   }
 }
 
-ReplanReason ExplorationManager::replanReason(const MapQuery& map, double t_s) {
+std::optional<Vec3d> ExplorationManager::unseenWayAhead(const VehicleState& vehicle, double voxel_size_m,
+                                                        double t_s) const {
+  const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
+  // Nothing to check while the vehicle is at rest for a while yet (turning to face the way first).
+  constexpr double kSoon_s = 0.2;
+  if (!recent_ || t_rel >= t_end || t_rel + kSoon_s < trajectory_.motionStart()) return std::nullopt;
+  const double v = vehicle.velocity_W.norm();
+  const double way_m = v * v / (2.0 * params_.trajectory.a_max_m_s2) + params_.safety.look_margin_m;
+  return firstUnseen(trajectory_, shift_, t_rel, way_m, vehicle.position_W, voxel_size_m);
+}
+
+std::optional<Vec3d> ExplorationManager::firstUnseen(const Trajectory& trajectory, const Eigen::Isometry3d& shift,
+                                                     double t_from, double way_m, const Vec3d& origin_W,
+                                                     double voxel_size_m) const {
+  const double t_end = trajectory.motionDuration();
+  const double dt = params_.risk_check_spacing_vox * voxel_size_m / std::max(params_.trajectory.v_max_m_s, 1e-3);
+  const double tan_fov_y = params_.viewpoint.camera.tan_half_fov_y;
+  Vec3d prev = shift * trajectory.sample(t_from).position_W;
+  double along_m = 0.0;
+  for (double t = t_from + dt; along_m < way_m; t += dt) {
+    const Vec3d p = shift * trajectory.sample(std::min(t, t_end)).position_W;
+    along_m += (p - prev).norm();
+    prev = p;
+    const Vec3d d = p - origin_W;
+    const bool in_view_by_yaw = std::abs(d.z()) <= d.head<2>().norm() * tan_fov_y;
+    if (in_view_by_yaw && !recent_->seesFree(p)) return p;
+    if (t >= t_end) break;
+  }
+  return std::nullopt;
+}
+
+ReplanReason ExplorationManager::replanReason(const MapQuery& map, const MapQuery& flight_map, double t_s) {
   if (phase_ == ExplorationPhase::InitialTurn) {
     if (!trajectoryDone(t_s)) return ReplanReason::None;
     if (turns_left_ > 0) return ReplanReason::InitialTurn;
@@ -291,7 +349,10 @@ ReplanReason ExplorationManager::replanReason(const MapQuery& map, double t_s) {
   // voxels that blocked its start (a retreat along the way flown), and leaves no target behind.
   const bool escaping = this->escaping(t_s);
   const bool on_detour = flight_ == FlightKind::LoopDetour;
-  if (trajectoryMoves() && !escaping && !remainingTrajectoryClear(map, t_s)) return ReplanReason::CollisionRisk;
+  if (trajectoryMoves() && !escaping && !remainingTrajectoryClear(flight_map, t_s))
+    return &flight_map == &map || !remainingTrajectoryClear(map, t_s) ? ReplanReason::CollisionRisk
+                                                                      : ReplanReason::EmergencyStop;
+  if (flight_ == FlightKind::Look && !trajectoryDone(t_s)) return ReplanReason::None;
   if (pending_.retry) return ReplanReason::Retry;
   if (alc_ && alc_->detourTimedOut(t_s)) return ReplanReason::LoopDetourTimeout;
   if (book_.target() == 0 && !on_detour && !escaping) return ReplanReason::Start;
@@ -316,6 +377,9 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (!escaping(t_s)) escapes_.recordFlown(vehicle.position_W, base_map.voxelSize());  // not an escape's way
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap map(base_map, free_boxes_);
+  std::optional<RecentObstacleMap> recent_map;
+  if (recent_) recent_map.emplace(map, recent_->surfaceVoxels(map.voxelSize()));
+  const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;
   ExplorationStep step;
   const Stopwatch map_update;
   refreshFrontiers(map, dirty);
@@ -323,7 +387,15 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   step.clusters = frontiers_.clusters().size();
   step.frontier_voxels = frontiers_.frontierVoxelCount();
 
-  step.reason = replanReason(map, t_s);
+  step.reason = replanReason(map, flight_map, t_s);
+  std::optional<Vec3d> unseen;
+  if (step.reason == ReplanReason::None && flight_ != FlightKind::Look && !escaping(t_s)) {
+    unseen = unseenWayAhead(vehicle, map.voxelSize(), t_s);
+    if (unseen)
+      step.reason = ReplanReason::LookAhead;
+    else if (trajectoryMoves() && t_s < trajectory_t0_ + trajectory_.motionDuration())
+      chained_looks_ = 0;
+  }
   if (step.reason == ReplanReason::None) {
     step.status = ExplorationStatus::Continue;
     step.targets = std::size_t(-1);
@@ -332,8 +404,12 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   const Stopwatch replan_watch;
   ++counters_.replans;
   if (step.reason == ReplanReason::CollisionRisk) ++counters_.collision_risks;
+  if (step.reason == ReplanReason::EmergencyStop) ++counters_.emergency_stops;
   pending_.frame_shift = false;
-  if (step.reason == ReplanReason::InitialTurn) {
+  if (step.reason == ReplanReason::LookAhead) {
+    ++counters_.look_stops;
+    step.status = lookAhead(flight_map, vehicle, *unseen, t_s);
+  } else if (step.reason == ReplanReason::InitialTurn) {
     --turns_left_;
     VehicleState at_rest = vehicle;
     at_rest.velocity_W.setZero();
@@ -349,7 +425,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
       step.status = ExplorationStatus::Failed;
     }
   } else {
-    step.status = replan(map, vehicle, t_s, step);
+    step.status = replan(flight_map, vehicle, t_s, step);
   }
   pending_.retry = step.status == ExplorationStatus::Failed;
   if (pending_.retry) ++counters_.replans_failed;
@@ -418,7 +494,7 @@ ExplorationStatus ExplorationManager::finishOrWait(const MapQuery& map, const Ve
     step.alc_status = decideLoopDetour(map, vehicle, t_s, {}, nothing)->status;
   }
   book_.clearTarget();
-  if (!trajectoryDone(t_s) && step.reason != ReplanReason::CollisionRisk) return ExplorationStatus::NoFrontier;
+  if (!trajectoryDone(t_s) && !blocked(step.reason)) return ExplorationStatus::NoFrontier;
   if (!trajectoryDone(t_s) || trajectoryMoves()) hold(vehicle, t_s);
   return ExplorationStatus::Finished;
 }
@@ -478,7 +554,7 @@ std::optional<ExplorationStatus> ExplorationManager::flyDetour(const MapQuery& m
   }
   if (outcome == PlanOutcome::StartBlocked) {
     if (escape(map, vehicle, t_s)) return ExplorationStatus::Planned;  // the detour goes on from there
-    if (step.reason == ReplanReason::CollisionRisk) hold(vehicle, t_s);
+    if (blocked(step.reason)) hold(vehicle, t_s);
     return ExplorationStatus::Failed;
   }
   return std::nullopt;
@@ -526,7 +602,7 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
       return ExplorationStatus::Planned;
     }
   }
-  if (step.reason == ReplanReason::CollisionRisk) hold(vehicle, t_s);
+  if (blocked(step.reason)) hold(vehicle, t_s);
   return ExplorationStatus::Failed;
 }
 
@@ -548,12 +624,59 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
     if (path.status == PathStatus::StartInvalid) return PlanOutcome::StartBlocked;
   }
   if (!path.ok()) return PlanOutcome::Failed;
-  TrajectoryResult traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, params_.trajectory);
+  TrajectoryConfig tc = params_.trajectory;
+  TrajectoryResult traj;
+  if (tc.yaw_along_travel && recent_) {
+    // Facing the way costs turns on the spot; a way the recent frames saw free all along does
+    // not need it, and keeps the yaw spread over the motion.
+    tc.yaw_along_travel = false;
+    traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, tc);
+    const double all = std::numeric_limits<double>::infinity();
+    if (traj.ok() &&
+        firstUnseen(traj.trajectory, Eigen::Isometry3d::Identity(), 0.0, all, vehicle.position_W, map.voxelSize()))
+      tc.yaw_along_travel = true;
+  }
+  if (tc.yaw_along_travel || !traj.ok()) traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, tc);
   if (!traj.ok()) return PlanOutcome::Failed;
   startTrajectory(std::move(traj.trajectory), t_s, kind);
   if (!start_free) chained_escapes_ = 0;
   chained_backtracks_ = 0;
   return PlanOutcome::Ok;
+}
+
+ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const VehicleState& vehicle, const Vec3d& unseen,
+                                                double t_s) {
+  if (++chained_looks_ > params_.safety.max_chained_looks) {
+    // Looking did not show the way (hidden behind a corner, or out of reach of the camera): the
+    // way to this target counts as failed, as a blocked start does.
+    chained_looks_ = 0;
+    book_.addTargetFailure();
+    hold(vehicle, t_s);
+    return ExplorationStatus::Failed;
+  }
+  book_.clearTarget();  // the visit is broken off; the replan after the look chooses again
+  // Brake along the trajectory: its points up to the braking distance, then rest.
+  const double v = vehicle.velocity_W.norm();
+  const double brake_m = v * v / (2.0 * params_.trajectory.a_max_m_s2);
+  const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
+  const double dt = 0.5 * map.voxelSize() / std::max(params_.trajectory.v_max_m_s, 1e-3);
+  std::vector<Vec3d> path{vehicle.position_W};
+  double along_m = 0.0;
+  for (double t = t_rel + dt; along_m < brake_m && t - dt < t_end; t += dt) {
+    const Vec3d p = shift_ * trajectory_.sample(std::min(t, t_end)).position_W;
+    along_m += (p - path.back()).norm();
+    if ((p - path.back()).norm() >= 0.01) path.push_back(p);
+  }
+  const Eigen::Vector2d toward = (unseen - path.back()).head<2>();
+  const double yaw = toward.norm() > 1e-3 ? std::atan2(toward.y(), toward.x()) : vehicle.yaw_rad;
+  TrajectoryResult look = planTrajectory(path, vehicle, yaw, map, params_.trajectory);
+  if (!look.ok()) look = planTrajectory({vehicle.position_W}, vehicle, yaw, map, params_.trajectory);
+  if (!look.ok()) {
+    hold(vehicle, t_s);
+    return ExplorationStatus::Failed;
+  }
+  startTrajectory(std::move(look.trajectory), t_s, FlightKind::Look);
+  return ExplorationStatus::Planned;
 }
 
 bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle, double t_s) {

@@ -169,6 +169,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     result.trajectory_true.push_back({frame.t_s, frame.T_W_S_true});
     result.trajectory_estimate.push_back({frame.t_s, frame.T_W_S_estimate});
     frame_times.push_back(frame.t_s);
+    manager.addDepthFrame(frame.t_s, frame.depth, *K, frame.T_W_S_estimate);  // the safety layer's, when on
     const SensorFrame data = SensorFrame::depth(std::move(frame.depth), K);  // the frame is not used after this
     Stopwatch mapper_watch;  // the mapper's own work only: integration, correction, background cycle
     mapper.addFrame(FrameId(frame.index), frame.t_s, data, frame.T_W_S_estimate);
@@ -197,10 +198,13 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     mapper_ms.push_back(mapper_ms_this_frame);
     const planner::TsdfMapQuery map(mapper.volume());  // re-created every cycle: the volume changed
     const std::size_t detours_before = manager.alcStats().detours;
+    const std::size_t emergency_stops_before = manager.counters().emergency_stops;
     const planner::ExplorationStep step =
         manager.update(map, mapper.takeDirtyRegion(), vehicleState(estimate, manager.command(frame.t_s)), frame.t_s);
     if (manager.alcStats().detours > detours_before) result.events.push_back({frame.t_s, "alc_detour"});
     if (step.alc_status == planner::AlcStatus::kGaveUp) result.events.push_back({frame.t_s, "alc_gave_up"});
+    if (manager.counters().emergency_stops > emergency_stops_before)
+      result.events.push_back({frame.t_s, "emergency_stop"});
     map_ms.push_back(step.map_update_ms);
     const bool replanned = step.reason != planner::ReplanReason::None;
     if (replanned) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);
@@ -413,6 +417,9 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["retreats"] = r.planner_counters.retreats;
   j["revisit_rounds"] = r.planner_counters.revisit_rounds;
   j["final_sweep_clusters"] = r.planner_counters.final_sweep_clusters;
+  j["safety_layer"] = c.planner.safety.enabled;
+  j["emergency_stops"] = r.planner_counters.emergency_stops;
+  j["look_stops"] = r.planner_counters.look_stops;
   j["map_update_ms_median"] = r.map_update_ms_median;
   j["frame_wall_ms_median"] = r.frame_wall_ms_median;
   j["frame_wall_ms_p99"] = r.frame_wall_ms_p99;
@@ -532,6 +539,8 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   s.mean_speed_mps = s.exploration_time_s > 0.0 ? s.path_length_m / s.exploration_time_s : 0.0;
   s.activity_time_s = r.activity_time_s;
   s.longest_hold_s = r.longest_hold_s;
+  s.emergency_stops = r.planner_counters.emergency_stops;
+  s.look_stops = r.planner_counters.look_stops;
 
   const TriangleMesh mesh = extractMesh(volume);
   if (options.write_map) {

@@ -130,6 +130,28 @@ TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", 
   CHECK(observable.coverage(planner::TsdfMapQuery(r.mapper->volume())) >= 0.85);
 }
 
+TEST_CASE(
+    "With the safety layer, exploration under drift s3 finishes without collisions, each emergency stop an "
+    "event",
+    "[sim][exploration]") {
+  const World world(twoRooms());
+  ExplorationConfig config = twoRoomConfig("s3");
+  setBudgets(config, BudgetMode::Counted);
+  config.planner.safety.enabled = true;
+  const ExplorationResult r = runExploration(world, config);
+  INFO("time " << r.exploration_time_s << " s, looks " << r.planner_counters.look_stops << ", emergency stops "
+               << r.planner_counters.emergency_stops << ", closest " << r.min_clearance_m << " m");
+  CHECK(r.finished);
+  CHECK(r.collisions == 0);
+  CHECK(r.min_clearance_m >= config.vehicle_radius_m);
+  const ObservableSurface observable(world, config.planner.box_W, config.start.position_W);
+  CHECK(observable.coverage(planner::TsdfMapQuery(r.mapper->volume())) >= 0.85);
+  // Every emergency stop is an event.
+  const auto stops = std::count_if(r.events.begin(), r.events.end(),
+                                   [](const ExplorationEvent& e) { return e.what == "emergency_stop"; });
+  CHECK(std::size_t(stops) == r.planner_counters.emergency_stops);
+}
+
 TEST_CASE("Counted budgets make a run repeat exactly; setBudgets switches both ways", "[sim][exploration]") {
   const World world(twoRooms());
   ExplorationConfig config = twoRoomConfig("s2");  // drift, loop closures and re-integration

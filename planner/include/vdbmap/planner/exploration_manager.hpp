@@ -40,6 +40,7 @@
 #include "vdbmap/planner/frontier.hpp"
 #include "vdbmap/planner/local_refinement.hpp"
 #include "vdbmap/planner/path_planner.hpp"
+#include "vdbmap/planner/recent_frames.hpp"
 #include "vdbmap/planner/target_book.hpp"
 #include "vdbmap/planner/tour.hpp"
 #include "vdbmap/planner/trajectory.hpp"
@@ -56,6 +57,39 @@
 #include <vector>
 
 namespace vdbmap::planner {
+
+/// The drift-free safety layer near the vehicle: the last seconds of depth frames
+/// (ExplorationManager::addDepthFrame, recent_frames.hpp). With it, every update
+///  - checks the rest of the trajectory against the recent frames' surfaces, read as obstacles
+///    over the global map (recent_obstacle_map.hpp): blocked there but clear in the global map,
+///    the manager replans at once and stops if no plan is found (an emergency stop,
+///    ReplanReason::EmergencyStop);
+///  - looks where the vehicle flies: the way ahead within its braking distance plus look_margin_m
+///    must have been seen free by a recent frame, else the vehicle brakes along its trajectory and
+///    turns toward that way (ReplanReason::LookAhead, FlightKind::Look), then replans. Points that
+///    lie more steeply above or below the vehicle than the camera's vertical half field of view
+///    are exempt: no yaw would bring them into view.
+/// Paths and trajectories are planned with the recent surfaces as obstacles too, and (face_travel)
+/// their yaw faces the way while moving.
+struct SafetyConfig {
+  bool enabled = false;
+  /// Trajectories to targets face the direction of travel while moving
+  /// (TrajectoryConfig::yaw_along_travel), so that the camera sees the way it flies and looks are
+  /// rare, unless the recent frames saw all of their way free already (then the yaw is spread
+  /// over the motion, which turns less).
+  bool face_travel = true;
+  /// The window and pooling of the recent frames; max_range_m and free_margin_m are set by the
+  /// manager (the viewpoint camera's max range, collision_radius_m).
+  RecentFramesConfig recent;
+  /// The way ahead that must have been seen free: the braking distance v^2 / (2 a_max) plus this
+  /// (a frame period of flight, and the vehicle's radius); [0, 10]
+  double look_margin_m = 0.5;
+  /// Looks in a row that leave the way ahead unseen before the target gets a failure and the
+  /// vehicle holds (the way may be hidden behind a corner); [1, 100]
+  int max_chained_looks = 3;
+
+  void validate() const;
+};
 
 struct ExplorationManagerConfig {
   /// The exploration box (world frame): frontiers, viewpoints and paths stay inside. Required.
@@ -133,6 +167,9 @@ struct ExplorationManagerConfig {
   /// from a clear start; [0, 100]
   int max_chained_backtracks = 2;
 
+  /// The drift-free safety layer near the vehicle (SafetyConfig); off by default.
+  SafetyConfig safety;
+
   /// Active loop closure (active_loop_closure.hpp). Off by default, so that the manager is plain
   /// FUEL; alc.unreachable_cost_s is set from cost.unreachable_cost_s by the manager.
   bool alc_enabled = false;
@@ -166,6 +203,8 @@ enum class ReplanReason {
   FrameShift,         ///< shiftFrame() was called
   Retry,              ///< the previous replan failed
   LoopDetourTimeout,  ///< the loop-closure detour in progress ran out of time without a loop
+  EmergencyStop,      ///< the recent frames see the rest of the trajectory blocked; the global map does not
+  LookAhead,          ///< the way ahead was not seen free by the recent frames: brake and look (SafetyConfig)
 };
 const char* toString(ReplanReason r);
 
@@ -186,6 +225,7 @@ enum class FlightKind {
   LoopDetour,  ///< to a loop-closing viewpoint (ALC); no periodic replans on the way
   Escape,      ///< straight out of a start blocked by occupied voxels; no replans but at its end
   Retreat,     ///< back along the way flown; no replans but at its end
+  Look,        ///< braking along the way, turning to look along it (SafetyConfig); replanned at its end
 };
 const char* toString(FlightKind k);
 
@@ -198,7 +238,7 @@ enum class ExplorationActivity {
   LoopDetour,   ///< flying an active-loop-closure detour
   Escaping,     ///< moving straight out of a start blocked by occupied voxels
   Retreating,   ///< going back along the way flown
-  Turning,      ///< at the goal, turning on the spot
+  Turning,      ///< at the goal, turning on the spot; or braking to look along the way ahead (FlightKind::Look)
   Holding,      ///< at rest, nothing left to fly (waiting for a replan, or finished)
 };
 inline constexpr int kExplorationActivities = 8;
@@ -231,6 +271,8 @@ struct ExplorationCounters {
   std::size_t retreats = 0;              ///< escapes back along the way flown
   std::size_t revisit_rounds = 0;        ///< ExplorationManagerConfig::revisit_rounds done
   std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
+  std::size_t emergency_stops = 0;       ///< ReplanReason::EmergencyStop replans (SafetyConfig)
+  std::size_t look_stops = 0;            ///< ReplanReason::LookAhead: brakings to look along the way (SafetyConfig)
 };
 
 class ExplorationManager {
@@ -265,6 +307,13 @@ class ExplorationManager {
   /// the update() that fed it) to its corrected pose in the estimate frame after the correction;
   /// the viewpoint history moves with it. Without ALC, nothing happens.
   void notifyLoopClosure(double t_s, const std::function<FlatPose(const FlownViewpoint&)>& corrected = {});
+
+  /// A depth frame captured at t_s from the sensor pose T_W_S (the estimate frame, as the
+  /// trajectory), for the safety layer (SafetyConfig); ignored when it is off. Frames must come
+  /// in time order. Throws std::invalid_argument for an image whose size differs from K's.
+  void addDepthFrame(double t_s, const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S);
+  /// The safety layer's recent frames (null when it is off).
+  const RecentFrames* recentFrames() const { return recent_.get(); }
 
   /// Active loop closure (null when alc_enabled is false).
   const ActiveLoopClosure* alc() const { return alc_.get(); }
@@ -320,8 +369,19 @@ class ExplorationManager {
   std::vector<Target> liveTargets(const MapQuery& map);
 
   // ---- decisions
-  ReplanReason replanReason(const MapQuery& map, double t_s);
+  /// `flight_map`: `map` with the recent frames' surfaces (the same map without the safety layer).
+  ReplanReason replanReason(const MapQuery& map, const MapQuery& flight_map, double t_s);
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
+  /// The first point of the way ahead (SafetyConfig::look_margin_m) that no recent frame saw
+  /// free; nullopt when there is none (or the vehicle is not moving along its trajectory).
+  std::optional<Vec3d> unseenWayAhead(const VehicleState& vehicle, double voxel_size_m, double t_s) const;
+  /// The first point of `trajectory` (moved by `shift`) after t_from, within way_m along it, that
+  /// no recent frame saw free; points more steeply above or below origin_W than the camera's
+  /// vertical half field of view are exempt.
+  std::optional<Vec3d> firstUnseen(const Trajectory& trajectory, const Eigen::Isometry3d& shift, double t_from,
+                                   double way_m, const Vec3d& origin_W, double voxel_size_m) const;
+  /// Brakes along the current trajectory and turns toward `unseen` (FlightKind::Look).
+  ExplorationStatus lookAhead(const MapQuery& map, const VehicleState& vehicle, const Vec3d& unseen, double t_s);
   /// The current trajectory is an escape or a retreat still being flown.
   bool escaping(double t_s) const;
   bool trajectoryMoves() const { return trajectory_.motionDuration() > 0.0; }
@@ -362,6 +422,7 @@ class ExplorationManager {
   TargetBook book_;                         ///< failures, blacklist, the current target
   EscapePlanner escapes_;                   ///< the way flown, and the ways out of a blocked start
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
+  std::unique_ptr<RecentFrames> recent_;    ///< null without the safety layer
 
   // The state machine.
   ExplorationPhase phase_ = ExplorationPhase::Exploring;
@@ -370,6 +431,7 @@ class ExplorationManager {
   int turns_left_ = 0;          ///< parts of the initial turn still to plan
   int chained_escapes_ = 0;     ///< escapes since the last plan that started clear
   int chained_backtracks_ = 0;  ///< retreats after every target failed, since the last plan
+  int chained_looks_ = 0;       ///< looks since the way ahead was last seen free
 
   // The current trajectory.
   Trajectory trajectory_;

@@ -9,8 +9,9 @@
 // are checked on the true pose against the world: a collision event starts when the true position
 // comes closer than vehicle_radius_m to a surface (and ends when it leaves that distance).
 //
-// Per camera frame (15 Hz), in this order: the frame is recorded in the log (if any) and integrated
-// by the Mapper at its estimated pose; a correction event goes to Mapper::updatePoses, and the
+// Per camera frame (15 Hz), in this order: the frame is recorded in the log (if any), given to the
+// manager's safety layer (when planner.safety is on) and integrated by the Mapper at its estimated
+// pose; a correction event goes to Mapper::updatePoses, and the
 // manager is told that the estimate frame moved (ExplorationManager::shiftFrame, so the vehicle's
 // true path does not jump) and that a loop closed (notifyLoopClosure, with the corrected poses of
 // the frames, which move active loop closure's viewpoint history); one budgeted re-integration
@@ -104,7 +105,8 @@ using ExplorationOptions [[deprecated("renamed ExplorationRecordConfig")]] = Exp
 
 /// Something that happened in the run, for diagnosis: "loop_closure", "alc_detour" (a detour
 /// started), "alc_gave_up" (a detour given up without a loop closure), "collision" (a collision
-/// event began in the flight up to this frame).
+/// event began in the flight up to this frame), "emergency_stop" (the safety layer found the
+/// trajectory blocked, planner::ReplanReason::EmergencyStop).
 struct ExplorationEvent {
   double t_s = 0.0;
   std::string what;
@@ -254,6 +256,8 @@ struct ExplorationSummary {
   double mean_speed_mps = 0.0;  ///< path_length_m / exploration_time_s
   std::array<double, planner::kExplorationActivities> activity_time_s{};  ///< as ExplorationResult's
   double longest_hold_s = 0.0;
+  std::size_t emergency_stops = 0;  ///< planner::ExplorationCounters' (the safety layer)
+  std::size_t look_stops = 0;
   double wall_s = 0.0;
 };
 

@@ -1,0 +1,184 @@
+// The safety layer in closed loop (SafetyConfig): a world whose global map drift put 0.5 m off,
+// where the planner without the layer flies into a wall it cannot see, and with it does not.
+//
+// The true world is a corridor 12 x 2 x 2.5 m with a block narrowing it to a 0.8 m gap along its
+// +y wall. The global map holds all of it shifted by +0.5 m in y (what 0.5 m of drift since it
+// was seen leaves), known up to x = 6 m: the map's gap lies 0.5 m into the true +y wall, and the
+// frontier beyond it draws the vehicle through. The vehicle starts facing away (-x), so the wall
+// is outside the camera's view. The test flies the manager's commands exactly (the vehicle is
+// where its estimate says), renders depth from the TRUE world at each frame, and measures the
+// true clearance along the flight.
+#include "planner/planner_test_maps.hpp"
+
+#include "vdbmap/planner/exploration_manager.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+using namespace vdbmap;
+using namespace vdbmap::planner;
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+namespace {
+constexpr double kVoxel = 0.1;
+/// A collision: the true position closer than this to a surface (the simulator's vehicle radius).
+constexpr double kVehicleRadiusM = 0.2;
+constexpr double kFramePeriodS = 1.0 / 15.0;
+
+/// The true world: inside the corridor box, outside the block.
+const Eigen::AlignedBox3d kCorridor(Vec3d(0, 0, 0), Vec3d(12, 2, 2.5));
+const Eigen::AlignedBox3d kBlock(Vec3d(3, 0, 0), Vec3d(3.5, 1.2, 2.5));
+/// Drift: the map holds the world shifted by this.
+const Vec3d kMapOffset(0.0, 0.5, 0.0);
+
+double trueClearance(const Vec3d& p) {
+  if (!kCorridor.contains(p)) return 0.0;
+  const double to_walls = std::min((p - kCorridor.min()).minCoeff(), (kCorridor.max() - p).minCoeff());
+  return std::min(to_walls, kBlock.exteriorDistance(p));
+}
+
+/// Depth along the optical axis from the true world, for a camera at T_W_S.
+DepthImage renderTrue(const CameraIntrinsics& K, const Pose3d& T_W_S) {
+  DepthImage depth(K.width, K.height);
+  const Vec3d o = T_W_S.translation();
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u) {
+      const Vec3d d = T_W_S.linear() * Vec3d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);  // optical z = 1
+      double t = std::numeric_limits<double>::infinity();
+      for (int a = 0; a < 3; ++a)  // leaving the corridor (o is inside)
+        if (d[a] != 0.0) t = std::min(t, ((d[a] > 0.0 ? kCorridor.max()[a] : kCorridor.min()[a]) - o[a]) / d[a]);
+      double t0 = 0.0, t1 = t;  // entering the block
+      for (int a = 0; a < 3 && t0 <= t1; ++a) {
+        const double ta = (kBlock.min()[a] - o[a]) / d[a], tb = (kBlock.max()[a] - o[a]) / d[a];
+        t0 = std::max(t0, std::min(ta, tb));
+        t1 = std::min(t1, std::max(ta, tb));
+      }
+      depth.at(u, v) = float(t0 <= t1 && t0 > 0.0 ? t0 : t);
+    }
+  return depth;
+}
+
+/// The global map: the world moved by kMapOffset, known for x < 6 m, unknown beyond.
+DenseMap driftedMap() {
+  const auto vox = [](double m) { return int(std::lround(m / kVoxel)); };
+  const Coord off(0, vox(kMapOffset.y()), 0);
+  DenseMap map(kVoxel, CoordBBox(Coord(-2), Coord(vox(12) + 2, vox(2.5) + 8, vox(2.5) + 2)));
+  map.fill(CoordBBox(Coord(0) + off, Coord(vox(12), vox(2), vox(2.5)) + off), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(1) + off, Coord(vox(6), vox(2) - 1, vox(2.5) - 1) + off), Occupancy::Free);
+  map.fill(CoordBBox(Coord(vox(6) + 1, 1, 1) + off, Coord(vox(12) - 1, vox(2) - 1, vox(2.5) - 1) + off),
+           Occupancy::Unknown);
+  map.fill(CoordBBox(Coord(vox(3), 0, 0) + off, Coord(vox(3.5), vox(1.2), vox(2.5)) + off), Occupancy::Occupied);
+  return map;
+}
+
+struct Flight {
+  double min_clearance_m = std::numeric_limits<double>::infinity();
+  double max_x_m = 0.0;  ///< how far along the corridor the vehicle got
+  ExplorationCounters counters;
+  bool finished = false;
+};
+
+/// Flies the manager for up to max_time_s against the drifted map, rendering the true world.
+Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0) {
+  CameraIntrinsics K;  // 160 x 120 with the default camera's field of view
+  K.width = 160;
+  K.height = 120;
+  K.fx = K.fy = 387.229 / 4.0;
+  K.cx = 79.5;
+  K.cy = 59.5;
+  ExplorationManagerConfig p;
+  p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5));
+  p.initial_turn = false;
+  p.safety.enabled = safety;
+  p.safety.face_travel = face_travel;
+  p.path.seed = 3;
+  p.path.time_limit_s = 1.0;  // counted: the same flight on any machine
+  p.path.max_iterations = 3000;
+  p.cost_path.time_limit_s = 1.0;
+  p.cost_path.max_iterations = 300;
+  const DenseMap map = driftedMap();
+  const Vec3d start(1.0, 1.3, 1.2);
+  ExplorationManager m(p, test::at(start, M_PI), 0.0);
+  Flight f;
+  for (double t = 0.0; t <= max_time_s; t += kFramePeriodS) {
+    for (double s = std::max(0.0, t - kFramePeriodS); s <= t; s += 0.005) {  // the flight since the last frame
+      const Vec3d x = m.command(s).position_W;
+      f.min_clearance_m = std::min(f.min_clearance_m, trueClearance(x));
+      f.max_x_m = std::max(f.max_x_m, x.x());
+    }
+    const VehicleState c = m.command(t);
+    VehicleState v = test::at(c.position_W, c.yaw_rad);
+    v.velocity_W = c.velocity_W;
+    const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
+    m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
+    if (m.update(map, CoordBBox(), v, t).status == ExplorationStatus::Finished) {
+      f.finished = true;
+      break;
+    }
+  }
+  f.counters = m.counters();
+  return f;
+}
+}  // namespace
+
+TEST_CASE("SafetyConfig::validate names the field", "[planner][safety]") {
+  SafetyConfig c;
+  CHECK_NOTHROW(c.validate());
+  c.look_margin_m = -0.1;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.look_margin_m"));
+  c = {};
+  c.max_chained_looks = 0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.max_chained_looks"));
+  c = {};
+  c.recent.pool_px = 100;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.pool_px"));
+}
+
+TEST_CASE("The scene is what the test says: the map's gap lies in the true wall, and the true gap is open",
+          "[planner][safety]") {
+  const DenseMap map = driftedMap();
+  MapProbe probe(map);
+  CHECK(probe.isClear(Vec3d(3.25, 2.1, 1.2), 0.35));           // the map's gap, 0.4 m from both sides
+  CHECK(trueClearance(Vec3d(3.25, 2.1, 1.2)) == 0.0);          // is inside the true wall
+  CHECK(trueClearance(Vec3d(3.25, 1.6, 1.2)) == Approx(0.4));  // the true gap
+  CHECK(probe.atWorld(Vec3d(7.0, 1.5, 1.2)) == Occupancy::Unknown);
+  const DepthImage ahead =
+      renderTrue(CameraIntrinsics{160, 120, 96.8, 96.8, 79.5, 59.5}, lookingPose(Vec3d(1, 0.6, 1.2), 0.0));
+  CHECK(ahead.at(79, 59) == Approx(2.0).margin(0.05));               // the block's face at x = 3, straight ahead
+  CHECK(ahead.at(0, 59) == Approx(1.4 * 96.8 / 79.5).margin(0.05));  // the wall at y = 2 m, to the left
+}
+
+TEST_CASE(
+    "Under 0.5 m of drift, the planner flies into a wall outside the camera's view; with the safety "
+    "layer it turns to face the way first, sees the wall, stops and keeps clear",
+    "[planner][safety]") {
+  const Flight without = fly(/*safety=*/false);
+  INFO("without: clearance " << without.min_clearance_m << " m, reached x " << without.max_x_m << " m");
+  CHECK(without.max_x_m > 3.5);                      // through the map's gap
+  CHECK(without.min_clearance_m < kVehicleRadiusM);  // a collision
+  CHECK(without.counters.emergency_stops == 0);
+  CHECK(without.counters.look_stops == 0);
+
+  // Trajectories that face the way turn on the spot before moving off: the camera sees the wall
+  // across the trajectory planned through the map's gap, and the vehicle stops and replans.
+  const Flight with = fly(/*safety=*/true);
+  INFO("with: clearance " << with.min_clearance_m << " m, reached x " << with.max_x_m << " m, looks "
+                          << with.counters.look_stops << ", emergency stops " << with.counters.emergency_stops);
+  CHECK(with.min_clearance_m >= kVehicleRadiusM);
+  CHECK(with.counters.emergency_stops >= 1);
+  CHECK(with.finished);  // the gap is blocked by what it saw: the target is given up
+
+  // With the yaw spread over the motion instead, the vehicle starts off looking away: the way
+  // ahead is unseen, so it brakes and looks first (a look stop), then sees the wall.
+  const Flight looking = fly(/*safety=*/true, /*face_travel=*/false);
+  INFO("looking: clearance " << looking.min_clearance_m << " m, reached x " << looking.max_x_m << " m, looks "
+                             << looking.counters.look_stops << ", emergency stops "
+                             << looking.counters.emergency_stops);
+  CHECK(looking.min_clearance_m >= kVehicleRadiusM);
+  CHECK(looking.counters.look_stops >= 1);
+  CHECK(looking.finished);
+}
