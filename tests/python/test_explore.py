@@ -240,3 +240,21 @@ def test_exploration_config_defaults_and_shortcuts(room):
     np.testing.assert_array_equal(hi, ROOM_MAX)
     np.testing.assert_array_equal(for_world.start, sim.default_start_position(room, for_world.box))
     assert room.distance(for_world.start[None, :])[0] >= 0.6
+
+
+def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
+    config = tiny_config("s2")
+    config.set_budgets("counted")
+    assert not config.planner.safety.enabled  # off by default, as `vdbmap explore --safety`
+    assert cli_default("explore", "--safety") == "off"
+    assert cli_default("explore", "--safety-window-s") == str(int(vdbmap.planner.RecentFramesConfig().window_s))
+    config.planner.safety.enabled = True
+    config.planner.safety.recent.window_s = 5.0
+    config.planner.safety.recent.pool_px = 0
+    with pytest.raises(ValueError, match="RecentFramesConfig.pool_px"):
+        sim.run_exploration(room, config)
+    config.planner.safety.recent.pool_px = 4
+    result = sim.run_exploration(room, config)
+    assert result.finished and result.collisions == 0
+    counters = result.planner_counters
+    assert counters.replans >= counters.emergency_stops + counters.look_stops
