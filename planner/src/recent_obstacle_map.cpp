@@ -5,54 +5,56 @@ namespace vdbmap::planner {
 namespace {
 class RecentObstacleReader : public MapReader {
  public:
-  RecentObstacleReader(std::unique_ptr<MapReader> base, const SurfaceVoxels& surface, const openvdb::CoordBBox& bounds)
-      : base_(std::move(base)), surface_(surface), bounds_(bounds) {}
+  RecentObstacleReader(std::unique_ptr<MapReader> base, const RecentObstacleMap& map)
+      : base_(std::move(base)), map_(map) {}
 
   Occupancy at(const openvdb::Coord& ijk) override {
-    if (bounds_.isInside(ijk) && surface_.count(ijk) > 0) return Occupancy::Occupied;
-    return base_->at(ijk);
+    return map_.isRecentSurface(ijk) ? Occupancy::Occupied : base_->at(ijk);
   }
 
   void readBox(const openvdb::CoordBBox& box, Occupancy* out) override {
     base_->readBox(box, out);
     openvdb::CoordBBox overlap = box;
-    overlap.intersect(bounds_);
+    overlap.intersect(map_.surfaceBounds());
     if (overlap.empty()) return;
     const openvdb::Coord dim = box.dim();
-    const auto set = [&](const openvdb::Coord& c) {
-      out[(std::size_t(c.x() - box.min().x()) * std::size_t(dim.y()) + std::size_t(c.y() - box.min().y())) *
-              std::size_t(dim.z()) +
-          std::size_t(c.z() - box.min().z())] = Occupancy::Occupied;
-    };
-    if (overlap.volume() <= surface_.size()) {  // look up each voxel of the overlap, or walk the set
-      for (auto it = overlap.begin(); it; ++it)
-        if (surface_.count(*it) > 0) set(*it);
-    } else {
-      for (const auto& [c, n] : surface_)
-        if (overlap.isInside(c)) set(c);
-    }
+    for (int x = overlap.min().x(); x <= overlap.max().x(); ++x)
+      for (int y = overlap.min().y(); y <= overlap.max().y(); ++y)
+        for (int z = overlap.min().z(); z <= overlap.max().z(); ++z)
+          if (map_.isRecentSurface(openvdb::Coord(x, y, z)))
+            out[(std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
+                    std::size_t(dim.z()) +
+                std::size_t(z - box.min().z())] = Occupancy::Occupied;
   }
 
  private:
   std::unique_ptr<MapReader> base_;
-  const SurfaceVoxels& surface_;
-  openvdb::CoordBBox bounds_;
+  const RecentObstacleMap& map_;
 };
 }  // namespace
 
 RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface)
     : base_(&base), surface_(&surface) {
-  for (const auto& [c, n] : surface) surface_bounds_.expand(c);
+  for (const auto& [c, n] : surface) bounds_.expand(c);
+  if (bounds_.empty()) return;
+  dim_ = bounds_.dim();
+  const std::size_t volume = std::size_t(dim_.x()) * std::size_t(dim_.y()) * std::size_t(dim_.z());
+  if (volume > kMaxDenseVoxels) return;
+  bits_.assign((volume + 63) / 64, 0);
+  for (const auto& [c, n] : surface) {
+    const std::size_t i = index(c);
+    bits_[i / 64] |= std::uint64_t(1) << (i % 64);
+  }
 }
 
 openvdb::CoordBBox RecentObstacleMap::knownBounds() const {
   openvdb::CoordBBox bounds = base_->knownBounds();
-  if (!surface_bounds_.empty()) bounds.expand(surface_bounds_);
+  if (!bounds_.empty()) bounds.expand(bounds_);
   return bounds;
 }
 
 std::unique_ptr<MapReader> RecentObstacleMap::reader() const {
-  return std::make_unique<RecentObstacleReader>(base_->reader(), *surface_, surface_bounds_);
+  return std::make_unique<RecentObstacleReader>(base_->reader(), *this);
 }
 
 }  // namespace vdbmap::planner

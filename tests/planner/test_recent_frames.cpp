@@ -234,4 +234,15 @@ TEST_CASE("RecentObstacleMap reads recent surface voxels occupied and everything
         for (int z = box.min().z(); z <= box.max().z(); ++z) REQUIRE(out[i++] == reader->at(Coord(x, y, z)));
   }
   CHECK(&map.sightMap() == &base.sightMap());
+
+  // Surface voxels spread over a box too large for one bit per voxel are looked up instead.
+  SurfaceVoxels spread;
+  spread[Coord(5, 5, 5)] = 1;
+  spread[Coord(1200, 1200, 200)] = 1;
+  const RecentObstacleMap sparse(base, spread);
+  auto sparse_reader = sparse.reader();
+  CHECK(sparse_reader->at(Coord(5, 5, 5)) == Occupancy::Occupied);
+  CHECK(sparse_reader->at(Coord(1200, 1200, 200)) == Occupancy::Occupied);
+  CHECK(sparse_reader->at(Coord(6, 5, 5)) == Occupancy::Free);
+  CHECK(sparse_reader->at(Coord(600, 600, 100)) == Occupancy::Unknown);
 }

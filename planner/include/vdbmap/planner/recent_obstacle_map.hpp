@@ -10,11 +10,17 @@
 #include "vdbmap/planner/map_query.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
 
+#include <cstdint>
+#include <vector>
+
 namespace vdbmap::planner {
 
 class RecentObstacleMap : public MapQuery {
  public:
-  /// `base` and `surface` (RecentFrames::surfaceVoxels at base.voxelSize()) must outlive the wrapper.
+  /// `base` and `surface` (RecentFrames::surfaceVoxels at base.voxelSize()) must outlive the
+  /// wrapper. The surface is copied into a bit per voxel of its bounding box, so that a lookup
+  /// costs a few nanoseconds (paths check many voxels), unless that box holds more than
+  /// kMaxDenseVoxels (then the set is looked up).
   RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface);
 
   double voxelSize() const override { return base_->voxelSize(); }
@@ -23,10 +29,30 @@ class RecentObstacleMap : public MapQuery {
   std::unique_ptr<MapReader> reader() const override;
   const MapQuery& sightMap() const override { return base_->sightMap(); }
 
+  /// The voxel holds a recent surface.
+  bool isRecentSurface(const openvdb::Coord& ijk) const {
+    if (!bounds_.isInside(ijk)) return false;
+    if (bits_.empty()) return surface_->count(ijk) > 0;
+    const std::size_t i = index(ijk);
+    return (bits_[i / 64] >> (i % 64)) & 1u;
+  }
+  /// The bounding box of the recent surface voxels (empty when there are none).
+  const openvdb::CoordBBox& surfaceBounds() const { return bounds_; }
+
  private:
+  std::size_t index(const openvdb::Coord& ijk) const {
+    const openvdb::Coord d = ijk - bounds_.min();
+    return (std::size_t(d.x()) * std::size_t(dim_.y()) + std::size_t(d.y())) * std::size_t(dim_.z()) +
+           std::size_t(d.z());
+  }
+
+  static constexpr std::size_t kMaxDenseVoxels = std::size_t(1) << 27;  ///< 16 MB of bits
+
   const MapQuery* base_;
   const SurfaceVoxels* surface_;
-  openvdb::CoordBBox surface_bounds_;
+  openvdb::CoordBBox bounds_;
+  openvdb::Coord dim_;
+  std::vector<std::uint64_t> bits_;  ///< one per voxel of bounds_, z fastest (empty: look up surface_)
 };
 
 }  // namespace vdbmap::planner
