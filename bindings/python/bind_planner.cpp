@@ -176,6 +176,8 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("face_travel", &SafetyConfig::face_travel,
                      "trajectories face the direction of travel while moving")
       .def_readwrite("recent", &SafetyConfig::recent, "RecentFramesConfig")
+      .def_readwrite("clearance_m", &SafetyConfig::clearance_m,
+                     "the rest of the trajectory keeps this from recent surface voxels; [0, 5]")
       .def_readwrite("look_margin_m", &SafetyConfig::look_margin_m,
                      "the way ahead seen free: braking distance plus this; [0, 10]")
       .def_readwrite("max_chained_looks", &SafetyConfig::max_chained_looks,

@@ -37,7 +37,7 @@ ExplorationManagerConfig derivedParams(ExplorationManagerConfig p) {
   p.escape.clearance_m = p.path.clearance_m;
   p.escape.trajectory = p.trajectory;
   p.safety.recent.max_range_m = p.viewpoint.camera.max_range_m;
-  p.safety.recent.free_margin_m = p.collision_radius_m;
+  p.safety.recent.free_margin_m = p.safety.clearance_m;
   if (p.alc_enabled) p.alc.unreachable_cost_s = p.cost.unreachable_cost_s;  // ALC's sums skip the legs M_frt marks so
   return p;
 }
@@ -125,6 +125,7 @@ void SafetyConfig::validate() const {
   const FieldCheck check("SafetyConfig");
   recent.validate();
   check.inRange("look_margin_m", look_margin_m, 0.0, 10.0);
+  check.inRange("clearance_m", clearance_m, 0.0, 5.0);
   if (max_chained_looks < 1 || max_chained_looks > 100) check.fail("max_chained_looks", "[1, 100]", max_chained_looks);
 }
 
@@ -338,7 +339,22 @@ std::optional<Vec3d> ExplorationManager::firstUnseen(const Trajectory& trajector
   return std::nullopt;
 }
 
-ReplanReason ExplorationManager::replanReason(const MapQuery& map, const MapQuery& flight_map, double t_s) {
+bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const {
+  const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
+  if (t_rel >= t_end) return true;
+  const double dt = params_.risk_check_spacing_vox * recent.voxelSize() / std::max(params_.trajectory.v_max_m_s, 1e-3);
+  const double r = params_.safety.clearance_m;
+  const Vec3d now = shift_ * trajectory_.sample(t_rel).position_W;
+  for (double t = t_rel;; t += dt) {
+    // Within r of where the vehicle is, only what lies beyond counts: a start closer than r to a
+    // surface (e.g. after an escape) is where the vehicle already is.
+    const Vec3d p = shift_ * trajectory_.sample(std::min(t, t_end)).position_W;
+    if ((p - now).norm() >= r && recent.nearSurface(p, r)) return false;
+    if (t >= t_end) return true;
+  }
+}
+
+ReplanReason ExplorationManager::replanReason(const MapQuery& map, const RecentObstacleMap* recent, double t_s) {
   if (phase_ == ExplorationPhase::InitialTurn) {
     if (!trajectoryDone(t_s)) return ReplanReason::None;
     if (turns_left_ > 0) return ReplanReason::InitialTurn;
@@ -349,9 +365,10 @@ ReplanReason ExplorationManager::replanReason(const MapQuery& map, const MapQuer
   // voxels that blocked its start (a retreat along the way flown), and leaves no target behind.
   const bool escaping = this->escaping(t_s);
   const bool on_detour = flight_ == FlightKind::LoopDetour;
-  if (trajectoryMoves() && !escaping && !remainingTrajectoryClear(flight_map, t_s))
-    return &flight_map == &map || !remainingTrajectoryClear(map, t_s) ? ReplanReason::CollisionRisk
-                                                                      : ReplanReason::EmergencyStop;
+  if (trajectoryMoves() && !escaping) {
+    if (!remainingTrajectoryClear(map, t_s)) return ReplanReason::CollisionRisk;
+    if (recent && !remainingTrajectoryClearOfRecent(*recent, t_s)) return ReplanReason::EmergencyStop;
+  }
   if (flight_ == FlightKind::Look && !trajectoryDone(t_s)) return ReplanReason::None;
   if (pending_.retry) return ReplanReason::Retry;
   if (alc_ && alc_->detourTimedOut(t_s)) return ReplanReason::LoopDetourTimeout;
@@ -387,7 +404,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   step.clusters = frontiers_.clusters().size();
   step.frontier_voxels = frontiers_.frontierVoxelCount();
 
-  step.reason = replanReason(map, flight_map, t_s);
+  step.reason = replanReason(map, recent_map ? &*recent_map : nullptr, t_s);
   std::optional<Vec3d> unseen;
   if (step.reason == ReplanReason::None && flight_ != FlightKind::Look && !escaping(t_s)) {
     unseen = unseenWayAhead(vehicle, map.voxelSize(), t_s);

@@ -47,6 +47,16 @@ RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& 
   }
 }
 
+bool RecentObstacleMap::nearSurface(const Vec3d& p_W, double radius_m) const {
+  const openvdb::Coord lo = worldToVoxel(p_W - Vec3d::Constant(radius_m)),
+                       hi = worldToVoxel(p_W + Vec3d::Constant(radius_m));
+  openvdb::CoordBBox box(lo, hi);
+  box.intersect(bounds_);
+  for (auto it = box.begin(); it; ++it)
+    if (isRecentSurface(*it) && (voxelCenter(*it) - p_W).norm() <= radius_m) return true;
+  return false;
+}
+
 openvdb::CoordBBox RecentObstacleMap::knownBounds() const {
   openvdb::CoordBBox bounds = base_->knownBounds();
   if (!bounds_.empty()) bounds.expand(bounds_);

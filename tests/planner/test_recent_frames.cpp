@@ -235,6 +235,21 @@ TEST_CASE("RecentObstacleMap reads recent surface voxels occupied and everything
   }
   CHECK(&map.sightMap() == &base.sightMap());
 
+  // nearSurface: some surface voxel's centre within the radius (brute force over the set).
+  std::mt19937 rng{11};
+  std::uniform_real_distribution<double> coord(0.0, 0.8);
+  int near = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3d p(coord(rng), coord(rng), coord(rng));
+    const double r = 0.05 + 0.1 * (i % 4);
+    bool expected = false;
+    for (const auto& [ijk, n] : surface) expected = expected || (map.voxelCenter(ijk) - p).norm() <= r;
+    near += expected;
+    REQUIRE(map.nearSurface(p, r) == expected);
+  }
+  CHECK(near > 100);
+  CHECK(near < 1900);
+
   // Surface voxels spread over a box too large for one bit per voxel are looked up instead.
   SurfaceVoxels spread;
   spread[Coord(5, 5, 5)] = 1;

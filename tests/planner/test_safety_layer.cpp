@@ -134,6 +134,9 @@ TEST_CASE("SafetyConfig::validate names the field", "[planner][safety]") {
   c.max_chained_looks = 0;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.max_chained_looks"));
   c = {};
+  c.clearance_m = 6.0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.clearance_m"));
+  c = {};
   c.recent.pool_px = 100;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.pool_px"));
 }

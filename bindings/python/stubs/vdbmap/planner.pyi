@@ -182,6 +182,7 @@ class SafetyConfig:
     enabled: bool
     face_travel: bool
     recent: RecentFramesConfig
+    clearance_m: float
     look_margin_m: float
     max_chained_looks: int
     def __init__(self, **kwargs: Any) -> None: ...

@@ -41,6 +41,7 @@
 #include "vdbmap/planner/local_refinement.hpp"
 #include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
+#include "vdbmap/planner/recent_obstacle_map.hpp"
 #include "vdbmap/planner/target_book.hpp"
 #include "vdbmap/planner/tour.hpp"
 #include "vdbmap/planner/trajectory.hpp"
@@ -60,9 +61,9 @@ namespace vdbmap::planner {
 
 /// The drift-free safety layer near the vehicle: the last seconds of depth frames
 /// (ExplorationManager::addDepthFrame, recent_frames.hpp). With it, every update
-///  - checks the rest of the trajectory against the recent frames' surfaces, read as obstacles
-///    over the global map (recent_obstacle_map.hpp): blocked there but clear in the global map,
-///    the manager replans at once and stops if no plan is found (an emergency stop,
+///  - checks that the rest of the trajectory keeps clearance_m from the recent frames' surfaces
+///    (recent_obstacle_map.hpp); if it does not, while the global map finds it clear, the manager
+///    replans at once and stops if no plan is found (an emergency stop,
 ///    ReplanReason::EmergencyStop);
 ///  - looks where the vehicle flies: the way ahead within its braking distance plus look_margin_m
 ///    must have been seen free by a recent frame, else the vehicle brakes along its trajectory and
@@ -79,8 +80,12 @@ struct SafetyConfig {
   /// over the motion, which turns less).
   bool face_travel = true;
   /// The window and pooling of the recent frames; max_range_m and free_margin_m are set by the
-  /// manager (the viewpoint camera's max range, collision_radius_m).
+  /// manager (the viewpoint camera's max range, clearance_m).
   RecentFramesConfig recent;
+  /// What the rest of the trajectory keeps from recent surface voxels' centres (the vehicle's
+  /// radius, plus a margin for voxels: the simulator's vehicle is 0.2 m); also how far in front of
+  /// a surface a point must be to be seen free; [0, 5]
+  double clearance_m = 0.25;
   /// The way ahead that must have been seen free: the braking distance v^2 / (2 a_max) plus this
   /// (a frame period of flight, and the vehicle's radius); [0, 10]
   double look_margin_m = 0.5;
@@ -369,9 +374,11 @@ class ExplorationManager {
   std::vector<Target> liveTargets(const MapQuery& map);
 
   // ---- decisions
-  /// `flight_map`: `map` with the recent frames' surfaces (the same map without the safety layer).
-  ReplanReason replanReason(const MapQuery& map, const MapQuery& flight_map, double t_s);
+  /// `recent`: the recent frames' surfaces over `map` (null without the safety layer).
+  ReplanReason replanReason(const MapQuery& map, const RecentObstacleMap* recent, double t_s);
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
+  /// The rest of the trajectory keeps SafetyConfig::clearance_m from the recent surfaces.
+  bool remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const;
   /// The first point of the way ahead (SafetyConfig::look_margin_m) that no recent frame saw
   /// free; nullopt when there is none (or the vehicle is not moving along its trajectory).
   std::optional<Vec3d> unseenWayAhead(const VehicleState& vehicle, double voxel_size_m, double t_s) const;

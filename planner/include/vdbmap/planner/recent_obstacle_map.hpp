@@ -36,6 +36,8 @@ class RecentObstacleMap : public MapQuery {
     const std::size_t i = index(ijk);
     return (bits_[i / 64] >> (i % 64)) & 1u;
   }
+  /// Some recent surface voxel's centre lies within radius_m of p_W.
+  bool nearSurface(const Vec3d& p_W, double radius_m) const;
   /// The bounding box of the recent surface voxels (empty when there are none).
   const openvdb::CoordBBox& surfaceBounds() const { return bounds_; }
 
