@@ -7,7 +7,8 @@
 // and the time. Each update
 //  1. refreshes frontiers in that region and the viewpoints of the clusters that changed;
 //  2. decides whether to replan (ReplanReason: FUEL's three triggers, collision risk on the rest
-//     of the trajectory, a frame shift, a failed replan, an ALC detour that timed out);
+//     of the trajectory, a frame shift, a failed replan, an ALC detour that timed out; with the
+//     safety layer, SafetyConfig, an emergency stop or a look along the way);
 //  3. replans: the global tour over the best viewpoint of every target, with ALC the choice of a
 //     loop-closing detour, local refinement, a path and a trajectory to the first target that
 //     can be reached (up to max_targets_per_replan), counting failures against targets and
