@@ -27,9 +27,7 @@ class AssumeFreeReader : public MapReader {
       for (int x = overlap.min().x(); x <= overlap.max().x(); ++x)
         for (int y = overlap.min().y(); y <= overlap.max().y(); ++y)
           for (int z = overlap.min().z(); z <= overlap.max().z(); ++z) {
-            Occupancy& o = out[(std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
-                                   std::size_t(dim.z()) +
-                               std::size_t(z - box.min().z())];
+            Occupancy& o = out[boxIndex(box.min(), dim, openvdb::Coord(x, y, z))];
             if (overridden(o)) o = Occupancy::Free;
           }
     }

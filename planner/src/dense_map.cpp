@@ -27,11 +27,7 @@ DenseMap::DenseMap(double voxel_size_m, const openvdb::CoordBBox& extent)
 
 std::unique_ptr<MapReader> DenseMap::reader() const { return std::make_unique<DenseReader>(*this); }
 
-std::size_t DenseMap::index(const openvdb::Coord& ijk) const {
-  const openvdb::Coord d = ijk - extent_.min();
-  const openvdb::Coord dim = extent_.dim();
-  return (std::size_t(d.x()) * std::size_t(dim.y()) + std::size_t(d.y())) * std::size_t(dim.z()) + std::size_t(d.z());
-}
+std::size_t DenseMap::index(const openvdb::Coord& ijk) const { return boxIndex(extent_.min(), extent_.dim(), ijk); }
 
 Occupancy DenseMap::get(const openvdb::Coord& ijk) const {
   return extent_.isInside(ijk) ? cells_[index(ijk)] : Occupancy::Unknown;

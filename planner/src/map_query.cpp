@@ -22,11 +22,13 @@ void MapReader::readBox(const openvdb::CoordBBox& box, Occupancy* out) {
       for (int z = box.min().z(); z <= box.max().z(); ++z) out[i++] = at(openvdb::Coord(x, y, z));
 }
 
-openvdb::Coord MapQuery::worldToVoxel(const Vec3d& p_W) const {
-  const double inv = 1.0 / voxelSize();
+openvdb::Coord voxelOf(const Vec3d& p_W, double voxel_size_m) {
+  const double inv = 1.0 / voxel_size_m;
   return openvdb::Coord(int(std::floor(p_W.x() * inv + 0.5)), int(std::floor(p_W.y() * inv + 0.5)),
                         int(std::floor(p_W.z() * inv + 0.5)));
 }
+
+openvdb::Coord MapQuery::worldToVoxel(const Vec3d& p_W) const { return voxelOf(p_W, voxelSize()); }
 
 Vec3d MapQuery::voxelCenter(const openvdb::Coord& ijk) const {
   return Vec3d(ijk.x(), ijk.y(), ijk.z()) * voxelSize();

@@ -1,5 +1,6 @@
 #include "vdbmap/planner/recent_frames.hpp"
 #include "vdbmap/field_check.hpp"
+#include "vdbmap/planner/map_query.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -70,13 +71,12 @@ void RecentFrames::add(double t_s, const DepthImage& depth, const CameraIntrinsi
 
 void RecentFrames::shift(const Eigen::Isometry3d& shift) {
   if (!shift.matrix().allFinite()) throw std::invalid_argument("RecentFrames::shift: the shift is not finite");
-  for (Frame& f : frames_) {
+  for (Frame& f : frames_) {  // counts add up per frame, so each frame is taken out and put back
     uncount(f);
     f.T_W_S = shift * f.T_W_S;
     f.T_S_W = f.T_W_S.inverse();
-  }
-  for (Frame& f : frames_)
     if (voxel_size_m_ > 0.0) count(f);
+  }
 }
 
 void RecentFrames::clear() {
@@ -114,12 +114,7 @@ void RecentFrames::count(Frame& frame) {
   if (frame.counted) return;
   frame.voxels.clear();
   frame.voxels.reserve(frame.surface_S.size());
-  const double inv = 1.0 / voxel_size_m_;
-  for (const Vec3f& s : frame.surface_S) {
-    const Vec3d p = frame.T_W_S * s.cast<double>();
-    frame.voxels.emplace_back(int(std::floor(p.x() * inv + 0.5)), int(std::floor(p.y() * inv + 0.5)),
-                              int(std::floor(p.z() * inv + 0.5)));
-  }
+  for (const Vec3f& s : frame.surface_S) frame.voxels.push_back(voxelOf(frame.T_W_S * s.cast<double>(), voxel_size_m_));
   std::sort(frame.voxels.begin(), frame.voxels.end());
   frame.voxels.erase(std::unique(frame.voxels.begin(), frame.voxels.end()), frame.voxels.end());
   for (const openvdb::Coord& c : frame.voxels) ++voxels_[c];

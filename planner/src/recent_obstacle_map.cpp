@@ -20,11 +20,10 @@ class RecentObstacleReader : public MapReader {
     const openvdb::Coord dim = box.dim();
     for (int x = overlap.min().x(); x <= overlap.max().x(); ++x)
       for (int y = overlap.min().y(); y <= overlap.max().y(); ++y)
-        for (int z = overlap.min().z(); z <= overlap.max().z(); ++z)
-          if (map_.isRecentSurface(openvdb::Coord(x, y, z)))
-            out[(std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
-                    std::size_t(dim.z()) +
-                std::size_t(z - box.min().z())] = Occupancy::Occupied;
+        for (int z = overlap.min().z(); z <= overlap.max().z(); ++z) {
+          const openvdb::Coord c(x, y, z);
+          if (map_.isRecentSurface(c)) out[boxIndex(box.min(), dim, c)] = Occupancy::Occupied;
+        }
   }
 
  private:
@@ -42,7 +41,7 @@ RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& 
   if (volume > kMaxDenseVoxels) return;
   bits_.assign((volume + 63) / 64, 0);
   for (const auto& [c, n] : surface) {
-    const std::size_t i = index(c);
+    const std::size_t i = boxIndex(bounds_.min(), dim_, c);
     bits_[i / 64] |= std::uint64_t(1) << (i % 64);
   }
 }

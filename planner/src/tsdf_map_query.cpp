@@ -117,14 +117,6 @@ class TsdfReader : public MapReader {
         }
   }
 
-  /// Index of voxel (x, y, z) in an x-major array over `box` (readBox's order).
-  static std::size_t indexIn(const openvdb::CoordBBox& box, int x, int y, int z) {
-    const openvdb::Coord dim = box.dim();
-    return (std::size_t(x - box.min().x()) * std::size_t(dim.y()) + std::size_t(y - box.min().y())) *
-               std::size_t(dim.z()) +
-           std::size_t(z - box.min().z());
-  }
-
   /// The tsdf of every voxel of `box` (NaN when unknown), x-major as readBox's output.
   void readTsdf(const openvdb::CoordBBox& box, float* out) {
     forEachLeafPart(box, [&](const openvdb::Coord& origin, const openvdb::CoordBBox& part) {
@@ -137,7 +129,7 @@ class TsdfReader : public MapReader {
         for (int y = part.min().y(); y <= part.max().y(); ++y)
           for (int z = part.min().z(); z <= part.max().z(); ++z) {
             const openvdb::Coord c(x, y, z);
-            out[indexIn(box, x, y, z)] =
+            out[boxIndex(box.min(), box.dim(), c)] =
                 tsdfOf(w_leaf ? w_leaf->getValue(c) : w_tile, wd_leaf ? wd_leaf->getValue(c) : wd_tile);
           }
     });
@@ -151,7 +143,8 @@ class TsdfReader : public MapReader {
       for (int x = part.min().x(); x <= part.max().x(); ++x)
         for (int y = part.min().y(); y <= part.max().y(); ++y)
           for (int z = part.min().z(); z <= part.max().z(); ++z)
-            out[indexIn(box, x, y, z)] = leaf ? leaf->getValue(openvdb::Coord(x, y, z)) : tile;
+            out[boxIndex(box.min(), box.dim(), openvdb::Coord(x, y, z))] =
+                leaf ? leaf->getValue(openvdb::Coord(x, y, z)) : tile;
     });
   }
 

@@ -32,13 +32,23 @@ namespace vdbmap::planner {
 /// them), read through the planner's rules (hits, assumed-free space) by each MapQuery.
 using Occupancy = VoxelState;
 
+/// The voxel that holds p_W, for voxels of voxel_size_m (the convention above).
+openvdb::Coord voxelOf(const Vec3d& p_W, double voxel_size_m);
+
+/// Where voxel ijk goes in a z-fastest array over the box with corner `min` and sides `dim`
+/// (MapReader::readBox's order): ((x - min.x) * dim.y + (y - min.y)) * dim.z + (z - min.z).
+inline std::size_t boxIndex(const openvdb::Coord& min, const openvdb::Coord& dim, const openvdb::Coord& ijk) {
+  const openvdb::Coord d = ijk - min;
+  return (std::size_t(d.x()) * std::size_t(dim.y()) + std::size_t(d.y())) * std::size_t(dim.z()) + std::size_t(d.z());
+}
+
 /// Per-thread reader of a map. Not thread-safe: one per thread.
 class MapReader {
  public:
   virtual ~MapReader() = default;
   virtual Occupancy at(const openvdb::Coord& ijk) = 0;
   /// The states of every voxel of a non-empty `box`, z fastest: voxel (x, y, z) goes to
-  /// out[((x - min.x) * dim.y + (y - min.y)) * dim.z + (z - min.z)]. The default calls at() per
+  /// out[boxIndex(box.min(), box.dim(), (x, y, z))]. The default calls at() per
   /// voxel; maps override it to read whole blocks at once (frontier scans read boxes).
   virtual void readBox(const openvdb::CoordBBox& box, Occupancy* out);
 };
@@ -79,9 +89,7 @@ class MapProbe {
 
   Occupancy at(const openvdb::Coord& ijk) {
     if (!cache_box_.isInside(ijk)) return reader_->at(ijk);
-    const openvdb::Coord d = ijk - cache_box_.min();
-    return cache_[(std::size_t(d.x()) * std::size_t(cache_dim_.y()) + std::size_t(d.y())) * std::size_t(cache_dim_.z()) +
-                  std::size_t(d.z())];
+    return cache_[boxIndex(cache_box_.min(), cache_dim_, ijk)];
   }
   Occupancy atWorld(const Vec3d& p_W) { return at(map_->worldToVoxel(p_W)); }
 

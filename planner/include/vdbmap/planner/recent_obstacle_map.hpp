@@ -33,7 +33,7 @@ class RecentObstacleMap : public MapQuery {
   bool isRecentSurface(const openvdb::Coord& ijk) const {
     if (!bounds_.isInside(ijk)) return false;
     if (bits_.empty()) return surface_->count(ijk) > 0;
-    const std::size_t i = index(ijk);
+    const std::size_t i = boxIndex(bounds_.min(), dim_, ijk);
     return (bits_[i / 64] >> (i % 64)) & 1u;
   }
   /// Some recent surface voxel's centre lies within radius_m of p_W.
@@ -42,12 +42,6 @@ class RecentObstacleMap : public MapQuery {
   const openvdb::CoordBBox& surfaceBounds() const { return bounds_; }
 
  private:
-  std::size_t index(const openvdb::Coord& ijk) const {
-    const openvdb::Coord d = ijk - bounds_.min();
-    return (std::size_t(d.x()) * std::size_t(dim_.y()) + std::size_t(d.y())) * std::size_t(dim_.z()) +
-           std::size_t(d.z());
-  }
-
   static constexpr std::size_t kMaxDenseVoxels = std::size_t(1) << 27;  ///< 16 MB of bits
 
   const MapQuery* base_;
