@@ -293,12 +293,15 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
 
 // ---- decisions ---------------------------------------------------------------------------------
 
+double ExplorationManager::riskCheckStep_s(double voxel_size_m) const {
+  return params_.risk_check_spacing_vox * voxel_size_m / std::max(params_.trajectory.v_max_m_s, 1e-3);
+}
+
 bool ExplorationManager::remainingTrajectoryClear(const MapQuery& map, double t_s) const {
   const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
   if (t_rel >= t_end) return true;  // at rest (or turning at the goal): nothing left to fly through
   MapProbe probe(map);
-  const double v_max = std::max(params_.trajectory.v_max_m_s, 1e-3);
-  const double dt = params_.risk_check_spacing_vox * map.voxelSize() / v_max;
+  const double dt = riskCheckStep_s(map.voxelSize());
   Vec3d prev = shift_ * trajectory_.sample(t_rel).position_W;
   for (double t = t_rel + dt;; t += dt) {
     const Vec3d p = shift_ * trajectory_.sample(std::min(t, t_end)).position_W;
@@ -323,7 +326,7 @@ std::optional<Vec3d> ExplorationManager::firstUnseen(const Trajectory& trajector
                                                      double t_from, double way_m, const Vec3d& origin_W,
                                                      double voxel_size_m) const {
   const double t_end = trajectory.motionDuration();
-  const double dt = params_.risk_check_spacing_vox * voxel_size_m / std::max(params_.trajectory.v_max_m_s, 1e-3);
+  const double dt = riskCheckStep_s(voxel_size_m);
   const double tan_fov_y = params_.viewpoint.camera.tan_half_fov_y;
   Vec3d prev = shift * trajectory.sample(t_from).position_W;
   double along_m = 0.0;
@@ -342,7 +345,7 @@ std::optional<Vec3d> ExplorationManager::firstUnseen(const Trajectory& trajector
 bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const {
   const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
   if (t_rel >= t_end) return true;
-  const double dt = params_.risk_check_spacing_vox * recent.voxelSize() / std::max(params_.trajectory.v_max_m_s, 1e-3);
+  const double dt = riskCheckStep_s(recent.voxelSize());
   const double r = params_.safety.clearance_m;
   const Vec3d now = shift_ * trajectory_.sample(t_rel).position_W;
   for (double t = t_rel;; t += dt) {

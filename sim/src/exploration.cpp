@@ -198,13 +198,11 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     mapper_ms.push_back(mapper_ms_this_frame);
     const planner::TsdfMapQuery map(mapper.volume());  // re-created every cycle: the volume changed
     const std::size_t detours_before = manager.alcStats().detours;
-    const std::size_t emergency_stops_before = manager.counters().emergency_stops;
     const planner::ExplorationStep step =
         manager.update(map, mapper.takeDirtyRegion(), vehicleState(estimate, manager.command(frame.t_s)), frame.t_s);
     if (manager.alcStats().detours > detours_before) result.events.push_back({frame.t_s, "alc_detour"});
     if (step.alc_status == planner::AlcStatus::kGaveUp) result.events.push_back({frame.t_s, "alc_gave_up"});
-    if (manager.counters().emergency_stops > emergency_stops_before)
-      result.events.push_back({frame.t_s, "emergency_stop"});
+    if (step.reason == planner::ReplanReason::EmergencyStop) result.events.push_back({frame.t_s, "emergency_stop"});
     map_ms.push_back(step.map_update_ms);
     const bool replanned = step.reason != planner::ReplanReason::None;
     if (replanned) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);

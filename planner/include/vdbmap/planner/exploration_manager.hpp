@@ -377,6 +377,9 @@ class ExplorationManager {
   // ---- decisions
   /// `recent`: the recent frames' surfaces over `map` (null without the safety layer).
   ReplanReason replanReason(const MapQuery& map, const RecentObstacleMap* recent, double t_s);
+  /// The time between the trajectory's samples that checks along it use: risk_check_spacing_vox
+  /// voxels at v_max.
+  double riskCheckStep_s(double voxel_size_m) const;
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
   /// The rest of the trajectory keeps SafetyConfig::clearance_m from the recent surfaces.
   bool remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const;
