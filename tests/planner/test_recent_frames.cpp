@@ -1,6 +1,7 @@
 // The safety layer's pieces: RecentFrames (what the last seconds of depth frames saw free and
 // where they saw surfaces) against brute-force references on full-resolution images, and
 // RecentObstacleMap (those surfaces as obstacles over another map).
+#include "common/quarter_camera.hpp"
 #include "planner/planner_test_maps.hpp"
 
 #include "vdbmap/planner/recent_frames.hpp"
@@ -16,19 +17,9 @@ using namespace vdbmap;
 using namespace vdbmap::planner;
 using openvdb::Coord;
 using openvdb::CoordBBox;
+using vdbmap::test::quarterCamera;
 
 namespace {
-/// A small camera with the default camera's field of view (80 x 60 deg).
-CameraIntrinsics smallCamera() {
-  CameraIntrinsics K;
-  K.width = 160;
-  K.height = 120;
-  K.fx = K.fy = 387.229 / 4.0;
-  K.cx = 79.5;
-  K.cy = 59.5;
-  return K;
-}
-
 /// Depth of a wall facing the camera at `distance_m` along its optical axis.
 DepthImage flatWall(const CameraIntrinsics& K, float distance_m) { return DepthImage(K.width, K.height, distance_m); }
 
@@ -86,7 +77,7 @@ TEST_CASE("RecentFramesConfig::validate names the field", "[planner][safety]") {
 
 TEST_CASE("A wall 3 m ahead is seen free up to free_margin_m before it, never behind it or outside the view",
           "[planner][safety]") {
-  const CameraIntrinsics K = smallCamera();
+  const CameraIntrinsics K = quarterCamera();
   RecentFrames recent;                                                     // margin 0.15 m, range 4.5 m
   CHECK_FALSE(recent.seesFree(Vec3d(1, 0, 0)));                            // nothing seen yet
   recent.add(0.0, flatWall(K, 3.0f), K, lookingPose(Vec3d::Zero(), 0.0));  // looking along +x
@@ -104,7 +95,7 @@ TEST_CASE("A wall 3 m ahead is seen free up to free_margin_m before it, never be
 }
 
 TEST_CASE("seesFree equals a brute force over the full-resolution pixels of each frame", "[planner][safety]") {
-  const CameraIntrinsics K = smallCamera();
+  const CameraIntrinsics K = quarterCamera();
   for (const int pool : {1, 3, 4, 7}) {
     RecentFramesConfig c;
     c.pool_px = pool;
@@ -133,7 +124,7 @@ TEST_CASE("seesFree equals a brute force over the full-resolution pixels of each
 }
 
 TEST_CASE("Frames older than the window are forgotten, with their surface voxels", "[planner][safety]") {
-  const CameraIntrinsics K = smallCamera();
+  const CameraIntrinsics K = quarterCamera();
   RecentFramesConfig c;
   c.window_s = 1.0;
   RecentFrames recent(c);
@@ -160,7 +151,7 @@ TEST_CASE("Frames older than the window are forgotten, with their surface voxels
 
 TEST_CASE("Surface voxels hold exactly each block's nearest point within range, and move with shift()",
           "[planner][safety]") {
-  const CameraIntrinsics K = smallCamera();
+  const CameraIntrinsics K = quarterCamera();
   RecentFramesConfig c;
   c.pool_px = 4;
   RecentFrames recent(c);
@@ -208,7 +199,7 @@ TEST_CASE("Surface voxels hold exactly each block's nearest point within range, 
 
 TEST_CASE("RecentObstacleMap reads recent surface voxels occupied and everything else as its base",
           "[planner][safety]") {
-  const DenseMap base = test::makeRoom(Eigen::Vector3i(20, 20, 10));
+  const DenseMap base = planner::test::makeRoom(Eigen::Vector3i(20, 20, 10));
   SurfaceVoxels surface;
   surface[Coord(5, 5, 5)] = 1;  // free in the base
   surface[Coord(6, 5, 5)] = 2;

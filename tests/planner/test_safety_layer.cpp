@@ -8,6 +8,7 @@
 // is outside the camera's view. The test flies the manager's commands exactly (the vehicle is
 // where its estimate says), renders depth from the TRUE world at each frame, and measures the
 // true clearance along the flight.
+#include "common/quarter_camera.hpp"
 #include "planner/planner_test_maps.hpp"
 
 #include "vdbmap/planner/exploration_manager.hpp"
@@ -22,6 +23,7 @@ using namespace vdbmap;
 using namespace vdbmap::planner;
 using openvdb::Coord;
 using openvdb::CoordBBox;
+using vdbmap::test::quarterCamera;
 
 namespace {
 constexpr double kVoxel = 0.1;
@@ -84,12 +86,7 @@ struct Flight {
 
 /// Flies the manager for up to max_time_s against the drifted map, rendering the true world.
 Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0) {
-  CameraIntrinsics K;  // 160 x 120 with the default camera's field of view
-  K.width = 160;
-  K.height = 120;
-  K.fx = K.fy = 387.229 / 4.0;
-  K.cx = 79.5;
-  K.cy = 59.5;
+  const CameraIntrinsics K = quarterCamera();
   ExplorationManagerConfig p;
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5));
   p.initial_turn = false;
@@ -102,7 +99,7 @@ Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0) {
   p.cost_path.max_iterations = 300;
   const DenseMap map = driftedMap();
   const Vec3d start(1.0, 1.3, 1.2);
-  ExplorationManager m(p, test::at(start, M_PI), 0.0);
+  ExplorationManager m(p, planner::test::at(start, M_PI), 0.0);
   Flight f;
   for (double t = 0.0; t <= max_time_s; t += kFramePeriodS) {
     for (double s = std::max(0.0, t - kFramePeriodS); s <= t; s += 0.005) {  // the flight since the last frame
@@ -111,7 +108,7 @@ Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0) {
       f.max_x_m = std::max(f.max_x_m, x.x());
     }
     const VehicleState c = m.command(t);
-    VehicleState v = test::at(c.position_W, c.yaw_rad);
+    VehicleState v = planner::test::at(c.position_W, c.yaw_rad);
     v.velocity_W = c.velocity_W;
     const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
     m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
@@ -149,8 +146,7 @@ TEST_CASE("The scene is what the test says: the map's gap lies in the true wall,
   CHECK(trueClearance(Vec3d(3.25, 2.1, 1.2)) == 0.0);          // is inside the true wall
   CHECK(trueClearance(Vec3d(3.25, 1.6, 1.2)) == Approx(0.4));  // the true gap
   CHECK(probe.atWorld(Vec3d(7.0, 1.5, 1.2)) == Occupancy::Unknown);
-  const DepthImage ahead =
-      renderTrue(CameraIntrinsics{160, 120, 96.8, 96.8, 79.5, 59.5}, lookingPose(Vec3d(1, 0.6, 1.2), 0.0));
+  const DepthImage ahead = renderTrue(quarterCamera(), lookingPose(Vec3d(1, 0.6, 1.2), 0.0));
   CHECK(ahead.at(79, 59) == Approx(2.0).margin(0.05));               // the block's face at x = 3, straight ahead
   CHECK(ahead.at(0, 59) == Approx(1.4 * 96.8 / 79.5).margin(0.05));  // the wall at y = 2 m, to the left
 }
