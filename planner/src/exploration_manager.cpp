@@ -87,6 +87,7 @@ const char* toString(ExplorationActivity a) {
     case ExplorationActivity::Retreating: return "retreating";
     case ExplorationActivity::Turning: return "turning";
     case ExplorationActivity::Holding: return "holding";
+    case ExplorationActivity::Looking: return "looking";
   }
   return "?";
 }
@@ -105,6 +106,7 @@ const char* toString(ReplanReason r) {
     case ReplanReason::LoopDetourTimeout: return "loop_detour_timeout";
     case ReplanReason::EmergencyStop: return "emergency_stop";
     case ReplanReason::LookAhead: return "look_ahead";
+    case ReplanReason::WaySeen: return "way_seen";
   }
   return "?";
 }
@@ -234,8 +236,8 @@ ExplorationActivity ExplorationManager::activity(double t_s) const {
     return flight_ == FlightKind::Retreat ? ExplorationActivity::Retreating : ExplorationActivity::Escaping;
   const double t_rel = t_s - trajectory_t0_;
   if (t_rel >= trajectory_.duration()) return ExplorationActivity::Holding;
-  if (t_rel >= trajectory_.motionDuration() || t_rel < trajectory_.motionStart() || flight_ == FlightKind::Look)
-    return ExplorationActivity::Turning;
+  if (flight_ == FlightKind::Look) return ExplorationActivity::Looking;
+  if (t_rel >= trajectory_.motionDuration() || t_rel < trajectory_.motionStart()) return ExplorationActivity::Turning;
   if (flight_ == FlightKind::LoopDetour) return ExplorationActivity::LoopDetour;
   return phase_ == ExplorationPhase::FinalSweep ? ExplorationActivity::FinalSweep : ExplorationActivity::ToTarget;
 }
@@ -319,12 +321,17 @@ std::optional<Vec3d> ExplorationManager::unseenWayAhead(const VehicleState& vehi
   if (!recent_ || t_rel >= t_end || t_rel + kSoon_s < trajectory_.motionStart()) return std::nullopt;
   const double v = vehicle.velocity_W.norm();
   const double way_m = v * v / (2.0 * params_.trajectory.a_max_m_s2) + params_.safety.look_margin_m;
-  return firstUnseen(trajectory_, shift_, t_rel, way_m, vehicle.position_W, voxel_size_m);
+  if (const std::optional<UnseenPoint> u =
+          firstUnseen(trajectory_, shift_, t_rel, way_m, vehicle.position_W, voxel_size_m))
+    return u->p_W;
+  return std::nullopt;
 }
 
-std::optional<Vec3d> ExplorationManager::firstUnseen(const Trajectory& trajectory, const Eigen::Isometry3d& shift,
-                                                     double t_from, double way_m, const Vec3d& origin_W,
-                                                     double voxel_size_m) const {
+std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(const Trajectory& trajectory,
+                                                                               const Eigen::Isometry3d& shift,
+                                                                               double t_from, double way_m,
+                                                                               const Vec3d& origin_W,
+                                                                               double voxel_size_m) const {
   const double t_end = trajectory.motionDuration();
   const double dt = riskCheckStep_s(voxel_size_m);
   const double tan_fov_y = params_.viewpoint.camera.tan_half_fov_y;
@@ -336,10 +343,21 @@ std::optional<Vec3d> ExplorationManager::firstUnseen(const Trajectory& trajector
     prev = p;
     const Vec3d d = p - origin_W;
     const bool in_view_by_yaw = std::abs(d.z()) <= d.head<2>().norm() * tan_fov_y;
-    if (in_view_by_yaw && !recent_->seesFree(p)) return p;
+    if (in_view_by_yaw && !recent_->seesFree(p)) return UnseenPoint{p, along_m};
     if (t >= t_end) break;
   }
   return std::nullopt;
+}
+
+bool ExplorationManager::lookSawWay(double t_s) const {
+  if (!recent_) return false;
+  // Facing the way, not just glimpsing the point: the replan that follows flies on along it.
+  const VehicleState now = command(t_s);
+  const Vec3d look_at = shift_ * look_at_W_;
+  const Eigen::Vector2d toward = (look_at - now.position_W).head<2>();
+  const bool facing = toward.norm() < 1e-3 || std::abs(wrapAngle(std::atan2(toward.y(), toward.x()) - now.yaw_rad)) <=
+                                                  params_.trajectory.start_facing_rad;
+  return facing && recent_->seesFree(look_at);
 }
 
 bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const {
@@ -372,7 +390,8 @@ ReplanReason ExplorationManager::replanReason(const MapQuery& map, const RecentO
     if (!remainingTrajectoryClear(map, t_s)) return ReplanReason::CollisionRisk;
     if (recent && !remainingTrajectoryClearOfRecent(*recent, t_s)) return ReplanReason::EmergencyStop;
   }
-  if (flight_ == FlightKind::Look && !trajectoryDone(t_s)) return ReplanReason::None;
+  if (flight_ == FlightKind::Look && !trajectoryDone(t_s))
+    return lookSawWay(t_s) ? ReplanReason::WaySeen : ReplanReason::None;
   if (pending_.retry) return ReplanReason::Retry;
   if (alc_ && alc_->detourTimedOut(t_s)) return ReplanReason::LoopDetourTimeout;
   if (book_.target() == 0 && !on_detour && !escaping) return ReplanReason::Start;
@@ -537,7 +556,8 @@ ExplorationManager::TourChoice ExplorationManager::chooseTour(const MapQuery& ma
   choice.detour = choice.decision && choice.decision->detour();
   choice.order = choice.decision ? choice.decision->order() : global.tour.order;
   if (params_.keep_target && !choice.detour && book_.target() != 0 &&
-      (step.reason == ReplanReason::Periodic || step.reason == ReplanReason::FrameShift)) {
+      (step.reason == ReplanReason::Periodic || step.reason == ReplanReason::FrameShift ||
+       flight_ == FlightKind::Look)) {
     // The current target stays first; the rest keep the tour's order.
     std::vector<ClusterId> ids;
     for (const Target& t : targets) ids.push_back(t.cluster);
@@ -647,14 +667,18 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
   TrajectoryConfig tc = params_.trajectory;
   TrajectoryResult traj;
   if (tc.yaw_along_travel && recent_) {
-    // Facing the way costs turns on the spot; a way the recent frames saw free all along does
-    // not need it, and keeps the yaw spread over the motion.
+    // Facing the way costs turns; a way the recent frames saw free all along does not need it,
+    // and keeps the yaw spread over the motion. Else the vehicle may fly, while it turns, the
+    // part of the way seen free short of the look-ahead margin.
     tc.yaw_along_travel = false;
     traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, tc);
     const double all = std::numeric_limits<double>::infinity();
-    if (traj.ok() &&
-        firstUnseen(traj.trajectory, Eigen::Isometry3d::Identity(), 0.0, all, vehicle.position_W, map.voxelSize()))
-      tc.yaw_along_travel = true;
+    if (traj.ok())
+      if (const std::optional<UnseenPoint> unseen = firstUnseen(traj.trajectory, Eigen::Isometry3d::Identity(), 0.0,
+                                                                all, vehicle.position_W, map.voxelSize())) {
+        tc.yaw_along_travel = true;
+        tc.free_way_m = std::max(0.0, unseen->along_m - params_.safety.look_margin_m);
+      }
   }
   if (tc.yaw_along_travel || !traj.ok()) traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, tc);
   if (!traj.ok()) return PlanOutcome::Failed;
@@ -674,7 +698,6 @@ ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const Vehic
     hold(vehicle, t_s);
     return ExplorationStatus::Failed;
   }
-  book_.clearTarget();  // the visit is broken off; the replan after the look chooses again
   // Brake along the trajectory: its points up to the braking distance, then rest.
   const double v = vehicle.velocity_W.norm();
   const double brake_m = v * v / (2.0 * params_.trajectory.a_max_m_s2);
@@ -696,6 +719,7 @@ ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const Vehic
     return ExplorationStatus::Failed;
   }
   startTrajectory(std::move(look.trajectory), t_s, FlightKind::Look);
+  look_at_W_ = unseen;
   return ExplorationStatus::Planned;
 }
 

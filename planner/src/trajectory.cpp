@@ -46,6 +46,7 @@ void TrajectoryConfig::validate() const {
   if (!(yaw_lead_s > 0.0 && yaw_lead_s <= 10.0)) check.fail("yaw_lead_s", "(0, 10]", yaw_lead_s);
   if (!(start_facing_rad >= 0.0 && start_facing_rad <= M_PI))
     check.fail("start_facing_rad", "[0, pi]", start_facing_rad);
+  if (!(free_way_m >= 0.0)) check.fail("free_way_m", ">= 0", free_way_m);
 }
 
 // ---- sampling ----------------------------------------------------------------------------------
@@ -147,6 +148,15 @@ VehicleState Trajectory::sample(double t_s) const {
 
 // ---- construction ------------------------------------------------------------------------------
 
+/// A speed cap over the first `until_m` of the way: braking from the start speed (at the
+/// tangential acceleration arcs allow, so that it holds anywhere) down to `speed_m_s`.
+namespace {
+struct SlowStart {
+  double speed_m_s = 0.0;
+  double until_m = 0.0;
+};
+}  // namespace
+
 /// Builds a Trajectory: lead-in, corner rounding with clearance checks, speed profile, yaw.
 class TrajectoryBuilder {
  public:
@@ -184,10 +194,12 @@ class TrajectoryBuilder {
       }
     }
     const bool matched = matches(best);
-    if (p_.yaw_along_travel && best.motion_s_ > 0.0)
+    if (p_.yaw_along_travel && best.motion_s_ > 0.0) {
       trackYaw(best, start.yaw_rad, goal_yaw);
-    else
+      if (speed0 > 0.0 && matched) slowUntilFacing(best, start.yaw_rad, goal_yaw);
+    } else {
       fitYaw(best, start.yaw_rad, goal_yaw);
+    }
     result.trajectory = std::move(best);
     result.status = matched ? TrajectoryStatus::Ok : TrajectoryStatus::StartVelocityReduced;
     return result;
@@ -261,19 +273,18 @@ class TrajectoryBuilder {
     }
 
     // Pieces: line, arc, line, ... ; a stop corner splits two lines at the vertex.
-    std::vector<bool> stop_after;  // per piece: the vehicle stops at its end
     auto addLine = [&](const Vec3d& a, const Vec3d& b, bool stop) {
       const double len = (b - a).norm();
       if (len <= 1e-9) {
-        if (stop && !stop_after.empty()) stop_after.back() = true;
+        if (stop && !traj.pieces_.empty()) traj.pieces_.back().stop_at_end = true;
         return;
       }
       Trajectory::Piece line;
       line.p0 = a;
       line.dir = (b - a) / len;
       line.length = len;
+      line.stop_at_end = stop;
       traj.pieces_.push_back(line);
-      stop_after.push_back(stop);
     };
     Vec3d cursor = pts.front();
     for (std::size_t i = 1; i < pts.size(); ++i) {
@@ -287,7 +298,6 @@ class TrajectoryBuilder {
       const Vec3d u_in = (pts[i] - pts[i - 1]).normalized(), u_out = (pts[i + 1] - pts[i]).normalized();
       addLine(cursor, pts[i] - u_in * corners[i].tangent_m, false);
       traj.pieces_.push_back(arcs[i]);
-      stop_after.push_back(false);
       cursor = pts[i] + u_out * corners[i].tangent_m;
     }
     double s = 0.0;
@@ -295,13 +305,13 @@ class TrajectoryBuilder {
       pc.s0 = s;
       s += pc.length;
     }
-    profile(traj, stop_after, v0);
+    profile(traj, v0);
     return traj;
   }
 
   /// Time-optimal speed on a grid (nodes at piece ends): forward pass accelerating, backward
   /// pass braking, each limited per interval; then node times.
-  void profile(Trajectory& traj, const std::vector<bool>& stop_after, double v0) {
+  void profile(Trajectory& traj, double v0, const SlowStart& slow = {}) const {
     const double a_max = p_.a_max_m_s2;
     const double a_n = p_.normal_acc_share * a_max;
     const double a_t_arc = std::sqrt(1.0 - p_.normal_acc_share * p_.normal_acc_share) * a_max;
@@ -316,9 +326,11 @@ class TrajectoryBuilder {
         limit2.push_back(cap2);
         a_t.push_back(pc.arc ? a_t_arc : a_max);
       }
-      if (stop_after[k]) limit2.back() = 0.0;
+      if (pc.stop_at_end) limit2.back() = 0.0;
     }
     limit2.back() = 0.0;  // rest at the goal
+    for (std::size_t i = 1; i < s_nodes.size() && s_nodes[i] <= slow.until_m; ++i)
+      limit2[i] = std::min(limit2[i], std::max(slow.speed_m_s * slow.speed_m_s, v0 * v0 - 2.0 * a_t_arc * s_nodes[i]));
     const std::size_t m = s_nodes.size();
     std::vector<double> v2(limit2);
     for (std::size_t i = 0; i + 1 < m; ++i)
@@ -382,12 +394,22 @@ class TrajectoryBuilder {
         (traj.sample(std::min(p_.yaw_lead_s, traj.motion_s_)).position_W - traj.sample(0.0).position_W).head<2>();
     const double heading = way.norm() > 0.01 ? std::atan2(way.y(), way.x()) : yaw0;
     if (traj.startVelocity().norm() == 0.0) {
-      // From rest: the motion waits until the way lies within start_facing_rad of the yaw.
+      // From rest: the yaw faces the way (within start_facing_rad) after k steps. Until then the
+      // vehicle may fly only as far as lets it stop within free_way_m: node i's stopping point
+      // s + v^2 / (2 a_max) grows along the profile, so the last node within it bounds the time
+      // the motion may take before it faces the way, and the rest of the k steps are waited.
       double yaw = yaw0, rate = 0.0;
       int k = 0;
       for (; k < 100000 && std::abs(wrapAngle(heading - yaw)) > p_.start_facing_rad; ++k) step(heading, yaw, rate);
-      for (double& t : traj.node_t_) t += k * h;
-      traj.motion_s_ += k * h;
+      double unfaced_s = 0.0;
+      for (std::size_t i = 0; i < traj.node_t_.size(); ++i) {
+        const double v = traj.node_v_[i];
+        if (traj.node_s_[i] + v * v / (2.0 * p_.a_max_m_s2) > p_.free_way_m) break;
+        unfaced_s = traj.node_t_[i];
+      }
+      const int wait = std::max(0, k - int(std::floor(unfaced_s / h)));
+      for (double& t : traj.node_t_) t += wait * h;
+      traj.motion_s_ += wait * h;
     }
     const double T = traj.motion_s_;
     double yaw = yaw0, rate = 0.0, target = heading;
@@ -410,6 +432,53 @@ class TrajectoryBuilder {
       traj.yaw_rate_track_.push_back(rate);
     }
     traj.duration_s_ = std::max(T, double(traj.yaw_track_.size() - 1) * h);
+  }
+
+  /// Whether the vehicle faces the way (the yaw within start_facing_rad of the tracker's target)
+  /// before its stopping point, s + v^2 / (2 a_max), passes free_way_m; checked at the grid nodes.
+  bool facesInTime(const Trajectory& traj) const {
+    const double T = traj.motion_s_;
+    for (std::size_t i = 0; i < traj.node_t_.size(); ++i) {
+      const VehicleState st = traj.sample(traj.node_t_[i]);
+      const Eigen::Vector2d ahead =
+          (traj.sample(std::min(traj.node_t_[i] + p_.yaw_lead_s, T)).position_W - st.position_W).head<2>();
+      if (ahead.norm() > 0.01 &&
+          std::abs(wrapAngle(std::atan2(ahead.y(), ahead.x()) - st.yaw_rad)) <= p_.start_facing_rad)
+        return true;
+      const double v = traj.node_v_[i];
+      if (traj.node_s_[i] + v * v / (2.0 * p_.a_max_m_s2) > p_.free_way_m) return false;
+    }
+    return true;
+  }
+
+  /// TrajectoryConfig::free_way_m for a moving start, which cannot wait on the spot: the fastest
+  /// cruise speed over the free way (to 1 % of v_max, by bisection) that lets the vehicle face the
+  /// way in time. Left as it is when the vehicle cannot stop within the free way even now, or
+  /// when crawling at 5 cm/s does not help either (a look stop along the way then brakes it).
+  void slowUntilFacing(Trajectory& traj, double yaw0, double goal_yaw) const {
+    if (facesInTime(traj)) return;
+    const double v0 = traj.node_v_.front();
+    if (v0 * v0 / (2.0 * p_.a_max_m_s2) > p_.free_way_m) return;
+    const auto slowed = [&](double speed_m_s) {
+      Trajectory t = traj;
+      profile(t, v0, SlowStart{speed_m_s, p_.free_way_m});
+      trackYaw(t, yaw0, goal_yaw);
+      return t;
+    };
+    double lo = 0.05, hi = p_.v_max_m_s;
+    Trajectory best = slowed(lo);
+    if (!facesInTime(best)) return;
+    while (hi - lo > 0.01 * p_.v_max_m_s) {
+      const double mid = 0.5 * (lo + hi);
+      Trajectory t = slowed(mid);
+      if (facesInTime(t)) {
+        lo = mid;
+        best = std::move(t);
+      } else {
+        hi = mid;
+      }
+    }
+    traj = std::move(best);
   }
 
   TrajectoryConfig p_;

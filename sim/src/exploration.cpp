@@ -229,7 +229,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     frame_ms.push_back(frame_watch.ms());
     frame_watch.restart();
     result.cycles.push_back({frame.t_s, mapper_ms_this_frame, replanned ? step.map_update_ms + step.replan_ms : 0.0,
-                             frame_ms.back(), mapper.queuedFrames(), activity});
+                             frame_ms.back(), mapper.queuedFrames(), activity, step.reason});
     if (options.progress) {
       progress.t_s = frame.t_s;
       progress.frames = result.frames_total;
@@ -468,10 +468,11 @@ void writeCoverageCsv(const std::filesystem::path& path, const std::vector<Cover
 
 void writeCyclesCsv(const std::filesystem::path& path, const std::vector<CycleSample>& cycles) {
   vdbmap::writeFileAtomically(path, [&](std::ostream& os) {
-    os << "t_s,mapper_ms,planner_ms,frame_wall_ms,queued_frames,activity\n";
+    os << "t_s,mapper_ms,planner_ms,frame_wall_ms,queued_frames,activity,replan\n";
     for (const CycleSample& c : cycles)
       os << format("%.4f", c.t_s) << ',' << format("%.3f", c.mapper_ms) << ',' << format("%.3f", c.planner_ms) << ','
-         << format("%.3f", c.frame_wall_ms) << ',' << c.queued_frames << ',' << toString(c.activity) << '\n';
+         << format("%.3f", c.frame_wall_ms) << ',' << c.queued_frames << ',' << toString(c.activity) << ','
+         << toString(c.replan) << '\n';
   });
 }
 }  // namespace

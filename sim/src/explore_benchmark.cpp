@@ -219,7 +219,8 @@ std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const
        << " |\n";
   }
   md << "\n## Runs\n\n| world | seed | finished | t50 | t80 | t90 | t95 | t99 | time (s) | coverage | path (m) | speed "
-        "(m/s) | to target / final sweep / turning / holding / initial turn / other (s) | longest hold (s) | collisions | "
+        "(m/s) | to target / final sweep / turning / looking / holding / initial turn / other (s) | longest hold (s) | "
+        "collisions | "
         "wall (s) |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|\n";
   for (const ExploreBenchmarkRun& r : result.runs) {
     const ExplorationSummary& s = r.summary;
@@ -230,9 +231,10 @@ std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const
     md << " " << format("%.1f", s.exploration_time_s) << " | " << format("%.3f", s.coverage) << " | "
        << format("%.0f", s.path_length_m) << " | " << format("%.2f", s.mean_speed_mps) << " | "
        << format("%.0f", activity(s, A::ToTarget)) << " / " << format("%.0f", activity(s, A::FinalSweep)) << " / "
-       << format("%.0f", activity(s, A::Turning)) << " / " << format("%.0f", activity(s, A::Holding)) << " / "
-       << format("%.0f", activity(s, A::InitialTurn)) << " / " << format("%.0f", other) << " | "
-       << format("%.1f", s.longest_hold_s) << " | " << s.collisions << " | " << format("%.0f", s.wall_s) << " |\n";
+       << format("%.0f", activity(s, A::Turning)) << " / " << format("%.0f", activity(s, A::Looking)) << " / "
+       << format("%.0f", activity(s, A::Holding)) << " / " << format("%.0f", activity(s, A::InitialTurn)) << " / "
+       << format("%.0f", other) << " | " << format("%.1f", s.longest_hold_s) << " | " << s.collisions << " | "
+       << format("%.0f", s.wall_s) << " |\n";
   }
   return md.str();
 }

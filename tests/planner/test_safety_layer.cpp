@@ -81,6 +81,7 @@ struct Flight {
   double min_clearance_m = std::numeric_limits<double>::infinity();
   double max_x_m = 0.0;  ///< how far along the corridor the vehicle got
   ExplorationCounters counters;
+  int ways_seen = 0;  ///< looks that ended early: the vehicle faced the way and saw it free
   bool finished = false;
 };
 
@@ -112,7 +113,9 @@ Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0) {
     v.velocity_W = c.velocity_W;
     const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
     m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
-    if (m.update(map, CoordBBox(), v, t).status == ExplorationStatus::Finished) {
+    const ExplorationStep step = m.update(map, CoordBBox(), v, t);
+    f.ways_seen += step.reason == ReplanReason::WaySeen;
+    if (step.status == ExplorationStatus::Finished) {
       f.finished = true;
       break;
     }
@@ -172,12 +175,14 @@ TEST_CASE(
   CHECK(with.finished);  // the gap is blocked by what it saw: the target is given up
 
   // With the yaw spread over the motion instead, the vehicle starts off looking away: the way
-  // ahead is unseen, so it brakes and looks first (a look stop), then sees the wall.
+  // ahead is unseen, so it brakes and looks first (a look stop), and flies on as soon as it faces
+  // the way and sees it free, before its turn toward it ends. Then it sees the wall.
   const Flight looking = fly(/*safety=*/true, /*face_travel=*/false);
   INFO("looking: clearance " << looking.min_clearance_m << " m, reached x " << looking.max_x_m << " m, looks "
                              << looking.counters.look_stops << ", emergency stops "
                              << looking.counters.emergency_stops);
   CHECK(looking.min_clearance_m >= kVehicleRadiusM);
   CHECK(looking.counters.look_stops >= 1);
+  CHECK(looking.ways_seen >= 1);
   CHECK(looking.finished);
 }

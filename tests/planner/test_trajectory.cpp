@@ -231,6 +231,92 @@ TEST_CASE(
   CHECK(away > 20);
 }
 
+TEST_CASE(
+    "From rest with yaw_along_travel, the vehicle moves off while it still turns only as far as it can stop within "
+    "free_way_m until it faces the way",
+    "[planner][trajectory]") {
+  const DenseMap map = test::makeRoom(Eigen::Vector3i(100, 100, 30));
+  TrajectoryConfig tp;
+  tp.yaw_along_travel = true;
+  VehicleState start;
+  start.position_W = Vec3d(1, 1, 1.2);
+  start.yaw_rad = M_PI;  // its back to the way, which goes +x
+  const std::vector<Vec3d> path{start.position_W, Vec3d(8, 1, 1.2)};
+  const Trajectory on_spot = planTrajectory(path, start, 0.0, map, tp).trajectory;
+  // The turn on the spot: until the way lies within start_facing_rad.
+  CHECK(yawDistance(on_spot.sample(on_spot.motionStart()).yaw_rad, 0.0) <= tp.start_facing_rad + 0.01);
+  CHECK(yawDistance(on_spot.sample(on_spot.motionStart() - 0.05).yaw_rad, 0.0) > tp.start_facing_rad);
+
+  for (const double free_m : {0.5, 2.0}) {
+    CAPTURE(free_m);
+    tp.free_way_m = free_m;
+    const Trajectory traj = planTrajectory(path, start, 0.0, map, tp).trajectory;
+    checkTrajectory(traj, tp, &map);
+    CHECK(traj.motionStart() < on_spot.motionStart() - 0.1);
+    // It faces the way when the turn on the spot did, and not before; until then, braking at
+    // a_max stops it within free_way_m (to a 10 ms step of the yaw track).
+    double faced_s = 0.0;
+    while (yawDistance(traj.sample(faced_s).yaw_rad, 0.0) > tp.start_facing_rad) faced_s += 1e-3;
+    CHECK(faced_s == Approx(on_spot.motionStart()).margin(0.02));
+    double stop_m = 0.0;
+    for (double t = 0.0; t <= faced_s; t += 1e-3) {
+      const VehicleState s = traj.sample(t);
+      stop_m = std::max(stop_m,
+                        (s.position_W - start.position_W).norm() + s.velocity_W.squaredNorm() / (2.0 * tp.a_max_m_s2));
+    }
+    CHECK(stop_m <= free_m + tp.v_max_m_s * 0.01);
+    CHECK(stop_m >= free_m - 0.1);  // and it uses what it may
+    CHECK(yawDistance(traj.sample(traj.duration()).yaw_rad, 0.0) < 1e-3);
+  }
+  // A way free all along: no wait at all.
+  tp.free_way_m = 100.0;
+  CHECK(planTrajectory(path, start, 0.0, map, tp).trajectory.motionStart() == 0.0);
+  tp.free_way_m = -1.0;
+  CHECK_THROWS_WITH(tp.validate(), Catch::Contains("TrajectoryConfig.free_way_m"));
+}
+
+TEST_CASE(
+    "Moving with its back to the way, the vehicle slows over free_way_m just enough to face the way before its "
+    "stopping point leaves it",
+    "[planner][trajectory]") {
+  const DenseMap map = test::makeRoom(Eigen::Vector3i(200, 60, 30));
+  TrajectoryConfig tp;
+  tp.yaw_along_travel = true;
+  VehicleState start;
+  start.position_W = Vec3d(1, 3, 1.2);
+  start.velocity_W = Vec3d(1.5, 0, 0);
+  start.yaw_rad = M_PI;  // flying backwards, as a yaw spread over a way seen free leaves it
+  const std::vector<Vec3d> path{start.position_W, Vec3d(18, 3, 1.2)};
+  tp.free_way_m = 100.0;
+  const Trajectory fast = planTrajectory(path, start, 0.0, map, tp).trajectory;
+  const auto facedAt = [&](const Trajectory& t) {
+    double at = 0.0;
+    while (yawDistance(t.sample(at).yaw_rad, 0.0) > tp.start_facing_rad) at += 1e-3;
+    return at;
+  };
+  const auto stopPointAt = [&](const Trajectory& t, double t_s) {
+    const VehicleState s = t.sample(t_s);
+    return (s.position_W - start.position_W).norm() + s.velocity_W.squaredNorm() / (2.0 * tp.a_max_m_s2);
+  };
+  // Unslowed, it passes 3 m of way (its stopping point) long before it faces the way.
+  REQUIRE(stopPointAt(fast, facedAt(fast)) > 5.0);
+
+  tp.free_way_m = 3.0;
+  const TrajectoryResult r = planTrajectory(path, start, 0.0, map, tp);
+  REQUIRE(r.status == TrajectoryStatus::Ok);  // the vehicle's velocity kept
+  const Trajectory& slow = r.trajectory;
+  checkTrajectory(slow, tp, &map);
+  const double faced = facedAt(slow);
+  for (double t = 0.0; t < faced; t += 1e-3) REQUIRE(stopPointAt(slow, t) <= tp.free_way_m + 0.05);
+  CHECK(stopPointAt(slow, faced) >= tp.free_way_m - 0.5);  // it does not crawl more than it must
+  CHECK(slow.motionDuration() > fast.motionDuration());
+  CHECK(slow.sample(slow.duration()).position_W.isApprox(path.back(), 1e-12));
+
+  // A stopping point beyond the free way already: nothing to gain by slowing; left to a look stop.
+  tp.free_way_m = 0.4;
+  CHECK(planTrajectory(path, start, 0.0, map, tp).trajectory.motionDuration() == fast.motionDuration());
+}
+
 TEST_CASE("TrajectoryConfig::validate names yaw_lead_s", "[planner][trajectory]") {
   TrajectoryConfig tp;
   tp.yaw_lead_s = 0.0;

@@ -63,6 +63,21 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   // How the time went: coverage every second (and once more after the final correction, equal to
   // the summary's), a row per frame, activities summing to the flight's time.
   CHECK(lineCount(runs / "cycles.csv") == frames + 1);  // and the header
+  {
+    // Each row says why its frame replanned: the first plan after take-off among them.
+    std::ifstream in(runs / "cycles.csv");
+    std::string line;
+    std::getline(in, line);
+    CHECK(line == "t_s,mapper_ms,planner_ms,frame_wall_ms,queued_frames,activity,replan");
+    std::size_t starts = 0, none = 0;
+    while (std::getline(in, line)) {
+      const std::string reason = line.substr(line.rfind(',') + 1);
+      starts += reason == "start";
+      none += reason == "none";
+    }
+    CHECK(starts >= 1);
+    CHECK(none > frames / 2);
+  }
   const double t_end = s.at("exploration_time_s");
   CHECK(lineCount(runs / "coverage.csv") >= std::size_t(t_end) + 1);
   {

@@ -461,7 +461,7 @@ json exploreRun(const fs::path& dir, const ReportConfig& config, ReportStats& st
 
   const fs::path cycles_csv = dir / "cycles.csv";
   if (fs::is_regular_file(cycles_csv)) {
-    const Csv c = readCsv(cycles_csv, {"activity"});
+    const Csv c = readCsv(cycles_csv, {"activity", "replan"});
     const std::vector<double>& t = column(c, cycles_csv, "t_s");
     const std::vector<double>& planner_ms = column(c, cycles_csv, "planner_ms");
     std::vector<double> replan_t, replan_ms;

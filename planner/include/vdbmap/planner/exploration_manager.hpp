@@ -68,7 +68,8 @@ namespace vdbmap::planner {
 ///    ReplanReason::EmergencyStop);
 ///  - looks where the vehicle flies: the way ahead within its braking distance plus look_margin_m
 ///    must have been seen free by a recent frame, else the vehicle brakes along its trajectory and
-///    turns toward that way (ReplanReason::LookAhead, FlightKind::Look), then replans. Points that
+///    turns toward that way (ReplanReason::LookAhead, FlightKind::Look), then replans: at rest, or
+///    as soon as it faces that way and a frame sees it free (ReplanReason::WaySeen). Points that
 ///    lie more steeply above or below the vehicle than the camera's vertical half field of view
 ///    are exempt: no yaw would bring them into view.
 /// Paths and trajectories are planned with the recent surfaces as obstacles too, and (face_travel)
@@ -152,7 +153,8 @@ struct ExplorationManagerConfig {
   int final_min_cluster_size = 30;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
-  /// Periodic and frame-shift replans keep the current target first while it is a live target
+  /// Periodic and frame-shift replans, and the replan that ends a look (SafetyConfig), keep the
+  /// current target first while it is a live target
   /// (its cluster, or the cluster re-made from most of its voxels; not covered, not blacklisted):
   /// the tour and the path are planned anew, but the vehicle flies on to where it was going until
   /// the visit is over and judged. Off, as in FUEL, the tour's first target wins every replan.
@@ -211,6 +213,7 @@ enum class ReplanReason {
   LoopDetourTimeout,  ///< the loop-closure detour in progress ran out of time without a loop
   EmergencyStop,      ///< the recent frames see the rest of the trajectory blocked; the global map does not
   LookAhead,          ///< the way ahead was not seen free by the recent frames: brake and look (SafetyConfig)
+  WaySeen,            ///< a look (LookAhead) saw the way free before it came to rest
 };
 const char* toString(ReplanReason r);
 
@@ -231,7 +234,8 @@ enum class FlightKind {
   LoopDetour,  ///< to a loop-closing viewpoint (ALC); no periodic replans on the way
   Escape,      ///< straight out of a start blocked by occupied voxels; no replans but at its end
   Retreat,     ///< back along the way flown; no replans but at its end
-  Look,        ///< braking along the way, turning to look along it (SafetyConfig); replanned at its end
+  Look,        ///< braking along the way, turning to look along it (SafetyConfig); replanned at its end or once
+               ///< the way is seen free
 };
 const char* toString(FlightKind k);
 
@@ -244,10 +248,11 @@ enum class ExplorationActivity {
   LoopDetour,   ///< flying an active-loop-closure detour
   Escaping,     ///< moving straight out of a start blocked by occupied voxels
   Retreating,   ///< going back along the way flown
-  Turning,      ///< at the goal, turning on the spot; or braking to look along the way ahead (FlightKind::Look)
+  Turning,      ///< turning on the spot: at the goal, or before moving off to face the way
   Holding,      ///< at rest, nothing left to fly (waiting for a replan, or finished)
+  Looking,      ///< braking and turning to look along the way ahead (FlightKind::Look, SafetyConfig)
 };
-inline constexpr int kExplorationActivities = 8;
+inline constexpr int kExplorationActivities = 9;
 const char* toString(ExplorationActivity a);
 
 /// What one update() did.
@@ -386,11 +391,17 @@ class ExplorationManager {
   /// The first point of the way ahead (SafetyConfig::look_margin_m) that no recent frame saw
   /// free; nullopt when there is none (or the vehicle is not moving along its trajectory).
   std::optional<Vec3d> unseenWayAhead(const VehicleState& vehicle, double voxel_size_m, double t_s) const;
+  struct UnseenPoint {
+    Vec3d p_W;
+    double along_m;  ///< how far along the trajectory from t_from
+  };
   /// The first point of `trajectory` (moved by `shift`) after t_from, within way_m along it, that
   /// no recent frame saw free; points more steeply above or below origin_W than the camera's
   /// vertical half field of view are exempt.
-  std::optional<Vec3d> firstUnseen(const Trajectory& trajectory, const Eigen::Isometry3d& shift, double t_from,
-                                   double way_m, const Vec3d& origin_W, double voxel_size_m) const;
+  std::optional<UnseenPoint> firstUnseen(const Trajectory& trajectory, const Eigen::Isometry3d& shift, double t_from,
+                                         double way_m, const Vec3d& origin_W, double voxel_size_m) const;
+  /// During a look: the vehicle faces the point it looks for, and a recent frame saw it free.
+  bool lookSawWay(double t_s) const;
   /// Brakes along the current trajectory and turns toward `unseen` (FlightKind::Look).
   ExplorationStatus lookAhead(const MapQuery& map, const VehicleState& vehicle, const Vec3d& unseen, double t_s);
   /// The current trajectory is an escape or a retreat still being flown.
@@ -443,6 +454,7 @@ class ExplorationManager {
   int chained_escapes_ = 0;     ///< escapes since the last plan that started clear
   int chained_backtracks_ = 0;  ///< retreats after every target failed, since the last plan
   int chained_looks_ = 0;       ///< looks since the way ahead was last seen free
+  Vec3d look_at_W_ = Vec3d::Zero();  ///< FlightKind::Look: the point of the way it looks for
 
   // The current trajectory.
   Trajectory trajectory_;

@@ -30,8 +30,9 @@
 //  - with yaw_along_travel, the camera faces the way: the yaw tracks the direction toward where
 //    the vehicle will be yaw_lead_s later (time-optimally within the limits, sampled every 10 ms),
 //    and turns to the goal yaw only when the time left in the motion is what that turn needs,
-//    ending within 1 mrad of it. A trajectory from rest first turns on the spot until the way
-//    lies within start_facing_rad of the yaw (motionStart()).
+//    ending within 1 mrad of it. Until the way lies within start_facing_rad of the yaw, the
+//    vehicle's stopping point stays within free_way_m: a trajectory from rest turns on the spot
+//    first as long as that needs (motionStart()), a moving one slows down over free_way_m.
 // Either way, if turning takes longer than moving, the vehicle waits at the goal until it has
 // turned (this also turns it on the spot).
 #pragma once
@@ -65,9 +66,16 @@ struct TrajectoryConfig {
   bool yaw_along_travel = false;
   /// With yaw_along_travel: the yaw faces the point this much later on the trajectory; (0, 10]
   double yaw_lead_s = 0.5;
-  /// With yaw_along_travel, from rest: the motion starts once the way lies within this angle of
-  /// the yaw (below a camera's half field of view, so that it sees the way first); [0, pi]
+  /// With yaw_along_travel, from rest: the vehicle faces the way (within this angle of the yaw;
+  /// below a camera's half field of view, so that it sees the way first) before it flies more than
+  /// free_way_m; [0, pi]
   double start_facing_rad = 0.5;
+  /// With yaw_along_travel: the length of the way, from its start, that needs no facing (e.g.
+  /// what a camera saw free moments ago). Until the vehicle faces the way, its stopping point
+  /// stays within this length: from rest, the motion starts while it still turns, as early as
+  /// that allows (0 = it turns on the spot first); moving, it cruises over this length at the
+  /// highest speed that allows it, when it can stop within it at all; >= 0
+  double free_way_m = 0.0;
 
   void validate() const;
 };
@@ -88,7 +96,7 @@ class Trajectory {
   /// When the motion ends (the rest of duration() is turning in place at the goal).
   double motionDuration() const { return motion_s_; }
   /// When the motion starts: 0, or the time a trajectory from rest turns on the spot first
-  /// (TrajectoryConfig::start_facing_rad).
+  /// (TrajectoryConfig::start_facing_rad, free_way_m).
   double motionStart() const { return node_t_.empty() ? 0.0 : node_t_.front(); }
   double length_m() const { return node_s_.empty() ? 0.0 : node_s_.back(); }
   /// The polyline the rounded path was built on (the lead-in point included, if any).
@@ -106,6 +114,7 @@ class Trajectory {
     Vec3d p0 = Vec3d::Zero(), dir = Vec3d::UnitX();  ///< line: start and unit direction
     Vec3d centre = Vec3d::Zero(), e0 = Vec3d::UnitX(), e1 = Vec3d::UnitY();  ///< arc: centre + R (e0 cos + e1 sin)
     double radius = 0.0;
+    bool stop_at_end = false;  ///< the vehicle comes to rest at its end (the goal, a corner not rounded)
   };
   /// Position, unit tangent and curvature vector at arc length s.
   void geometry(double s, Vec3d& p, Vec3d& tangent, Vec3d& curvature) const;

@@ -131,6 +131,7 @@ struct CycleSample {
   double frame_wall_ms = 0.0;     ///< everything (render, map, planner, log)
   std::size_t queued_frames = 0;  ///< re-integration work left after the cycle
   planner::ExplorationActivity activity = planner::ExplorationActivity::Holding;
+  planner::ReplanReason replan = planner::ReplanReason::None;  ///< why this frame's update replanned
 };
 
 struct ExplorationResult {
