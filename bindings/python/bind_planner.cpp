@@ -121,7 +121,10 @@ void bindCostsAndPaths(py::module_& m) {
       .def_readwrite("yaw_lead_s", &TrajectoryConfig::yaw_lead_s,
                      "with yaw_along_travel, face the point this much later on the trajectory; (0, 10]")
       .def_readwrite("start_facing_rad", &TrajectoryConfig::start_facing_rad,
-                     "with yaw_along_travel, from rest: move once the way lies within this of the yaw; [0, pi]")
+                     "with yaw_along_travel: face the way within this of the yaw before leaving free_way_m; [0, pi]")
+      .def_readwrite("free_way_m", &TrajectoryConfig::free_way_m,
+                     "with yaw_along_travel: the way from the start that needs no facing; the stopping point stays "
+                     "within it until the vehicle faces the way; >= 0")
       .def("validate", &TrajectoryConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }
 
@@ -275,6 +278,8 @@ void bindExplorationParams(py::module_& m) {
                     "replans because the recent frames saw the trajectory blocked (SafetyConfig)")
       .def_readonly("look_stops", &ExplorationCounters::look_stops,
                     "brakings to look along a way the recent frames had not seen free (SafetyConfig)")
+      .def_readonly("looks_resumed", &ExplorationCounters::looks_resumed,
+                    "looks after which the vehicle flew on along the way it was flying (SafetyConfig)")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 }
 

@@ -223,6 +223,7 @@ void ExplorationManager::startTrajectory(Trajectory trajectory, double t_s, Flig
   trajectory_t0_ = t_s;
   shift_ = Eigen::Isometry3d::Identity();
   flight_ = kind;
+  if (kind != FlightKind::Look) interrupted_.reset();
 }
 
 bool ExplorationManager::escaping(double t_s) const {
@@ -448,6 +449,8 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (step.reason == ReplanReason::LookAhead) {
     ++counters_.look_stops;
     step.status = lookAhead(flight_map, vehicle, *unseen, t_s);
+  } else if (step.reason == ReplanReason::WaySeen && resumeAfterLook(flight_map, vehicle, t_s)) {
+    step.status = ExplorationStatus::Planned;
   } else if (step.reason == ReplanReason::InitialTurn) {
     --turns_left_;
     VehicleState at_rest = vehicle;
@@ -664,6 +667,16 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
     if (path.status == PathStatus::StartInvalid) return PlanOutcome::StartBlocked;
   }
   if (!path.ok()) return PlanOutcome::Failed;
+  TrajectoryResult traj = planFlight(path.waypoints, vehicle, view.yaw_rad, *plan_map);
+  if (!traj.ok()) return PlanOutcome::Failed;
+  startTrajectory(std::move(traj.trajectory), t_s, kind);
+  if (!start_free) chained_escapes_ = 0;
+  chained_backtracks_ = 0;
+  return PlanOutcome::Ok;
+}
+
+TrajectoryResult ExplorationManager::planFlight(const std::vector<Vec3d>& path_W, const VehicleState& vehicle,
+                                                double goal_yaw_rad, const MapQuery& map) const {
   TrajectoryConfig tc = params_.trajectory;
   TrajectoryResult traj;
   if (tc.yaw_along_travel && recent_) {
@@ -671,7 +684,7 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
     // and keeps the yaw spread over the motion. Else the vehicle may fly, while it turns, the
     // part of the way seen free short of the look-ahead margin.
     tc.yaw_along_travel = false;
-    traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, tc);
+    traj = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);
     const double all = std::numeric_limits<double>::infinity();
     if (traj.ok())
       if (const std::optional<UnseenPoint> unseen = firstUnseen(traj.trajectory, Eigen::Isometry3d::Identity(), 0.0,
@@ -680,12 +693,41 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
         tc.free_way_m = std::max(0.0, unseen->along_m - params_.safety.look_margin_m);
       }
   }
-  if (tc.yaw_along_travel || !traj.ok()) traj = planTrajectory(path.waypoints, vehicle, view.yaw_rad, *plan_map, tc);
-  if (!traj.ok()) return PlanOutcome::Failed;
-  startTrajectory(std::move(traj.trajectory), t_s, kind);
-  if (!start_free) chained_escapes_ = 0;
-  chained_backtracks_ = 0;
-  return PlanOutcome::Ok;
+  if (tc.yaw_along_travel || !traj.ok()) traj = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);
+  return traj;
+}
+
+bool ExplorationManager::resumeAfterLook(const MapQuery& map, const VehicleState& vehicle, double t_s) {
+  if (!interrupted_) return false;
+  const Interrupted was = std::move(*interrupted_);
+  interrupted_.reset();
+  // The interrupted way from its point nearest the vehicle (the look braked along it), as a
+  // polyline of points kResume_m apart, to the goal it was flying to.
+  constexpr double kResume_m = 0.3;
+  const Trajectory& old = was.trajectory;
+  const Eigen::Isometry3d shift = shift_ * was.shift;
+  const double t_end = old.motionDuration();
+  const double dt = riskCheckStep_s(map.voxelSize());
+  double t_near = was.t_from_s, d_near = std::numeric_limits<double>::infinity();
+  for (double t = was.t_from_s; t <= t_end; t += dt) {
+    const double d = (shift * old.sample(t).position_W - vehicle.position_W).norm();
+    if (d < d_near) {
+      t_near = t;
+      d_near = d;
+    }
+  }
+  std::vector<Vec3d> path{vehicle.position_W};
+  for (double t = t_near + dt;; t += dt) {
+    const Vec3d p = shift * old.sample(std::min(t, t_end)).position_W;
+    if ((p - path.back()).norm() >= kResume_m || (t >= t_end && (p - path.back()).norm() > 1e-3)) path.push_back(p);
+    if (t >= t_end) break;
+  }
+  const double goal_yaw = wrapAngle(old.sample(old.duration()).yaw_rad + yawOf(shift));
+  TrajectoryResult traj = planFlight(path, vehicle, goal_yaw, map);
+  if (!traj.ok()) return false;
+  startTrajectory(std::move(traj.trajectory), t_s, was.kind);
+  ++counters_.looks_resumed;
+  return true;
 }
 
 ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const VehicleState& vehicle, const Vec3d& unseen,
@@ -718,6 +760,7 @@ ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const Vehic
     hold(vehicle, t_s);
     return ExplorationStatus::Failed;
   }
+  interrupted_ = Interrupted{trajectory_, shift_, t_rel, flight_};
   startTrajectory(std::move(look.trajectory), t_s, FlightKind::Look);
   look_at_W_ = unseen;
   return ExplorationStatus::Planned;

@@ -102,6 +102,7 @@ Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0) {
   const Vec3d start(1.0, 1.3, 1.2);
   ExplorationManager m(p, planner::test::at(start, M_PI), 0.0);
   Flight f;
+  Vec3d interrupted_goal = Vec3d::Constant(std::numeric_limits<double>::quiet_NaN());
   for (double t = 0.0; t <= max_time_s; t += kFramePeriodS) {
     for (double s = std::max(0.0, t - kFramePeriodS); s <= t; s += 0.005) {  // the flight since the last frame
       const Vec3d x = m.command(s).position_W;
@@ -113,7 +114,15 @@ Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0) {
     v.velocity_W = c.velocity_W;
     const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
     m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
+    const Vec3d goal_before = m.command(1e9).position_W;  // where the current flight ends
+    const std::size_t resumed_before = m.counters().looks_resumed;
     const ExplorationStep step = m.update(map, CoordBBox(), v, t);
+    if (step.reason == ReplanReason::LookAhead) interrupted_goal = goal_before;
+    if (m.counters().looks_resumed > resumed_before) {  // flies on to where the interrupted flight went
+      CHECK(step.reason == ReplanReason::WaySeen);
+      CHECK(m.flight() == FlightKind::ToTarget);
+      CHECK((m.command(1e9).position_W - interrupted_goal).norm() < 1e-6);
+    }
     f.ways_seen += step.reason == ReplanReason::WaySeen;
     if (step.status == ExplorationStatus::Finished) {
       f.finished = true;
@@ -175,8 +184,9 @@ TEST_CASE(
   CHECK(with.finished);  // the gap is blocked by what it saw: the target is given up
 
   // With the yaw spread over the motion instead, the vehicle starts off looking away: the way
-  // ahead is unseen, so it brakes and looks first (a look stop), and flies on as soon as it faces
-  // the way and sees it free, before its turn toward it ends. Then it sees the wall.
+  // ahead is unseen, so it brakes and looks first (a look stop), and as soon as it faces the way
+  // and sees it free, before its turn toward it ends, flies on to where it was going. Then it
+  // sees the wall.
   const Flight looking = fly(/*safety=*/true, /*face_travel=*/false);
   INFO("looking: clearance " << looking.min_clearance_m << " m, reached x " << looking.max_x_m << " m, looks "
                              << looking.counters.look_stops << ", emergency stops "
@@ -184,5 +194,6 @@ TEST_CASE(
   CHECK(looking.min_clearance_m >= kVehicleRadiusM);
   CHECK(looking.counters.look_stops >= 1);
   CHECK(looking.ways_seen >= 1);
+  CHECK(looking.counters.looks_resumed >= 1);  // (a way that the wall, once seen, blocks is planned anew)
   CHECK(looking.finished);
 }

@@ -258,3 +258,9 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     assert result.finished and result.collisions == 0
     counters = result.planner_counters
     assert counters.replans >= counters.emergency_stops + counters.look_stops
+    # The way the vehicle may fly before it faces it is a trajectory field, checked like the others.
+    trajectory = vdbmap.planner.TrajectoryConfig(yaw_along_travel=True, free_way_m=2.0)
+    trajectory.validate()
+    trajectory.free_way_m = -1.0
+    with pytest.raises(ValueError, match="TrajectoryConfig.free_way_m"):
+        trajectory.validate()

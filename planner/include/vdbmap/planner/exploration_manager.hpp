@@ -68,8 +68,9 @@ namespace vdbmap::planner {
 ///    ReplanReason::EmergencyStop);
 ///  - looks where the vehicle flies: the way ahead within its braking distance plus look_margin_m
 ///    must have been seen free by a recent frame, else the vehicle brakes along its trajectory and
-///    turns toward that way (ReplanReason::LookAhead, FlightKind::Look), then replans: at rest, or
-///    as soon as it faces that way and a frame sees it free (ReplanReason::WaySeen). Points that
+///    turns toward that way (ReplanReason::LookAhead, FlightKind::Look). As soon as it faces that
+///    way and a frame sees it free (ReplanReason::WaySeen), it flies on along the rest of the way
+///    it was flying; else it replans at rest. Points that
 ///    lie more steeply above or below the vehicle than the camera's vertical half field of view
 ///    are exempt: no yaw would bring them into view.
 /// Paths and trajectories are planned with the recent surfaces as obstacles too, and (face_travel)
@@ -284,6 +285,7 @@ struct ExplorationCounters {
   std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
   std::size_t emergency_stops = 0;       ///< ReplanReason::EmergencyStop replans (SafetyConfig)
   std::size_t look_stops = 0;            ///< ReplanReason::LookAhead: brakings to look along the way (SafetyConfig)
+  std::size_t looks_resumed = 0;         ///< looks after which the vehicle flew on along the way it was flying
 };
 
 class ExplorationManager {
@@ -402,6 +404,13 @@ class ExplorationManager {
                                          double way_m, const Vec3d& origin_W, double voxel_size_m) const;
   /// During a look: the vehicle faces the point it looks for, and a recent frame saw it free.
   bool lookSawWay(double t_s) const;
+  /// After a look saw the way: flies on along the rest of the trajectory the look interrupted
+  /// (to the same goal, as the same kind of flight). False when that is no longer clear.
+  bool resumeAfterLook(const MapQuery& map, const VehicleState& vehicle, double t_s);
+  /// A trajectory along `path_W` to `goal_yaw_rad`, facing the way (SafetyConfig::face_travel)
+  /// unless the recent frames saw all of it free, flying while it turns the part they saw.
+  TrajectoryResult planFlight(const std::vector<Vec3d>& path_W, const VehicleState& vehicle, double goal_yaw_rad,
+                              const MapQuery& map) const;
   /// Brakes along the current trajectory and turns toward `unseen` (FlightKind::Look).
   ExplorationStatus lookAhead(const MapQuery& map, const VehicleState& vehicle, const Vec3d& unseen, double t_s);
   /// The current trajectory is an escape or a retreat still being flown.
@@ -455,6 +464,14 @@ class ExplorationManager {
   int chained_backtracks_ = 0;  ///< retreats after every target failed, since the last plan
   int chained_looks_ = 0;       ///< looks since the way ahead was last seen free
   Vec3d look_at_W_ = Vec3d::Zero();  ///< FlightKind::Look: the point of the way it looks for
+  /// FlightKind::Look: the flight it interrupted, from when it was interrupted (resumeAfterLook).
+  struct Interrupted {
+    Trajectory trajectory;
+    Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+    double t_from_s = 0.0;
+    FlightKind kind = FlightKind::Hold;
+  };
+  std::optional<Interrupted> interrupted_;
 
   // The current trajectory.
   Trajectory trajectory_;
