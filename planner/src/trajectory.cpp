@@ -148,9 +148,9 @@ VehicleState Trajectory::sample(double t_s) const {
 
 // ---- construction ------------------------------------------------------------------------------
 
+namespace {
 /// A speed cap over the first `until_m` of the way: braking from the start speed (at the
 /// tangential acceleration arcs allow, so that it holds anywhere) down to `speed_m_s`.
-namespace {
 struct SlowStart {
   double speed_m_s = 0.0;
   double until_m = 0.0;
