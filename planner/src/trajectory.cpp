@@ -402,11 +402,7 @@ class TrajectoryBuilder {
       int k = 0;
       for (; k < 100000 && std::abs(wrapAngle(heading - yaw)) > p_.start_facing_rad; ++k) step(heading, yaw, rate);
       double unfaced_s = 0.0;
-      for (std::size_t i = 0; i < traj.node_t_.size(); ++i) {
-        const double v = traj.node_v_[i];
-        if (traj.node_s_[i] + v * v / (2.0 * p_.a_max_m_s2) > p_.free_way_m) break;
-        unfaced_s = traj.node_t_[i];
-      }
+      for (std::size_t i = 0; i < traj.node_t_.size() && stopsWithinFreeWay(traj, i); ++i) unfaced_s = traj.node_t_[i];
       const int wait = std::max(0, k - int(std::floor(unfaced_s / h)));
       for (double& t : traj.node_t_) t += wait * h;
       traj.motion_s_ += wait * h;
@@ -445,10 +441,15 @@ class TrajectoryBuilder {
       if (ahead.norm() > 0.01 &&
           std::abs(wrapAngle(std::atan2(ahead.y(), ahead.x()) - st.yaw_rad)) <= p_.start_facing_rad)
         return true;
-      const double v = traj.node_v_[i];
-      if (traj.node_s_[i] + v * v / (2.0 * p_.a_max_m_s2) > p_.free_way_m) return false;
+      if (!stopsWithinFreeWay(traj, i)) return false;
     }
     return true;
+  }
+
+  /// Braking at a_max from grid node i stops within free_way_m: s + v^2 / (2 a_max) <= free_way_m.
+  bool stopsWithinFreeWay(const Trajectory& traj, std::size_t i) const {
+    const double v = traj.node_v_[i];
+    return traj.node_s_[i] + v * v / (2.0 * p_.a_max_m_s2) <= p_.free_way_m;
   }
 
   /// TrajectoryConfig::free_way_m for a moving start, which cannot wait on the spot: the fastest
@@ -458,7 +459,7 @@ class TrajectoryBuilder {
   void slowUntilFacing(Trajectory& traj, double yaw0, double goal_yaw) const {
     if (facesInTime(traj)) return;
     const double v0 = traj.node_v_.front();
-    if (v0 * v0 / (2.0 * p_.a_max_m_s2) > p_.free_way_m) return;
+    if (!stopsWithinFreeWay(traj, 0)) return;
     const auto slowed = [&](double speed_m_s) {
       Trajectory t = traj;
       profile(t, v0, SlowStart{speed_m_s, p_.free_way_m});

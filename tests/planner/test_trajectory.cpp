@@ -21,6 +21,19 @@ DenseMap wallRoom() {
   return map;
 }
 
+/// The first time (to 1 ms) the yaw lies within `within_rad` of `yaw_rad`.
+double firstFacing(const Trajectory& traj, double yaw_rad, double within_rad) {
+  double t = 0.0;
+  while (yawDistance(traj.sample(t).yaw_rad, yaw_rad) > within_rad) t += 1e-3;
+  return t;
+}
+
+/// How far from `from_W` the vehicle would come to rest braking at a_max from its state at t_s.
+double stoppingPointAt(const Trajectory& traj, const Vec3d& from_W, double t_s, double a_max_m_s2) {
+  const VehicleState s = traj.sample(t_s);
+  return (s.position_W - from_W).norm() + s.velocity_W.squaredNorm() / (2.0 * a_max_m_s2);
+}
+
 /// Checks every limit at samples 1 ms apart, continuity between samples, that position
 /// differences match velocity, and (when `map` is given) clearance by brute force.
 void checkTrajectory(const Trajectory& traj, const TrajectoryConfig& p, const DenseMap* map) {
@@ -255,15 +268,11 @@ TEST_CASE(
     CHECK(traj.motionStart() < on_spot.motionStart() - 0.1);
     // It faces the way when the turn on the spot did, and not before; until then, braking at
     // a_max stops it within free_way_m (to a 10 ms step of the yaw track).
-    double faced_s = 0.0;
-    while (yawDistance(traj.sample(faced_s).yaw_rad, 0.0) > tp.start_facing_rad) faced_s += 1e-3;
+    const double faced_s = firstFacing(traj, 0.0, tp.start_facing_rad);
     CHECK(faced_s == Approx(on_spot.motionStart()).margin(0.02));
     double stop_m = 0.0;
-    for (double t = 0.0; t <= faced_s; t += 1e-3) {
-      const VehicleState s = traj.sample(t);
-      stop_m = std::max(stop_m,
-                        (s.position_W - start.position_W).norm() + s.velocity_W.squaredNorm() / (2.0 * tp.a_max_m_s2));
-    }
+    for (double t = 0.0; t <= faced_s; t += 1e-3)
+      stop_m = std::max(stop_m, stoppingPointAt(traj, start.position_W, t, tp.a_max_m_s2));
     CHECK(stop_m <= free_m + tp.v_max_m_s * 0.01);
     CHECK(stop_m >= free_m - 0.1);  // and it uses what it may
     CHECK(yawDistance(traj.sample(traj.duration()).yaw_rad, 0.0) < 1e-3);
@@ -289,14 +298,9 @@ TEST_CASE(
   const std::vector<Vec3d> path{start.position_W, Vec3d(18, 3, 1.2)};
   tp.free_way_m = 100.0;
   const Trajectory fast = planTrajectory(path, start, 0.0, map, tp).trajectory;
-  const auto facedAt = [&](const Trajectory& t) {
-    double at = 0.0;
-    while (yawDistance(t.sample(at).yaw_rad, 0.0) > tp.start_facing_rad) at += 1e-3;
-    return at;
-  };
+  const auto facedAt = [&](const Trajectory& t) { return firstFacing(t, 0.0, tp.start_facing_rad); };
   const auto stopPointAt = [&](const Trajectory& t, double t_s) {
-    const VehicleState s = t.sample(t_s);
-    return (s.position_W - start.position_W).norm() + s.velocity_W.squaredNorm() / (2.0 * tp.a_max_m_s2);
+    return stoppingPointAt(t, start.position_W, t_s, tp.a_max_m_s2);
   };
   // Unslowed, it passes 3 m of way (its stopping point) long before it faces the way.
   REQUIRE(stopPointAt(fast, facedAt(fast)) > 5.0);
