@@ -31,6 +31,7 @@ nlohmann::json toJson(const MapFileInfo& info) {
                       {"has_exact_state", info.has_exact_state}, {"unit_id", info.unit_id},
                       {"grids", grids}, {"metadata", meta}};
   if (!info.exact_state_problem.empty()) j["exact_state_problem"] = info.exact_state_problem;
+  if (info.has_exact_state) j["weight_scale"] = info.weight_scale;
   return j;
 }
 
@@ -72,10 +73,10 @@ const Registration registration("info", [](CLI::App& app) {
         writeJson(*json, j);
       return;
     }
-    std::printf("%s: %.1f MB, exact state %s\n", map->c_str(), info.file_bytes / 1e6,
-                info.has_exact_state ? "present"
-                : info.exact_state_problem.empty() ? "absent"
-                                                   : ("unusable: " + info.exact_state_problem).c_str());
+    const std::string exact = info.has_exact_state ? "present (weight scale " + std::to_string(info.weight_scale) + ")"
+                              : info.exact_state_problem.empty() ? "absent"
+                                                                 : "unusable: " + info.exact_state_problem;
+    std::printf("%s: %.1f MB, exact state %s\n", map->c_str(), info.file_bytes / 1e6, exact.c_str());
     for (const MapFileGrid& g : info.grids) {
       std::printf("  grid %-8s %-6s %-10s %10zu active voxels, %.1f MB in memory, voxel %.3f m", g.name.c_str(),
                   g.type.c_str(), g.grid_class.c_str(), g.active_voxels, g.memory_bytes / 1e6, g.voxel_size_m);

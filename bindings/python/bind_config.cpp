@@ -21,6 +21,9 @@ void bindTsdfConfig(py::module_& m) {
       .def_readwrite("occupancy_threshold_vox", &TsdfConfig::occupancy_threshold_vox,
                      "a known voxel is occupied when its tsdf is below this many voxels; "
                      "[-truncation_vox, truncation_vox]")
+      .def_readwrite("weight_scale", &TsdfConfig::weight_scale,
+                     "fixed-point units of one ray of weight 1; 0 (default) = chosen from the max range; "
+                     "0 or a power of two in [1024, 2^20]")
       .def("truncation_m", &TsdfConfig::truncation_m, "truncation_vox * voxel_size_m")
       .def("validate", &TsdfConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }

@@ -445,6 +445,8 @@ void bindMapFile(py::module_& m) {
       .def_readonly("exact_state_problem", &MapFileInfo::exact_state_problem,
                     "why an existing companion is not usable ('' when it is or is absent)")
       .def_readonly("unit_id", &MapFileInfo::unit_id, "the save's unit id ('' for maps of format 3 and older)")
+      .def_readonly("weight_scale", &MapFileInfo::weight_scale,
+                    "the exact state's units per ray weight (0 without a usable companion)")
       .def("__repr__", [](py::handle self) { return reprOfProperties(self); });
 
   m.def("inspect_map_file", &inspectMapFile, py::arg("path"), py::call_guard<py::gil_scoped_release>(),

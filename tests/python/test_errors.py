@@ -19,6 +19,8 @@ def test_out_of_range_config_fields_raise_value_error_naming_field_and_range():
         vdbmap.Mapper(vdbmap.MapperConfig(submap_frames=0))
     with pytest.raises(ValueError, match="weighting must be constant or inverse_square, got 'linear'"):
         vdbmap.TsdfConfig(weighting="linear")
+    with pytest.raises(ValueError, match=r"TsdfConfig\.weight_scale must be in \{0\} or the powers of two in \[1024, 1048576\], got 3000"):
+        vdbmap.TsdfConfig(weight_scale=3000).validate()
     with pytest.raises(TypeError, match="TsdfConfig\\(\\) got an unexpected keyword argument 'voxel_size'"):
         vdbmap.TsdfConfig(voxel_size=0.1)
 

@@ -1,6 +1,7 @@
 #include "vdbmap/config.hpp"
 
 #include "vdbmap/field_check.hpp"
+#include "vdbmap/voxel_codec.hpp"
 
 #include <cmath>
 #include <sstream>
@@ -39,6 +40,9 @@ void TsdfConfig::validate() const {
   if (!(min_weight >= 0.0 && min_weight < 1e6)) check.fail("min_weight", "[0, 1e6)", min_weight);
   if (!(occupancy_threshold_vox >= -truncation_vox && occupancy_threshold_vox <= truncation_vox))
     check.fail("occupancy_threshold_vox", "[-truncation_vox, truncation_vox]", occupancy_threshold_vox);
+  const bool power_of_two = weight_scale > 0 && (weight_scale & (weight_scale - 1)) == 0;
+  if (weight_scale != 0 && !(power_of_two && weight_scale >= kMinWeightScale && weight_scale <= kMaxWeightScale))
+    check.fail("weight_scale", "{0} or the powers of two in [1024, 1048576]", double(weight_scale));
 }
 
 void IntegratorConfig::validate() const {

@@ -13,9 +13,10 @@ namespace detail {
 /// Throws FileError naming the file and both versions when `meta` holds a vdbmap_format_version
 /// newer than this build writes (defined in tsdf_volume_io.cpp beside the version constant).
 void checkMapFormatVersion(const openvdb::MetaMap& meta, const std::filesystem::path& path);
-/// Throws FileError unless `exact_meta` is a readable companion of the same save as `map_meta`.
-void checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMap& exact_meta,
-                         const std::filesystem::path& map_path, const std::filesystem::path& exact_path);
+/// Throws FileError unless `exact_meta` is a readable companion of the same save as `map_meta`;
+/// returns the companion's weight scale.
+std::int64_t checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMap& exact_meta,
+                                 const std::filesystem::path& map_path, const std::filesystem::path& exact_path);
 }  // namespace detail
 
 namespace {
@@ -65,7 +66,7 @@ MapFileInfo inspectOpenedMapFile(const std::filesystem::path& path) {
       internal::checkVdbFileStructure(exact);
       openvdb::io::File companion(exact.string());
       companion.open(/*delayLoad=*/false);
-      detail::checkExactCompanion(*meta, *companion.getMetadata(), path, exact);
+      info.weight_scale = detail::checkExactCompanion(*meta, *companion.getMetadata(), path, exact);
       info.has_exact_state = true;
     } catch (const openvdb::Exception& e) {
       info.exact_state_problem = "cannot read " + exact.string() + ": " + e.what();

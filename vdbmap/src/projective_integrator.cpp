@@ -102,6 +102,7 @@ PixelTable classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, co
   std::vector<std::size_t> invalid(std::size_t(depth.height), 0), beyond(std::size_t(depth.height), 0);
   std::vector<double> row_max(std::size_t(depth.height), 0.0);
   const bool constant = tsdf.weighting == Weighting::Constant;
+  const std::int64_t scale = weightScaleFor(tsdf, in);
   tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
     for (int v = rows.begin(); v != rows.end(); ++v) {
       std::size_t bad = 0, far = 0;
@@ -127,7 +128,7 @@ PixelTable classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, co
         const double delta = tsdf.truncation_m();
         ray.free2 = r >= delta ? float((r - delta) * (r - delta)) : -1.0f;
         ray.band2 = ray.surface ? float((r + delta) * (r + delta)) : ray.free2;
-        ray.weight_q = constant ? kWeightScale : roundToInt64(double(kWeightScale) / (z_eff * z_eff));
+        ray.weight_q = constant ? scale : roundToInt64(double(scale) / (z_eff * z_eff));
         far_most = std::max(far_most, double(ray.range_m));
       }
       invalid[std::size_t(v)] = bad;

@@ -43,6 +43,7 @@ class PointClassifier {
         min2_(in.min_range_m * in.min_range_m),
         max2_(in.max_range_m * in.max_range_m),
         max_range_(in.max_range_m),
+        scale_(weightScaleFor(tsdf, in)),
         constant_(tsdf.weighting == Weighting::Constant) {}
 
   /// Returns false (and counts it) when the point is invalid: NaN, infinite, zero, or closer than
@@ -67,7 +68,7 @@ class PointClassifier {
       z *= s;
     }
     out.end_W = R_ * p_S + t_;
-    out.weight_q = constant_ ? kWeightScale : roundToInt64(double(kWeightScale) / (z * z));
+    out.weight_q = constant_ ? scale_ : roundToInt64(double(scale_) / (z * z));
     return true;
   }
 
@@ -75,6 +76,7 @@ class PointClassifier {
   Eigen::Matrix3d R_;
   Vec3d t_;
   double min2_, max2_, max_range_;
+  std::int64_t scale_;
   bool constant_;
 };
 

@@ -19,19 +19,11 @@
 
 namespace vdbmap {
 
-const char* toString(VoxelState s) {
-  switch (s) {
-    case VoxelState::Unknown: return "unknown";
-    case VoxelState::Free: return "free";
-    case VoxelState::Occupied: return "occupied";
-  }
-  return "?";
-}
-
 TsdfVolume::TsdfVolume(const TsdfConfig& config, const IntegratorConfig& integrator)
     : config_(config), integrator_(integrator) {
   config_.validate();
   integrator_.validate();
+  config_.weight_scale = weightScaleFor(config_, integrator_);
   initializeOpenVdb();
   transform_ = openvdb::math::Transform::createLinearTransform(config_.voxel_size_m);
   weight_q_ = Int64GridT::create(0);

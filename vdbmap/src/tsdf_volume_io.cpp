@@ -88,8 +88,8 @@ void checkMapFormatVersion(const openvdb::MetaMap& meta, const std::filesystem::
                             std::to_string(kFormatVersion) + "); written by a newer vdbmap?");
 }
 
-void checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMap& exact_meta,
-                         const std::filesystem::path& map_path, const std::filesystem::path& exact_path) {
+std::int64_t checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMap& exact_meta,
+                                 const std::filesystem::path& map_path, const std::filesystem::path& exact_path) {
   const int version =
       requireMeta<openvdb::Int32Metadata, openvdb::Int32>(exact_meta, "vdbmap_format_version", exact_path);
   if (version < kOldestReadableVersion || version > kFormatVersion)
@@ -110,9 +110,21 @@ void checkExactCompanion(const openvdb::MetaMap& map_meta, const openvdb::MetaMa
       throw vdbmap::FileError(exact_path.string() + ": '" + field + "' is " + (b ? b->str() : "missing") +
                               ", the map " + map_path.string() + " says " + (a ? a->str() : "nothing") + hint);
   }
-  if (requireMeta<openvdb::Int64Metadata, openvdb::Int64>(exact_meta, "weight_scale", exact_path) != kWeightScale ||
-      requireMeta<openvdb::Int64Metadata, openvdb::Int64>(exact_meta, "sdf_scale", exact_path) != kSdfScale)
-    throw vdbmap::FileError(exact_path.string() + ": fixed-point scales differ from this build's");
+  const std::int64_t sdf_scale =
+      requireMeta<openvdb::Int64Metadata, openvdb::Int64>(exact_meta, "sdf_scale", exact_path);
+  if (sdf_scale != kSdfScale)
+    throw vdbmap::FileError(exact_path.string() + ": sdf_scale is " + std::to_string(sdf_scale) + ", this build's is " +
+                            std::to_string(kSdfScale));
+  // Each map keeps the weight scale it was made with (companions before the scale followed the
+  // range all hold 1024).
+  TsdfConfig scaled;
+  scaled.weight_scale = requireMeta<openvdb::Int64Metadata, openvdb::Int64>(exact_meta, "weight_scale", exact_path);
+  try {
+    scaled.validate();
+  } catch (const std::invalid_argument& e) {
+    throw vdbmap::FileError(exact_path.string() + ": " + e.what());
+  }
+  return scaled.weight_scale;
 }
 
 }  // namespace detail
@@ -172,7 +184,7 @@ void TsdfVolume::stageSave(const std::filesystem::path& path, AtomicFileSet& fil
     }
     openvdb::MetaMap exact_meta = meta;
     exact_meta.insertMeta("frames_json", openvdb::StringMetadata(registry.dump()));
-    exact_meta.insertMeta("weight_scale", openvdb::Int64Metadata(kWeightScale));
+    exact_meta.insertMeta("weight_scale", openvdb::Int64Metadata(config_.weight_scale));
     exact_meta.insertMeta("sdf_scale", openvdb::Int64Metadata(kSdfScale));
     writeGrids(exactStatePath(path), {weight_q_->deepCopyGrid(), wsdf_q_->deepCopyGrid(), hits_->deepCopyGrid()},
                exact_meta, files);
@@ -193,18 +205,20 @@ TsdfVolume TsdfVolume::fromWeightedSums(const TsdfConfig& config, const Integrat
   auto wacc = volume.weight_q_->getAccessor();
   auto wdacc = volume.wsdf_q_->getAccessor();
   const double delta = config.truncation_m();
-  // Far above any weight rays give (a billion rays at 1 m), far below where wq * kSdfScale and
-  // the sums of later frames would overflow 64 bits.
-  constexpr double kMaxWeight = double(1 << 30);
+  const double scale = double(volume.config_.weight_scale);
+  // W at most 2^40 units (2^30 rays of weight 1 at the smallest scale: far above what rays give),
+  // so that W * kSdfScale stays at 2^55 and the sums of later frames cannot overflow 64 bits.
+  const int max_weight_log2 = 40 - int(std::lround(std::log2(scale)));
+  const double max_weight = std::ldexp(1.0, max_weight_log2);
   for (auto it = weight.cbeginValueOn(); it; ++it) {
     const double w = double(*it), w_sdf = double(weighted_tsdf.tree().getValue(it.getCoord()));
-    if (!std::isfinite(w) || w > kMaxWeight || !std::isfinite(w_sdf)) {
+    if (!std::isfinite(w) || w > max_weight || !std::isfinite(w_sdf)) {
       std::ostringstream msg;  // the stream's precision: 1e+38, not 39 digits
       msg << "voxel " << it.getCoord() << " has weight " << w << " and weighted tsdf " << w_sdf
-          << ": weights must be finite and at most 2^30, sums finite";
+          << ": weights must be finite and at most 2^" << max_weight_log2 << ", sums finite";
       throw std::invalid_argument(msg.str());
     }
-    const std::int64_t wq = std::llround(w * kWeightScale);
+    const std::int64_t wq = std::llround(w * scale);
     if (wq <= 0) continue;
     const double sdf = std::clamp(w_sdf / w, -delta, delta);
     wacc.setValue(it.getCoord(), wq);
@@ -250,7 +264,7 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
         openvdb::io::File ef(exact.string());
         ef.open(/*delayLoad=*/false);
         const openvdb::MetaMap::Ptr emeta = ef.getMetadata();
-        detail::checkExactCompanion(*meta, *emeta, path, exact);
+        volume.config_.weight_scale = detail::checkExactCompanion(*meta, *emeta, path, exact);
         const int version = requireMeta<openvdb::Int32Metadata, openvdb::Int32>(*emeta, "vdbmap_format_version", exact);
         auto w = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("weight_q"));
         auto wd = openvdb::gridPtrCast<openvdb::Int64Grid>(ef.readGrid("wsdf_q"));

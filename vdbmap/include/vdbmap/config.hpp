@@ -4,6 +4,7 @@
 // the field and its allowed range.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace vdbmap {
@@ -45,6 +46,10 @@ struct TsdfConfig {
   /// A known voxel is *occupied* when its tsdf is below this many voxels, else *free*. 0.5 makes
   /// the voxel that contains the surface occupied.
   double occupancy_threshold_vox = 0.5;    ///< [-truncation_vox, truncation_vox]
+  /// Fixed-point units of one ray of weight 1 in the map's exact sums (docs/conventions.md). 0, the
+  /// default, lets the map choose it from the integrator's max range (weightScaleFor in
+  /// voxel_codec.hpp); a map keeps the scale it was made with, also when saved and loaded.
+  std::int64_t weight_scale = 0;  ///< 0 or a power of two in [1024, 2^20]
 
   double truncation_m() const { return truncation_vox * voxel_size_m; }
   void validate() const;

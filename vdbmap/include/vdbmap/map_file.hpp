@@ -4,6 +4,7 @@
 
 #include "vdbmap/openvdb.hpp"
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -31,6 +32,7 @@ struct MapFileInfo {
   std::vector<std::pair<std::string, std::string>> metadata;  ///< file metadata, as text
   bool has_exact_state = false;     ///< the .exact.vdb companion exists and belongs to this map
   std::string exact_state_problem;  ///< why a companion that exists is not usable ("" when it is)
+  std::int64_t weight_scale = 0;    ///< the exact state's units per ray weight (0 without a usable companion)
   std::string unit_id;              ///< the save's unit id ("" for maps of format 3 and older)
 };
 
