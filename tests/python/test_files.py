@@ -35,17 +35,17 @@ def test_save_then_load_is_exact_and_keeps_the_frame_registry(tmp_path):
 
 
 def test_a_far_range_map_weighs_far_rays_and_keeps_its_weight_scale_through_save_and_load(cli, tmp_path):
-    # A wall 60 m away seen by a narrow camera: at the scale of maps up to 5.66 m (1024 units per
-    # ray of weight 1) its rays would weigh round(1024 / 60^2) = 0 and add nothing.
+    # A wall 80 m away seen by a narrow camera: at the scale of maps up to 5 m (1024 units per ray
+    # of weight 1) its rays would weigh round(1024 / 80^2) = 0 and add nothing.
     narrow = vdbmap.CameraIntrinsics(width=8, height=8, fx=1000.0, fy=1000.0, cx=3.5, cy=3.5)
     volume = vdbmap.TsdfVolume(vdbmap.TsdfConfig(voxel_size_m=0.2), vdbmap.IntegratorConfig(max_range_m=100.0))
     assert vdbmap.TsdfVolume().config.weight_scale == 1024
-    assert volume.config.weight_scale == 2**20  # 32 units at 100 m would need 320,000
-    for i in range(6):
-        volume.integrate_depth(i, np.full((8, 8), 60.0, np.float32), narrow, pose(x=0.01 * i))
-    tsdf, weight, state = volume.sample(np.array([[0.0, 0.0, 60.0], [0.0, 0.0, 30.0]]))
+    assert volume.config.weight_scale == 2**20  # 40 units at 100 m need 400,000
+    for i in range(8):
+        volume.integrate_depth(i, np.full((8, 8), 80.0, np.float32), narrow, pose(x=0.01 * i))
+    tsdf, weight, state = volume.sample(np.array([[0.0, 0.0, 80.0], [0.0, 0.0, 40.0]]))
     assert list(state) == [int(vdbmap.VoxelState.Occupied), int(vdbmap.VoxelState.Free)]
-    np.testing.assert_allclose(weight, 6 / 60.0**2, rtol=1 / 64)
+    np.testing.assert_allclose(weight, 8 / 80.0**2, rtol=1 / 80)
     volume.save(tmp_path / "far.vdb")
     loaded = vdbmap.TsdfVolume.load(str(tmp_path / "far.vdb"))
     assert loaded.config.weight_scale == 2**20 and loaded.exactly_equals(volume)

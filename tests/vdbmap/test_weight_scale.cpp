@@ -31,8 +31,8 @@ CameraIntrinsics narrowCamera() {
   return K;
 }
 
-/// Frames of a wall `distance_m` ahead along world +x, from slightly shifted poses.
-constexpr int kFrames = 6;
+/// Frames of a wall ahead along world +x, from slightly shifted poses.
+constexpr int kFrames = 8;
 Pose3d framePose(int i) { return lookingPose({0.0, 0.01 * i, 0.0}, 0.0); }
 
 std::filesystem::path freshDir(const std::string& name) {
@@ -44,16 +44,16 @@ std::filesystem::path freshDir(const std::string& name) {
 
 }  // namespace
 
-TEST_CASE("the weight scale is the smallest 1024 * 4^k giving a ray at max range 32 units, up to 2^20",
+TEST_CASE("the weight scale is the smallest 1024 * 4^k giving a ray at max range 40 units, up to 2^20",
           "[tsdf][weight-scale]") {
   const TsdfConfig inverse_square;
   CHECK(weightScaleFor(inverse_square, maxRange(5.0)) == 1024);  // the default range keeps the old scale
-  CHECK(weightScaleFor(inverse_square, maxRange(5.65)) == 1024);
-  CHECK(weightScaleFor(inverse_square, maxRange(5.66)) == 4096);
+  CHECK(weightScaleFor(inverse_square, maxRange(5.05)) == 1024);
+  CHECK(weightScaleFor(inverse_square, maxRange(5.07)) == 4096);
   CHECK(weightScaleFor(inverse_square, maxRange(50.0)) == 262144);
-  CHECK(weightScaleFor(inverse_square, maxRange(181.0)) == 1048576);
+  CHECK(weightScaleFor(inverse_square, maxRange(100.0)) == 1048576);
   CHECK(weightScaleFor(inverse_square, maxRange(1000.0)) == 1048576);
-  for (double r = 0.25; r <= 181.0; r *= 1.1) {
+  for (double r = 0.25; r <= 161.9; r *= 1.1) {
     const std::int64_t s = weightScaleFor(inverse_square, maxRange(r));
     INFO("max range " << r << " m, scale " << s);
     CHECK(double(s) / (r * r) >= double(kMinUnitsAtMaxRange));
@@ -77,11 +77,13 @@ TEST_CASE("the weight scale is the smallest 1024 * 4^k giving a ray at max range
   CHECK_THROWS_WITH(VoxelCodec(TsdfConfig{}), Catch::Contains("weight_scale"));
 }
 
-TEST_CASE("a wall 60 m away is carved to and added as surface, each ray weighing 1/z^2 within 1/64",
-          "[tsdf][weight-scale][range]") {
-  const Vec3d wall_W(60.0, 0.0, 0.0), halfway_W(30.0, 0.0, 0.0);
-  const DepthImage depth(8, 8, 60.0f);
-  const double per_frame = 1.0 / (60.0 * 60.0);
+TEST_CASE(
+    "a wall 80 m away is carved to and added as surface, each ray weighing 1/z^2 within 1.25 %, and "
+    "de-integrated exactly",
+    "[tsdf][weight-scale][range]") {
+  const Vec3d wall_W(80.0, 0.0, 0.0), halfway_W(40.0, 0.0, 0.0);
+  const DepthImage depth(8, 8, 80.0f);
+  const double per_frame = 1.0 / (80.0 * 80.0);
   for (const bool projective : {true, false}) {
     INFO((projective ? "depth image, projective" : "points, merged rays"));
     TsdfVolume volume(config(0.2), maxRange(100.0));
@@ -96,8 +98,8 @@ TEST_CASE("a wall 60 m away is carved to and added as surface, each ray weighing
     const VoxelSample free = volume.sample(volume.worldToVoxel(halfway_W));
     CHECK(free.state == VoxelState::Free);
     if (projective) {  // one update per voxel and frame (merged rays cross a voxel more than once)
-      CHECK(std::abs(surface.weight / (kFrames * per_frame) - 1.0) <= 1.0 / 64.0);
-      CHECK(std::abs(free.weight / (kFrames * per_frame) - 1.0) <= 1.0 / 64.0);
+      CHECK(std::abs(surface.weight / (kFrames * per_frame) - 1.0) <= 1.0 / 80.0);
+      CHECK(std::abs(free.weight / (kFrames * per_frame) - 1.0) <= 1.0 / 80.0);
     }
     // De-integration stays exact at this scale.
     for (int i = 0; i < kFrames; ++i) {
@@ -108,13 +110,17 @@ TEST_CASE("a wall 60 m away is carved to and added as surface, each ray weighing
     }
     CHECK(volume.activeVoxelCount() == 0);
   }
-  SECTION("at the scale of maps up to 5.66 m such rays weigh 0 and add nothing") {
+  SECTION("at a scale set too small for the range (1024, the old fixed one) such rays weigh 0: counted as invalid") {
     TsdfConfig old_scale = config(0.2);
     old_scale.weight_scale = 1024;
-    TsdfVolume volume(old_scale, maxRange(100.0));
-    for (int i = 0; i < kFrames; ++i) volume.integrate(i, depth, narrowCamera(), framePose(i));
-    CHECK(volume.sample(volume.worldToVoxel(halfway_W)).state == VoxelState::Unknown);
-    CHECK(volume.activeVoxelCount() == 0);
+    for (const bool projective : {true, false}) {
+      TsdfVolume volume(old_scale, maxRange(100.0));
+      const IntegrationStats stats = projective ? volume.integrate(0, depth, narrowCamera(), framePose(0))
+                                                : volume.integrate(0, backProject(depth, narrowCamera()), framePose(0));
+      CHECK(stats.points_invalid == 64);
+      CHECK(volume.sample(volume.worldToVoxel(halfway_W)).state == VoxelState::Unknown);
+      CHECK(volume.sample(volume.worldToVoxel(halfway_W)).weight == 0.0f);
+    }
   }
 }
 

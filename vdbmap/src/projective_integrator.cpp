@@ -115,20 +115,24 @@ PixelTable classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, co
           ++bad;
           continue;
         }
-        PixelRay& ray = t.rays[i];
-        double r = range, z_eff = z;
-        if (range > in.max_range_m) {  // carve free space up to max range, add no surface
-          ++far;
-          r = in.max_range_m;
-          z_eff = z * in.max_range_m / range;
-        } else {
-          ray.surface = 1;
+        const bool beyond_range = range > in.max_range_m;  // carve free space up to max range, add no surface
+        const double r = beyond_range ? in.max_range_m : range;
+        const double z_eff = beyond_range ? z * in.max_range_m / range : z;
+        const std::int64_t weight_q = constant ? scale : roundToInt64(double(scale) / (z_eff * z_eff));
+        if (weight_q == 0) {  // only with a weight scale too small for the range: counted, not lost silently
+          ++bad;
+          continue;
         }
+        PixelRay& ray = t.rays[i];
+        if (beyond_range)
+          ++far;
+        else
+          ray.surface = 1;
         ray.range_m = float(r);
         const double delta = tsdf.truncation_m();
         ray.free2 = r >= delta ? float((r - delta) * (r - delta)) : -1.0f;
         ray.band2 = ray.surface ? float((r + delta) * (r + delta)) : ray.free2;
-        ray.weight_q = constant ? scale : roundToInt64(double(scale) / (z_eff * z_eff));
+        ray.weight_q = weight_q;
         far_most = std::max(far_most, double(ray.range_m));
       }
       invalid[std::size_t(v)] = bad;

@@ -62,13 +62,17 @@ class PointClassifier {
     double z = p_S.z() > 0.0 ? p_S.z() : std::sqrt(r2);  // depth along the optical axis
     out.surface = r2 <= max2_;
     if (!out.surface) {
-      ++stats.points_beyond_range;
       const double s = max_range_ / std::sqrt(r2);
       p_S *= s;
       z *= s;
     }
-    out.end_W = R_ * p_S + t_;
     out.weight_q = constant_ ? scale_ : roundToInt64(double(scale_) / (z * z));
+    if (out.weight_q == 0) {  // only with a weight scale too small for the range: counted, not lost silently
+      ++stats.points_invalid;
+      return false;
+    }
+    if (!out.surface) ++stats.points_beyond_range;
+    out.end_W = R_ * p_S + t_;
     return true;
   }
 

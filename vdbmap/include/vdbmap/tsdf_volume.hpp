@@ -31,7 +31,10 @@ class AtomicFileSet;
 /// What one call of integrate() or deintegrate() did with its points.
 struct IntegrationStats {
   std::size_t points_total = 0;
-  std::size_t points_invalid = 0;      ///< NaN, infinite, zero, or closer than min_range_m
+  /// NaN, infinite, zero, or closer than min_range_m; also points whose weight rounds to 0, which
+  /// happens only with a TsdfConfig::weight_scale set too small for max_range_m, or in a map saved
+  /// before the scale followed the range.
+  std::size_t points_invalid = 0;
   std::size_t points_beyond_range = 0; ///< beyond max_range_m: carved free space only
   std::size_t rays_cast = 0;           ///< after bundling (Merged) or one per valid point (PerRay); 0 (Projective)
   std::size_t voxel_updates = 0;       ///< voxel visits summed over all rays

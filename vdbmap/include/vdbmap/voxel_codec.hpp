@@ -18,20 +18,20 @@ namespace vdbmap {
 /// Fixed-point scales of the exact state (see above). Internal to the map: readers decode through
 /// VoxelCodec and never name these.
 inline constexpr std::int64_t kSdfScale = 32768;
-/// The smallest weight scale, and the one of every map whose max range is at most 5.66 m (and of
-/// every map saved before the scale followed the range).
+/// The smallest weight scale, and the one of every map whose max range is at most 5.06 m (the
+/// default 5 m included) and of every map saved before the scale followed the range.
 inline constexpr std::int64_t kMinWeightScale = 1024;
 /// The largest: with kSdfScale it leaves 2^21 updates of a voxel at 0.1 m range before WD could
 /// overflow 64 bits.
 inline constexpr std::int64_t kMaxWeightScale = std::int64_t(1) << 20;
 /// A ray at max range weighs at least this many units with the scale weightScaleFor chooses, so
-/// rounding its 1/z^2 weight errs by at most 1/64.
-inline constexpr std::int64_t kMinUnitsAtMaxRange = 32;
+/// rounding its 1/z^2 weight errs by at most 1/80 (1.25 %). 40 keeps the default 5 m at 1024.
+inline constexpr std::int64_t kMinUnitsAtMaxRange = 40;
 
 /// The weight scale a map of these settings uses: tsdf.weight_scale when set, else with
 /// inverse-square weighting the smallest kMinWeightScale * 4^k whose ray at max range weighs at
-/// least kMinUnitsAtMaxRange units (1024 up to 5.66 m, 4096 up to 11.3 m, ..., capped at
-/// kMaxWeightScale from 181 m, where a ray at 1000 m still weighs 1 unit); with constant weighting
+/// least kMinUnitsAtMaxRange units (1024 up to 5.06 m, 4096 up to 10.1 m, ..., capped at
+/// kMaxWeightScale from 161.9 m, where a ray at 1000 m still weighs 1 unit); with constant weighting
 /// kMinWeightScale.
 std::int64_t weightScaleFor(const TsdfConfig& tsdf, const IntegratorConfig& integrator);
 
