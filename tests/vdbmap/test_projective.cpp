@@ -159,11 +159,15 @@ TEST_CASE("projective and ray integration agree on what is known and on the surf
 TEST_CASE("reintegrate moves a frame exactly as de-integrating and integrating it would", "[tsdf][reintegration]") {
   const auto poses = randomPoses(3, 71);
   const auto images = randomDepthImages(poses, 72);
-  const Pose3d moved = Eigen::Translation3d(0.12, -0.07, 0.03) * poses[1] * Eigen::AngleAxisd(0.05, Vec3d::UnitY());
+  // A loop closure's large correction, and a small one that leaves most end points in their voxel.
+  const Pose3d large = Eigen::Translation3d(0.12, -0.07, 0.03) * poses[1] * Eigen::AngleAxisd(0.05, Vec3d::UnitY());
+  const Pose3d small = Eigen::Translation3d(0.004, -0.002, 0.001) * poses[1] * Eigen::AngleAxisd(0.002, Vec3d::UnitY());
   IntegratorConfig merged;
   merged.ray_mode = RayMode::Merged;
-  for (const IntegratorConfig& in : {projective(), merged}) {
-    INFO("ray mode " << toString(in.ray_mode));
+  for (const auto& [in, moved] :
+       {std::pair{projective(), large}, std::pair{merged, large}, std::pair{projective(), small}}) {
+    INFO("ray mode " << toString(in.ray_mode) << ", moved by " << (moved.translation() - poses[1].translation()).norm()
+                     << " m");
     TsdfVolume one_pass(config(0.05), in), two_steps(config(0.05), in), fresh(config(0.05), in);
     for (int i : {0, 1, 2}) {
       one_pass.integrate(i, images[i], smallCamera(), poses[i]);

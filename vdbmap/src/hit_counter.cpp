@@ -37,46 +37,62 @@ inline int fastFloor(double x) {
   return i - int(x < double(i));
 }
 
-}  // namespace
+/// Which sensor-frame points are surface end points, and the voxel each ends in from one pose.
+/// Every count goes through here, so that a count removed at a pose is the one added there.
+class EndVoxels {
+ public:
+  EndVoxels(const TsdfConfig& tsdf, const IntegratorConfig& integrator)
+      : min2_(integrator.min_range_m * integrator.min_range_m),
+        max2_(integrator.max_range_m * integrator.max_range_m),
+        inv_voxel_(1.0 / tsdf.voxel_size_m) {}
 
-void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
-               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
-  const Eigen::Matrix3d R = T_W_S.linear();
-  const Vec3d t = T_W_S.translation();
-  const double min2 = integrator.min_range_m * integrator.min_range_m;
-  const double max2 = integrator.max_range_m * integrator.max_range_m;
-  const double inv_voxel = 1.0 / tsdf.voxel_size_m;
+  /// Finite, and within [min_range_m, max_range_m] of the sensor: the points the integrators add
+  /// as surface.
+  bool isSurface(const Vec3d& p_S) const {
+    const double r2 = p_S.squaredNorm();
+    return p_S.allFinite() && r2 > 0.0 && r2 >= min2_ && r2 <= max2_;
+  }
+  /// The key of the voxel holding p_S seen from (R, t); voxel centres at integer coordinates.
+  std::uint64_t key(const Vec3d& p_S, const Eigen::Matrix3d& R, const Vec3d& t) const {
+    const Vec3d e = (R * p_S + t) * inv_voxel_;
+    return packVoxel(openvdb::Coord(fastFloor(e.x() + 0.5), fastFloor(e.y() + 0.5), fastFloor(e.z() + 0.5)));
+  }
 
-  // Per chunk of points, the runs of consecutive end points in the same voxel: neighbouring pixels
-  // mostly share a voxel, so the runs are about ten times fewer than the points.
-  struct Run {
-    std::uint64_t key;
-    std::int64_t count;
-  };
-  const std::size_t chunks = (points_S.size() + kPointChunk - 1) / kPointChunk;
+ private:
+  double min2_, max2_, inv_voxel_;
+};
+
+/// Consecutive end points in the same voxel, with their summed signed count: neighbouring pixels
+/// mostly share a voxel, so the runs are about ten times fewer than the points.
+struct Run {
+  std::uint64_t key;
+  std::int64_t count;
+};
+inline void append(std::vector<Run>& runs, std::uint64_t key, std::int64_t count) {
+  if (!runs.empty() && runs.back().key == key)
+    runs.back().count += count;
+  else
+    runs.push_back({key, count});
+}
+
+/// Calls fill(begin, end, runs) for fixed chunks of [0, n) in parallel and returns all runs, in
+/// chunk order, so that the work does not depend on how TBB splits it.
+template <typename Fill>
+std::vector<Run> chunkRuns(std::size_t n, Fill&& fill) {
+  const std::size_t chunks = (n + kPointChunk - 1) / kPointChunk;
   std::vector<std::vector<Run>> chunk_runs(chunks);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks), [&](const auto& r) {
-    for (std::size_t c = r.begin(); c != r.end(); ++c) {
-      std::vector<Run>& runs = chunk_runs[c];
-      const std::size_t end = std::min(points_S.size(), (c + 1) * kPointChunk);
-      for (std::size_t i = c * kPointChunk; i < end; ++i) {
-        const Vec3d p = points_S[i].cast<double>();
-        const double r2 = p.squaredNorm();
-        if (!p.allFinite() || !(r2 > 0.0) || r2 < min2 || r2 > max2) continue;
-        const Vec3d e = (R * p + t) * inv_voxel;  // voxel centres at integer coordinates
-        const std::uint64_t key =
-            packVoxel(openvdb::Coord(fastFloor(e.x() + 0.5), fastFloor(e.y() + 0.5), fastFloor(e.z() + 0.5)));
-        if (!runs.empty() && runs.back().key == key)
-          ++runs.back().count;
-        else
-          runs.push_back({key, 1});
-      }
-    }
+    for (std::size_t c = r.begin(); c != r.end(); ++c)
+      fill(c * kPointChunk, std::min(n, (c + 1) * kPointChunk), chunk_runs[c]);
   });
   std::vector<Run> runs;
   for (const std::vector<Run>& c : chunk_runs) runs.insert(runs.end(), c.begin(), c.end());
-  tbb::parallel_sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.key < b.key; });
+  return runs;
+}
 
+/// Adds each voxel's summed count to the grid; voxels whose count returns to 0 are removed.
+void applyRuns(std::vector<Run>& runs, openvdb::Int64Grid& hits) {
+  tbb::parallel_sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.key < b.key; });
   // Serial: few distinct voxels (the surface a frame sees), and OpenVDB trees are not thread-safe
   // for writes.
   openvdb::Int64Grid::Accessor acc = hits.getAccessor();
@@ -85,17 +101,55 @@ void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig
     std::int64_t count = 0;
     std::size_t j = i;
     for (; j < runs.size() && runs[j].key == runs[i].key; ++j) count += runs[j].count;
-    const openvdb::Coord c = unpackVoxel(runs[i].key);
-    const std::int64_t n = acc.getValue(c) + sign * count;
+    const std::uint64_t key = runs[i].key;
+    i = j;
+    if (count == 0) continue;  // moved out and back in: unchanged
+    const openvdb::Coord c = unpackVoxel(key);
+    const std::int64_t n = acc.getValue(c) + count;
     if (n == 0) {
       acc.setValueOff(c, 0);
       removed = true;
     } else {
       acc.setValueOn(c, n);
     }
-    i = j;
   }
   if (removed) openvdb::tools::pruneInactive(hits.tree());
+}
+
+}  // namespace
+
+void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
+  const EndVoxels ends(tsdf, integrator);
+  const Eigen::Matrix3d R = T_W_S.linear();
+  const Vec3d t = T_W_S.translation();
+  std::vector<Run> runs = chunkRuns(points_S.size(), [&](std::size_t begin, std::size_t end, std::vector<Run>& out) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3d p = points_S[i].cast<double>();
+      if (ends.isSurface(p)) append(out, ends.key(p, R, t), sign);
+    }
+  });
+  applyRuns(runs, hits);
+}
+
+void moveHits(const PointCloud& points_S, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new, const TsdfConfig& tsdf,
+              const IntegratorConfig& integrator, openvdb::Int64Grid& hits) {
+  const EndVoxels ends(tsdf, integrator);
+  const Eigen::Matrix3d R_old = T_W_S_old.linear(), R_new = T_W_S_new.linear();
+  const Vec3d t_old = T_W_S_old.translation(), t_new = T_W_S_new.translation();
+  std::vector<Run> runs = chunkRuns(points_S.size(), [&](std::size_t begin, std::size_t end, std::vector<Run>& out) {
+    std::vector<Run> added;  // kept apart from the removals, so that each side stays run-length coded
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3d p = points_S[i].cast<double>();
+      if (!ends.isSurface(p)) continue;
+      const std::uint64_t from = ends.key(p, R_old, t_old), to = ends.key(p, R_new, t_new);
+      if (from == to) continue;
+      append(out, from, -1);
+      append(added, to, +1);
+    }
+    out.insert(out.end(), added.begin(), added.end());
+  });
+  applyRuns(runs, hits);
 }
 
 }  // namespace vdbmap::internal

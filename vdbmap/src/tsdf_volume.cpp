@@ -338,9 +338,7 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, 
     inArena(integrator_.threads, [&] {
       internal::integrateProjective(depth_m, K, {{T_W_S_old, -1}, {T_W_S_new, +1}}, config_, integrator_,
                                     *weight_q_, *wsdf_q_, stats, footprint);
-      const PointCloud points_S = backProject(depth_m, K);
-      internal::countHits(points_S, T_W_S_old, config_, integrator_, *hits_, -1);
-      internal::countHits(points_S, T_W_S_new, config_, integrator_, *hits_, +1);
+      internal::moveHits(backProject(depth_m, K), T_W_S_old, T_W_S_new, config_, integrator_, *hits_);
     });
   } else {
     stats = apply(depth_m, K, T_W_S_old, -1);

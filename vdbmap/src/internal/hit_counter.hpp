@@ -18,4 +18,10 @@ namespace vdbmap::internal {
 void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
                const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign);
 
+/// Moves the counts of points_S from T_W_S_old to T_W_S_new: every voxel ends as after countHits
+/// at the old pose with sign -1 then at the new pose with sign +1, but in one pass that skips the
+/// points that stay in their voxel (most of them, for the corrections of a loop closure).
+void moveHits(const PointCloud& points_S, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new, const TsdfConfig& tsdf,
+              const IntegratorConfig& integrator, openvdb::Int64Grid& hits);
+
 }  // namespace vdbmap::internal
