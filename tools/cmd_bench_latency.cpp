@@ -107,7 +107,8 @@ const GroupRegistration registration("bench", "latency", [](CLI::App& bench) {
       ->delimiter(',')
       ->check(CLI::IsMember({"none", "submap", "all", "keyframes"}));
   sub->add_option("--voxel-size", o->voxel_size_m, "Voxel edge in metres")->check(CLI::Range(1e-3, 10.0));
-  sub->add_option("--cycle-budget-ms", o->budget_ms, "Background work's time budget per cycle")
+  sub->add_option("--cycle-budget-ms", o->budget_ms,
+                  "Time budget of each frame's cycle (its integration and the background work after it)")
       ->check(CLI::PositiveNumber);
   sub->add_option("--cycle-budget-frames", o->budget_frames, "Background frames per cycle (0 = no limit)")
       ->check(CLI::Range(0, 1000000));

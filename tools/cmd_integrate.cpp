@@ -193,8 +193,9 @@ const Registration registration("integrate", [](CLI::App& app) {
   sub->add_option("--tau-gain", o->tau_gain, "keyframes: stop selecting when the best gain (cells) is at most this")
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--cycle-budget-ms", o->budget_ms,
-                  "Time budget of the background work after each frame (re-integrating moved frames, "
-                  "de-integrating the frames set cover dropped); at least one frame per cycle")
+                  "Time budget of each frame's cycle: its integration and the background work after it "
+                  "(re-integrating moved frames, de-integrating the frames set cover dropped); at least one "
+                  "background frame per cycle")
       ->check(CLI::PositiveNumber);
   sub->add_option("--cycle-budget-frames", o->budget_frames,
                   "Also stop a cycle's background work after this many frames (0 = no limit; a count "

@@ -50,7 +50,9 @@ void bindReintegrationConfig(py::module_& m) {
                   "pose changes below both gates are ignored; [0, 1000]")
       .def_readwrite("gate_rotation_deg", &ReintegrationConfig::gate_rotation_deg, "[0, 180]")
       .def_readwrite("budget_ms", &ReintegrationConfig::budget_ms,
-                     "time budget of one reintegrate() cycle (at least one frame is processed); (0, 1e6]")
+                     "time budget of one frame's cycle: its add_depth_frame()/add_point_frame() and the reintegrate() "
+                     "after it (at least one "
+                     "frame is processed; a call without a new frame has the whole budget); (0, 1e6]")
       .def_readwrite("budget_frames", &ReintegrationConfig::budget_frames,
                      "also stop after this many frames per cycle; 0 = no limit")
       .def("validate", &ReintegrationConfig::validate, "Raises ValueError naming the field and its allowed range.");

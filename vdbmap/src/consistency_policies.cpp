@@ -266,9 +266,9 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
 
   /// Re-integrations and pending drops share one waiting list and one budget: nearest first, by
   /// set-cover block (Chebyshev distance) then by distance; a cycle stops before a frame that would
-  /// likely overrun the time budget (by the recent cost per frame) or after budget_frames frames,
-  /// and always does at least one, so progress never stops.
-  CycleReport runCycle(const Vec3d& robot_W) override {
+  /// likely overrun what is left of the time budget after `spent_ms` (by the recent cost per
+  /// frame) or after budget_frames frames, and always does at least one, so progress never stops.
+  CycleReport runCycle(const Vec3d& robot_W, double spent_ms) override {
     settleCompression();
     CycleReport report;
     if (queue_.empty() && drops_.empty()) return report;
@@ -291,7 +291,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
       const std::size_t done = report.frames + report.frames_deintegrated;
       // A de-integration costs about half a re-integration: each kind has its own estimate.
       double& estimate_ms = drop ? drop_ms_estimate_ : reintegrate_ms_estimate_;
-      if (done > 0 && elapsed_ms + estimate_ms > budget.budget_ms) break;
+      if (done > 0 && spent_ms + elapsed_ms + estimate_ms > budget.budget_ms) break;
       if (drop) {
         deintegrateDropped(id);
         ++report.frames_deintegrated;
@@ -320,7 +320,7 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     while (true) {
       collectSolve();
       while (pendingFrames() > 0) {
-        const CycleReport r = runCycle(robot_W);
+        const CycleReport r = runCycle(robot_W, 0.0);
         n += r.frames + r.frames_deintegrated;
       }
       if (!pruner_ || frames_since_solve_ == 0) return n;

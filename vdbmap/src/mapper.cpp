@@ -4,9 +4,11 @@
 
 #include "vdbmap/atomic_file.hpp"
 #include "vdbmap/file_error.hpp"
+#include "vdbmap/timing.hpp"
 
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace vdbmap {
 
@@ -65,7 +67,11 @@ Mapper::Mapper(Mapper&&) noexcept = default;
 IntegrationStats Mapper::addFrame(FrameId id, double timestamp_s, const SensorFrame& frame, const Pose3d& T_W_S) {
   // Quantized only: the policy integrates the decoded frame, and the policies that keep frames
   // compress them off this thread.
-  return policy_->addFrame(id, timestamp_s, EncodedFrame::encode(frame, config_.depth_unit_m, false), T_W_S);
+  const Stopwatch watch;
+  IntegrationStats stats =
+      policy_->addFrame(id, timestamp_s, EncodedFrame::encode(frame, config_.depth_unit_m, false), T_W_S);
+  frame_ms_ = watch.ms();
+  return stats;
 }
 
 std::size_t Mapper::updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) {
@@ -79,7 +85,9 @@ std::size_t Mapper::updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) {
   return policy_->updatePoses(T_W_S_by_id);
 }
 
-CycleReport Mapper::reintegrate(const Vec3d& robot_W) { return policy_->runCycle(robot_W); }
+CycleReport Mapper::reintegrate(const Vec3d& robot_W) {
+  return policy_->runCycle(robot_W, std::exchange(frame_ms_, 0.0));
+}
 std::size_t Mapper::reintegrateAll(const Vec3d& robot_W) { return policy_->finishAll(robot_W); }
 std::size_t Mapper::queuedFrames() const { return policy_->pendingFrames(); }
 const TsdfVolume& Mapper::volume() const { return policy_->volume(); }

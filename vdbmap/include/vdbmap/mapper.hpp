@@ -38,9 +38,10 @@ ConsistencyMode parseConsistencyMode(const std::string& text);
 struct ReintegrationConfig {
   double gate_translation_m = 0.01;  ///< a pose change below both gates is ignored; [0, 1e3]
   double gate_rotation_deg = 0.5;    ///< [0, 180]
-  /// Time budget of one re-integration cycle (one call of reintegrate()): a cycle stops before a
-  /// frame that would likely overrun it (by the recent time per frame); at least one frame is
-  /// processed per cycle so progress never stops; (0, 1e6]
+  /// Time budget of one frame's cycle: its addFrame() and the reintegrate() call after it. That
+  /// call stops before a frame that would likely overrun what the frame's integration left (by
+  /// the recent time per frame), and processes at least one frame so progress never stops; a call
+  /// without a new frame since the last one has the whole budget; (0, 1e6]
   double budget_ms = 20.0;
   int budget_frames = 0;             ///< also stop after this many frames per cycle; 0 = no limit
 
@@ -118,7 +119,8 @@ class Mapper {
 
   /// One budgeted background cycle, nearest frames to `robot_W` first: frames waiting for
   /// re-integration and frames set cover dropped (de-integrated here, never in a burst) share
-  /// one waiting list and one budget (ReintegrationConfig). Call it once per incoming frame.
+  /// one waiting list and one budget (ReintegrationConfig), which also covers the latest
+  /// addFrame(). Call it once per incoming frame, after addFrame().
   /// In keyframes mode a re-integrated frame's cells are refreshed in the pruner, so the next
   /// solves see it where it now is: with a time budget, which frames that are depends on the
   /// machine (as on a robot); with a frame count alone (budget_ms large) runs repeat exactly.
@@ -169,6 +171,7 @@ class Mapper {
   MapperConfig config_;
   std::unique_ptr<internal::MapperLedger> ledger_;
   std::unique_ptr<internal::ConsistencyPolicy> policy_;
+  double frame_ms_ = 0.0;  ///< the latest addFrame()'s time, until a reintegrate() charges it to its cycle
 };
 
 }  // namespace vdbmap

@@ -37,8 +37,9 @@ class ConsistencyPolicy {
   virtual IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) = 0;
   /// New pose estimates by frame id; returns how many frames (or anchors) changed.
   virtual std::size_t updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) = 0;
-  /// One budgeted cycle of background work, nearest to `robot_W` first.
-  virtual CycleReport runCycle(const Vec3d& robot_W) { return {}; }
+  /// One budgeted cycle of background work, nearest to `robot_W` first; `spent_ms` of the cycle's
+  /// budget went to the frame's integration already.
+  virtual CycleReport runCycle(const Vec3d& robot_W, double spent_ms) { return {}; }
   /// Runs cycles (and a last pruning solve) until no background work is left; returns frames done.
   virtual std::size_t finishAll(const Vec3d& robot_W) { return 0; }
   /// Frames waiting for background work.
