@@ -185,7 +185,8 @@ const Registration registration("integrate", [](CLI::App& app) {
                   "projective: depth images voxel by voxel (fast); merged: rays bundled per end voxel; per_ray: "
                   "one ray per point (reference). Point clouds always use rays")
       ->check(CLI::IsMember({"projective", "merged", "per_ray"}));
-  sub->add_option("--max-range", o->max_range_m, "Max range in metres (0 = the sensor's max_range_m)")
+  sub->add_option("--max-range", o->max_range_m,
+                  "Max range in metres (0 = the sensor's max_range_m); the map's fixed-point weight scale follows it")
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--stride", o->stride, "Integrate every k-th frame")->check(CLI::Range(1, 1000000));
   sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));

@@ -54,7 +54,7 @@ PointCloud backProject(const DepthImage& depth, const CameraIntrinsics& K, int s
         points_S.emplace_back(nan, nan, nan);
         continue;
       }
-      points_S.emplace_back(float((u - K.cx) * inv_fx * z), float((v - K.cy) * inv_fy * z), z);
+      points_S.push_back(backProjectPixel(u, v, z, K, inv_fx, inv_fy));
     }
   }
   return points_S;

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 namespace vdbmap::internal {
@@ -116,40 +117,106 @@ void applyRuns(std::vector<Run>& runs, openvdb::Int64Grid& hits) {
   if (removed) openvdb::tools::pruneInactive(hits.tree());
 }
 
-}  // namespace
+/// The points of a cloud, for the counting loops.
+class CloudPoints {
+ public:
+  explicit CloudPoints(const PointCloud& points_S) : points_(points_S) {}
+  std::size_t size() const { return points_.size(); }
+  /// Calls visit(p_S) for the points [begin, end), in order.
+  template <typename Visit>
+  void forRange(std::size_t begin, std::size_t end, Visit&& visit) const {
+    for (std::size_t i = begin; i < end; ++i) visit(Vec3d(points_[i].cast<double>()));
+  }
 
-void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
-               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
+ private:
+  const PointCloud& points_;
+};
+
+/// The points backProject() would make of an image, without making them: pixel i in row-major
+/// order is point i; invalid pixels (NaN points there) are skipped.
+class ImagePoints {
+ public:
+  ImagePoints(const DepthImage& depth_m, const CameraIntrinsics& K)
+      : depth_(depth_m), K_(K), inv_fx_(1.0 / K.fx), inv_fy_(1.0 / K.fy) {
+    if (depth_m.width != K.width || depth_m.height != K.height ||
+        depth_m.depth_m.size() != std::size_t(K.width) * std::size_t(K.height))
+      throw std::invalid_argument("countHits: the depth image's size differs from the camera's");
+  }
+  std::size_t size() const { return depth_.depth_m.size(); }
+  template <typename Visit>
+  void forRange(std::size_t begin, std::size_t end, Visit&& visit) const {
+    const std::size_t w = std::size_t(depth_.width);
+    int u = int(begin % w), v = int(begin / w);
+    for (std::size_t i = begin; i < end; ++i) {
+      const float z = depth_.depth_m[i];
+      if (z > 0.0f && std::isfinite(z)) visit(Vec3d(backProjectPixel(u, v, z, K_, inv_fx_, inv_fy_).cast<double>()));
+      if (++u == depth_.width) {
+        u = 0;
+        ++v;
+      }
+    }
+  }
+
+ private:
+  const DepthImage& depth_;
+  const CameraIntrinsics& K_;
+  double inv_fx_, inv_fy_;
+};
+
+template <typename Points>
+void countHitsOf(const Points& points, const Pose3d& T_W_S, const TsdfConfig& tsdf, const IntegratorConfig& integrator,
+                 openvdb::Int64Grid& hits, std::int64_t sign) {
   const EndVoxels ends(tsdf, integrator);
   const Eigen::Matrix3d R = T_W_S.linear();
   const Vec3d t = T_W_S.translation();
-  std::vector<Run> runs = chunkRuns(points_S.size(), [&](std::size_t begin, std::size_t end, std::vector<Run>& out) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const Vec3d p = points_S[i].cast<double>();
+  std::vector<Run> runs = chunkRuns(points.size(), [&](std::size_t begin, std::size_t end, std::vector<Run>& out) {
+    points.forRange(begin, end, [&](const Vec3d& p) {
       if (ends.isSurface(p)) append(out, ends.key(p, R, t), sign);
-    }
+    });
   });
   applyRuns(runs, hits);
 }
 
-void moveHits(const PointCloud& points_S, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new, const TsdfConfig& tsdf,
-              const IntegratorConfig& integrator, openvdb::Int64Grid& hits) {
+template <typename Points>
+void moveHitsOf(const Points& points, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new, const TsdfConfig& tsdf,
+                const IntegratorConfig& integrator, openvdb::Int64Grid& hits) {
   const EndVoxels ends(tsdf, integrator);
   const Eigen::Matrix3d R_old = T_W_S_old.linear(), R_new = T_W_S_new.linear();
   const Vec3d t_old = T_W_S_old.translation(), t_new = T_W_S_new.translation();
-  std::vector<Run> runs = chunkRuns(points_S.size(), [&](std::size_t begin, std::size_t end, std::vector<Run>& out) {
+  std::vector<Run> runs = chunkRuns(points.size(), [&](std::size_t begin, std::size_t end, std::vector<Run>& out) {
     std::vector<Run> added;  // kept apart from the removals, so that each side stays run-length coded
-    for (std::size_t i = begin; i < end; ++i) {
-      const Vec3d p = points_S[i].cast<double>();
-      if (!ends.isSurface(p)) continue;
+    points.forRange(begin, end, [&](const Vec3d& p) {
+      if (!ends.isSurface(p)) return;
       const std::uint64_t from = ends.key(p, R_old, t_old), to = ends.key(p, R_new, t_new);
-      if (from == to) continue;
+      if (from == to) return;
       append(out, from, -1);
       append(added, to, +1);
-    }
+    });
     out.insert(out.end(), added.begin(), added.end());
   });
   applyRuns(runs, hits);
+}
+
+}  // namespace
+
+void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
+  countHitsOf(CloudPoints(points_S), T_W_S, tsdf, integrator, hits, sign);
+}
+
+void moveHits(const PointCloud& points_S, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new, const TsdfConfig& tsdf,
+              const IntegratorConfig& integrator, openvdb::Int64Grid& hits) {
+  moveHitsOf(CloudPoints(points_S), T_W_S_old, T_W_S_new, tsdf, integrator, hits);
+}
+
+void countHits(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign) {
+  countHitsOf(ImagePoints(depth_m, K), T_W_S, tsdf, integrator, hits, sign);
+}
+
+void moveHits(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new,
+              const TsdfConfig& tsdf, const IntegratorConfig& integrator, openvdb::Int64Grid& hits) {
+  moveHitsOf(ImagePoints(depth_m, K), T_W_S_old, T_W_S_new, tsdf, integrator, hits);
 }
 
 }  // namespace vdbmap::internal

@@ -147,7 +147,7 @@ IntegrationStats TsdfVolume::apply(const DepthImage& depth_m, const CameraIntrin
   inArena(integrator_.threads, [&] {
     internal::integrateProjective(depth_m, K, {{T_W_S, sign}}, config_, integrator_, *weight_q_, *wsdf_q_, stats,
                                   footprint);
-    internal::countHits(backProject(depth_m, K), T_W_S, config_, integrator_, *hits_, sign);
+    internal::countHits(depth_m, K, T_W_S, config_, integrator_, *hits_, sign);
   });
   return stats;
 }
@@ -338,7 +338,7 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, 
     inArena(integrator_.threads, [&] {
       internal::integrateProjective(depth_m, K, {{T_W_S_old, -1}, {T_W_S_new, +1}}, config_, integrator_,
                                     *weight_q_, *wsdf_q_, stats, footprint);
-      internal::moveHits(backProject(depth_m, K), T_W_S_old, T_W_S_new, config_, integrator_, *hits_);
+      internal::moveHits(depth_m, K, T_W_S_old, T_W_S_new, config_, integrator_, *hits_);
     });
   } else {
     stats = apply(depth_m, K, T_W_S_old, -1);

@@ -53,6 +53,27 @@ DepthImage depthFromRaw(int width, int height, const std::uint16_t* raw, double 
 /// both directions. Throws std::invalid_argument when the image size differs from the intrinsics.
 PointCloud backProject(const DepthImage& depth, const CameraIntrinsics& K, int stride = 1);
 
+/// x rounded to float, and kept rounded. GCC 12 (C++, whose only excess-precision mode is "fast")
+/// was seen to drop the rounding of float(x) when the float went straight back to double in
+/// registers (Eigen's cast<double>()), so a point computed from a pixel in a loop differed from
+/// the same point stored in a cloud. The empty asm makes the float a value the compiler must hold.
+inline float keptFloat(double x) {
+  float f = float(x);
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+  asm("" : "+x"(f));
+#elif defined(__GNUC__)
+  asm("" : "+m"(f));
+#endif
+  return f;
+}
+
+/// The point backProject() makes of pixel (u, v) with a valid depth z, for code that walks an
+/// image without the cloud: the very same float whichever path computes it. inv_fx = 1 / K.fx,
+/// inv_fy = 1 / K.fy.
+inline Vec3f backProjectPixel(int u, int v, float z, const CameraIntrinsics& K, double inv_fx, double inv_fy) {
+  return Vec3f(keptFloat((u - K.cx) * inv_fx * z), keptFloat((v - K.cy) * inv_fy * z), z);
+}
+
 /// A camera pose T_W_S at `position_W` whose optical axis (z) points along yaw in the x-y plane
 /// (yaw 0 = world +x), with the image's y axis pointing down (world -z) and pitched by `pitch`
 /// (radians; positive looks down).

@@ -6,6 +6,7 @@
 // of its integrated frames fell in it. Counts are integers, so de-integration is exact like the sums.
 #pragma once
 
+#include "vdbmap/camera.hpp"
 #include "vdbmap/config.hpp"
 #include "vdbmap/openvdb.hpp"
 #include "vdbmap/types.hpp"
@@ -23,5 +24,12 @@ void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig
 /// points that stay in their voxel (most of them, for the corrections of a loop closure).
 void moveHits(const PointCloud& points_S, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new, const TsdfConfig& tsdf,
               const IntegratorConfig& integrator, openvdb::Int64Grid& hits);
+
+/// countHits and moveHits of backProject(depth_m, K) without making the cloud: each pixel's point
+/// comes from backProjectPixel, so the counts are the same. depth_m must match K's size.
+void countHits(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S, const TsdfConfig& tsdf,
+               const IntegratorConfig& integrator, openvdb::Int64Grid& hits, std::int64_t sign);
+void moveHits(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S_old, const Pose3d& T_W_S_new,
+              const TsdfConfig& tsdf, const IntegratorConfig& integrator, openvdb::Int64Grid& hits);
 
 }  // namespace vdbmap::internal
