@@ -5,6 +5,7 @@
 // writing over a folder says so; a write stopped by a signal leaves no temporary. Every hostile file
 // is a few bytes written here.
 #include "test_io_helpers.hpp"
+#include "tsdf_test_helpers.hpp"
 
 #include "vdbmap/atomic_file.hpp"
 #include "vdbmap/camera.hpp"
@@ -91,19 +92,10 @@ std::string requireFileErrorMentioning(Fn&& fn, std::initializer_list<std::strin
 
 /// Rewrites the metadata `vdbmap_format_version` of the map `from` into `to`.
 void copyWithFormatVersion(const std::filesystem::path& from, const std::filesystem::path& to, int version) {
-  initializeOpenVdb();
-  openvdb::GridPtrVec grids;
-  openvdb::MetaMap::Ptr meta;
-  {
-    openvdb::io::File file(from.string());
-    file.open();
-    meta = file.getMetadata();
-    const openvdb::GridPtrVecPtr all = file.getGrids();
-    for (const openvdb::GridBase::Ptr& g : *all) grids.push_back(g->deepCopyGrid());
-  }
-  meta->removeMeta("vdbmap_format_version");
-  meta->insertMeta("vdbmap_format_version", openvdb::Int32Metadata(version));
-  openvdb::io::File(to.string()).write(grids, *meta);
+  test::rewriteVdbFile(from, to, {}, [version](openvdb::MetaMap& meta) {
+    meta.removeMeta("vdbmap_format_version");
+    meta.insertMeta("vdbmap_format_version", openvdb::Int32Metadata(version));
+  });
 }
 
 }  // namespace

@@ -263,18 +263,10 @@ TEST_CASE("save then load gives identical grids, metadata and frame registry", "
   }
   SECTION("a format 2 companion, from before hit counts, loads with none and de-integrates exactly") {
     const auto exact = TsdfVolume::exactStatePath(path);
-    openvdb::GridPtrVec grids;
-    openvdb::MetaMap::Ptr meta;
-    {
-      openvdb::io::File file(exact.string());
-      file.open();
-      meta = file.getMetadata();
-      grids.push_back(file.readGrid("weight_q"));
-      grids.push_back(file.readGrid("wsdf_q"));
-    }
-    meta->removeMeta("vdbmap_format_version");
-    meta->insertMeta("vdbmap_format_version", openvdb::Int32Metadata(2));
-    openvdb::io::File(exact.string()).write(grids, *meta);
+    rewriteVdbFile(exact, exact, {"weight_q", "wsdf_q"}, [](openvdb::MetaMap& meta) {
+      meta.removeMeta("vdbmap_format_version");
+      meta.insertMeta("vdbmap_format_version", openvdb::Int32Metadata(2));
+    });
     TsdfVolume old = TsdfVolume::load(path);
     CHECK(old.hasExactState());
     CHECK(old.hitCountGrid()->activeVoxelCount() == 0);

@@ -1,5 +1,6 @@
 // The fixed-point weight scale: chosen from the max range so that far rays keep their weight, kept
 // by a map through save and load, and checked in the files.
+#include "common/fresh_dir.hpp"
 #include "tsdf_test_helpers.hpp"
 #include "vdbmap/file_error.hpp"
 #include "vdbmap/map_file.hpp"
@@ -34,13 +35,6 @@ CameraIntrinsics narrowCamera() {
 /// Frames of a wall ahead along world +x, from slightly shifted poses.
 constexpr int kFrames = 8;
 Pose3d framePose(int i) { return lookingPose({0.0, 0.01 * i, 0.0}, 0.0); }
-
-std::filesystem::path freshDir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / name;
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
 
 }  // namespace
 
@@ -161,17 +155,10 @@ TEST_CASE("a companion whose weight scale is not a valid scale is refused, namin
   volume.integrate(0, DepthImage(8, 8, 15.0f), narrowCamera(), framePose(0));
   volume.save(path);
   const auto exact = TsdfVolume::exactStatePath(path);
-  openvdb::GridPtrVec grids;
-  openvdb::MetaMap::Ptr meta;
-  {
-    openvdb::io::File file(exact.string());
-    file.open();
-    meta = file.getMetadata();
-    for (const char* name : {"weight_q", "wsdf_q", "hits"}) grids.push_back(file.readGrid(name));
-  }
-  meta->removeMeta("weight_scale");
-  meta->insertMeta("weight_scale", openvdb::Int64Metadata(3000));
-  openvdb::io::File(exact.string()).write(grids, *meta);
+  rewriteVdbFile(exact, exact, {}, [](openvdb::MetaMap& meta) {
+    meta.removeMeta("weight_scale");
+    meta.insertMeta("weight_scale", openvdb::Int64Metadata(3000));
+  });
   CHECK_THROWS_WITH(TsdfVolume::load(path),
                     Catch::Contains(exact.string()) && Catch::Contains("weight_scale") && Catch::Contains("3000"));
   const MapFileInfo info = inspectMapFile(path);

@@ -9,6 +9,8 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <filesystem>
+#include <string>
 #include <limits>
 #include <random>
 #include <vector>
@@ -84,5 +86,28 @@ inline double meshRmse(const TriangleMesh& mesh, const AnalyticScene& scene) {
   return std::sqrt(sum / double(mesh.vertices.size()));
 }
 
+/// Writes the OpenVDB file `from` to `to` (the same path is fine) with its grids named in
+/// `grid_names` (all when empty) and its file metadata after edit(meta): old or damaged maps and
+/// companions for the loading tests.
+template <typename Edit>
+void rewriteVdbFile(const std::filesystem::path& from, const std::filesystem::path& to,
+                    const std::vector<std::string>& grid_names, Edit&& edit) {
+  initializeOpenVdb();
+  openvdb::GridPtrVec grids;
+  openvdb::MetaMap::Ptr meta;
+  {
+    openvdb::io::File file(from.string());
+    file.open();
+    meta = file.getMetadata();
+    if (grid_names.empty()) {
+      const openvdb::GridPtrVecPtr all = file.getGrids();  // held: the loop must not outlive it
+      for (const openvdb::GridBase::Ptr& g : *all) grids.push_back(g->deepCopyGrid());
+    } else {
+      for (const std::string& name : grid_names) grids.push_back(file.readGrid(name));
+    }
+  }
+  edit(*meta);
+  openvdb::io::File(to.string()).write(grids, *meta);
+}
 
 }  // namespace vdbmap::test
