@@ -1,6 +1,7 @@
 #include "internal/projective_integrator.hpp"
 
 #include "internal/grid_dda.hpp"
+#include "internal/hit_counter.hpp"
 #include "internal/voxel_blocks.hpp"
 
 #include <tbb/blocked_range.h>
@@ -16,12 +17,6 @@
 
 namespace vdbmap::internal {
 namespace {
-
-/// floor(x) as an int without the libm call (|x| < 2^31).
-inline int fastFloor(double x) {
-  const int i = int(x);
-  return i - int(x < double(i));
-}
 
 /// What each pixel contributes: the range of its surface along its ray (or max range for pixels
 /// beyond it, which only carve free space) and its fixed-point weight (0: invalid pixel). One
@@ -46,18 +41,6 @@ struct PixelTable {
   int tiles_x = 0, tiles_y = 0;
   std::vector<float> tile_max_m;
 
-  void buildTiles() {
-    tiles_x = (width + kTile - 1) / kTile;
-    tiles_y = (height + kTile - 1) / kTile;
-    tile_max_m.assign(std::size_t(tiles_x) * std::size_t(tiles_y), -1.0f);
-    for (int v = 0; v < height; ++v)
-      for (int u = 0; u < width; ++u) {
-        const PixelRay& r = rays[std::size_t(v) * std::size_t(width) + std::size_t(u)];
-        if (r.weight_q == 0) continue;
-        float& m = tile_max_m[std::size_t(v / kTile) * std::size_t(tiles_x) + std::size_t(u / kTile)];
-        m = std::max(m, r.range_m);
-      }
-  }
   /// Largest range over the pixels [u0, u1] x [v0, v1] (tile-granular, so an upper bound).
   float maxRange(int u0, int u1, int v0, int v1) const {
     float m = -1.0f;
@@ -66,6 +49,42 @@ struct PixelTable {
         m = std::max(m, tile_max_m[std::size_t(ty) * std::size_t(tiles_x) + std::size_t(tx)]);
     return m;
   }
+};
+
+/// A pixel table for one image. Tables are 16 bytes per pixel (4.9 MB at 640x480), so they are
+/// kept for the next image instead of being allocated and cleared for each one; concurrent
+/// integrations take different tables.
+class PixelTableLease {
+ public:
+  PixelTableLease() {
+    std::lock_guard<std::mutex> lock(mutex());
+    if (!pool().empty()) {
+      table_ = std::move(pool().back());
+      pool().pop_back();
+    } else {
+      table_ = std::make_unique<PixelTable>();
+    }
+  }
+  ~PixelTableLease() {
+    std::lock_guard<std::mutex> lock(mutex());
+    if (pool().size() < kKept) pool().push_back(std::move(table_));
+  }
+  PixelTableLease(const PixelTableLease&) = delete;
+  PixelTableLease& operator=(const PixelTableLease&) = delete;
+  PixelTable& operator*() const { return *table_; }
+  PixelTable* operator->() const { return table_.get(); }
+
+ private:
+  static constexpr std::size_t kKept = 4;
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  static std::vector<std::unique_ptr<PixelTable>>& pool() {
+    static std::vector<std::unique_ptr<PixelTable>> p;
+    return p;
+  }
+  std::unique_ptr<PixelTable> table_;
 };
 
 /// |(x/z, y/z, 1)| of every pixel's ray: range = depth * norm. Cached for the last camera, since a
@@ -91,63 +110,92 @@ std::shared_ptr<const std::vector<float>> rayNorms(const CameraIntrinsics& K) {
   return cached;
 }
 
-PixelTable classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, const TsdfConfig& tsdf,
-                          const IntegratorConfig& in, IntegrationStats& stats) {
-  PixelTable t;
+/// Classifies every pixel of the image into `t` and, when `hit_runs` is given, counts in the same
+/// pass the surface end points of every placement (each with its sign; countRowHits). Rows are
+/// taken a tile row at a time, so the work does not depend on how TBB splits it.
+void classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, const TsdfConfig& tsdf,
+                    const IntegratorConfig& in, const std::vector<ImagePlacement>& placements, PixelTable& t,
+                    std::vector<HitRun>* hit_runs, IntegrationStats& stats) {
+  constexpr int kTile = PixelTable::kTile;
   t.width = depth.width;
   t.height = depth.height;
   const std::size_t n = std::size_t(depth.width) * std::size_t(depth.height);
-  t.rays.assign(n, PixelRay{});
+  t.rays.resize(n);  // every record is written below
+  t.tiles_x = (depth.width + kTile - 1) / kTile;
+  t.tiles_y = (depth.height + kTile - 1) / kTile;
+  t.tile_max_m.assign(std::size_t(t.tiles_x) * std::size_t(t.tiles_y), -1.0f);
   const std::shared_ptr<const std::vector<float>> norms = rayNorms(K);
-  std::vector<std::size_t> invalid(std::size_t(depth.height), 0), beyond(std::size_t(depth.height), 0);
-  std::vector<double> row_max(std::size_t(depth.height), 0.0);
+  const std::size_t chunks = std::size_t(t.tiles_y);
+  std::vector<std::size_t> invalid(chunks, 0), beyond(chunks, 0);
+  std::vector<double> chunk_max(chunks, 0.0);
   const bool constant = tsdf.weighting == Weighting::Constant;
   const std::int64_t scale = weightScaleFor(tsdf, in);
-  tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
-    for (int v = rows.begin(); v != rows.end(); ++v) {
+  const double delta = tsdf.truncation_m();
+
+  // Hit counting: one run list per chunk and placement.
+  const EndVoxels ends(tsdf, in);
+  std::vector<HitPose> poses;
+  if (hit_runs)
+    for (const ImagePlacement& p : placements) poses.push_back({p.T_W_S.linear(), p.T_W_S.translation(), p.sign});
+  const std::size_t P = poses.size();
+  std::vector<std::vector<HitRun>> runs(chunks * P);
+
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t c = r.begin(); c != r.end(); ++c) {
       std::size_t bad = 0, far = 0;
       double far_most = 0.0;
-      for (int u = 0; u < depth.width; ++u) {
-        const std::size_t i = std::size_t(v) * std::size_t(depth.width) + std::size_t(u);
-        const double z = depth.depth_m[i];
-        const double range = z * double((*norms)[i]);
-        if (!(z > 0.0) || !std::isfinite(z) || range < in.min_range_m) {
-          ++bad;
-          continue;
+      float* tile_max = t.tile_max_m.data() + c * std::size_t(t.tiles_x);
+      std::vector<HitRun>* chunk_runs = P ? &runs[c * P] : nullptr;
+      const int v_end = std::min(depth.height, int(c + 1) * kTile);
+      for (int v = int(c) * kTile; v < v_end; ++v) {
+        if (P) countRowHits(depth, v, K, ends, poses, chunk_runs);
+        for (int u = 0; u < depth.width; ++u) {
+          const std::size_t i = std::size_t(v) * std::size_t(depth.width) + std::size_t(u);
+          const float z_f = depth.depth_m[i];
+          PixelRay& ray = t.rays[i];
+          ray = PixelRay{};
+          const double z = z_f;
+          const double range = z * double((*norms)[i]);
+          if (!(z > 0.0) || !std::isfinite(z) || range < in.min_range_m) {
+            ++bad;
+            continue;
+          }
+          const bool beyond_range = range > in.max_range_m;  // carve free space up to max range, add no surface
+          const double r_m = beyond_range ? in.max_range_m : range;
+          const double z_eff = beyond_range ? z * in.max_range_m / range : z;
+          const std::int64_t weight_q = constant ? scale : roundToInt64(double(scale) / (z_eff * z_eff));
+          if (weight_q == 0) {  // only with a weight scale too small for the range: counted, not lost silently
+            ++bad;
+            continue;
+          }
+          if (beyond_range)
+            ++far;
+          else
+            ray.surface = 1;
+          ray.range_m = float(r_m);
+          ray.free2 = r_m >= delta ? float((r_m - delta) * (r_m - delta)) : -1.0f;
+          ray.band2 = ray.surface ? float((r_m + delta) * (r_m + delta)) : ray.free2;
+          ray.weight_q = weight_q;
+          far_most = std::max(far_most, double(ray.range_m));
+          float& m = tile_max[u / kTile];
+          m = std::max(m, ray.range_m);
         }
-        const bool beyond_range = range > in.max_range_m;  // carve free space up to max range, add no surface
-        const double r = beyond_range ? in.max_range_m : range;
-        const double z_eff = beyond_range ? z * in.max_range_m / range : z;
-        const std::int64_t weight_q = constant ? scale : roundToInt64(double(scale) / (z_eff * z_eff));
-        if (weight_q == 0) {  // only with a weight scale too small for the range: counted, not lost silently
-          ++bad;
-          continue;
-        }
-        PixelRay& ray = t.rays[i];
-        if (beyond_range)
-          ++far;
-        else
-          ray.surface = 1;
-        ray.range_m = float(r);
-        const double delta = tsdf.truncation_m();
-        ray.free2 = r >= delta ? float((r - delta) * (r - delta)) : -1.0f;
-        ray.band2 = ray.surface ? float((r + delta) * (r + delta)) : ray.free2;
-        ray.weight_q = weight_q;
-        far_most = std::max(far_most, double(ray.range_m));
       }
-      invalid[std::size_t(v)] = bad;
-      beyond[std::size_t(v)] = far;
-      row_max[std::size_t(v)] = far_most;
+      for (std::size_t j = 0; j < P; ++j) compactHitRuns(chunk_runs[j]);
+      invalid[c] = bad;
+      beyond[c] = far;
+      chunk_max[c] = far_most;
     }
   });
   stats.points_total += n;
-  for (int v = 0; v < depth.height; ++v) {
-    stats.points_invalid += invalid[std::size_t(v)];
-    stats.points_beyond_range += beyond[std::size_t(v)];
-    t.max_range_m = std::max(t.max_range_m, row_max[std::size_t(v)]);
+  t.max_range_m = 0.0;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    stats.points_invalid += invalid[c];
+    stats.points_beyond_range += beyond[c];
+    t.max_range_m = std::max(t.max_range_m, chunk_max[c]);
   }
-  t.buildTiles();
-  return t;
+  if (hit_runs)
+    for (const std::vector<HitRun>& c : runs) hit_runs->insert(hit_runs->end(), c.begin(), c.end());
 }
 
 /// The leaves (8^3 voxels) that may hold voxels of the frustum: those crossed by a coarse ray
@@ -355,10 +403,14 @@ void checkImageSize(const DepthImage& depth_m, const CameraIntrinsics& K) {
 void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
                          const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
                          const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
-                         IntegrationStats& stats, VoxelFootprint* footprint) {
+                         openvdb::Int64Grid* hits, IntegrationStats& stats, VoxelFootprint* footprint) {
   checkImageSize(depth_m, K);
   if (footprint) footprint->clear();
-  const PixelTable px = classifyPixels(depth_m, K, tsdf, integrator, stats);
+  const PixelTableLease lease;
+  const PixelTable& px = *lease;
+  std::vector<HitRun> hit_runs;
+  classifyPixels(depth_m, K, tsdf, integrator, placements, *lease, hits ? &hit_runs : nullptr, stats);
+  if (hits) applyHitRuns(hit_runs, *hits);
   if (px.max_range_m <= 0.0 || placements.empty()) return;  // no valid pixel
   KeyIndex index(4096);
   std::vector<openvdb::Coord> leaves;
@@ -406,7 +458,9 @@ VoxelFootprint projectiveFootprint(const DepthImage& depth_m, const CameraIntrin
                                                const TsdfConfig& tsdf, const IntegratorConfig& integrator) {
   checkImageSize(depth_m, K);
   IntegrationStats stats;
-  const PixelTable px = classifyPixels(depth_m, K, tsdf, integrator, stats);
+  const PixelTableLease lease;
+  const PixelTable& px = *lease;
+  classifyPixels(depth_m, K, tsdf, integrator, {}, *lease, nullptr, stats);
   if (px.max_range_m <= 0.0) return {};
   KeyIndex index(4096);
   std::vector<openvdb::Coord> leaves;

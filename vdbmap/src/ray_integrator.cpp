@@ -84,12 +84,6 @@ class PointClassifier {
   bool constant_;
 };
 
-/// floor(x) as an int without the libm call (|x| < 2^31).
-inline int fastFloor(double x) {
-  const int i = int(x);
-  return i - int(x < double(i));
-}
-
 /// Integer sums of the points that end in one voxel (a bundle before its mean is taken).
 struct BundleSum {
   std::uint64_t key = 0;

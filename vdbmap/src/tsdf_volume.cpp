@@ -145,9 +145,8 @@ IntegrationStats TsdfVolume::apply(const DepthImage& depth_m, const CameraIntrin
   if (integrator_.ray_mode != RayMode::Projective) return apply(backProject(depth_m, K), T_W_S, sign);
   IntegrationStats stats;
   inArena(integrator_.threads, [&] {
-    internal::integrateProjective(depth_m, K, {{T_W_S, sign}}, config_, integrator_, *weight_q_, *wsdf_q_, stats,
-                                  footprint);
-    internal::countHits(depth_m, K, T_W_S, config_, integrator_, *hits_, sign);
+    internal::integrateProjective(depth_m, K, {{T_W_S, sign}}, config_, integrator_, *weight_q_, *wsdf_q_, hits_.get(),
+                                  stats, footprint);
   });
   return stats;
 }
@@ -336,9 +335,8 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, 
   if (footprint) footprint->clear();
   if (integrator_.ray_mode == RayMode::Projective) {
     inArena(integrator_.threads, [&] {
-      internal::integrateProjective(depth_m, K, {{T_W_S_old, -1}, {T_W_S_new, +1}}, config_, integrator_,
-                                    *weight_q_, *wsdf_q_, stats, footprint);
-      internal::moveHits(depth_m, K, T_W_S_old, T_W_S_new, config_, integrator_, *hits_);
+      internal::integrateProjective(depth_m, K, {{T_W_S_old, -1}, {T_W_S_new, +1}}, config_, integrator_, *weight_q_,
+                                    *wsdf_q_, hits_.get(), stats, footprint);
     });
   } else {
     stats = apply(depth_m, K, T_W_S_old, -1);

@@ -38,13 +38,15 @@ struct ImagePlacement {
 /// Adds the image's updates at every placement (each times its sign) into W and WD, in one pass:
 /// a re-integration {(old pose, -1), (new pose, +1)} classifies the pixels once and applies only
 /// the net change. Throws std::invalid_argument when the image size differs from the intrinsics.
-/// `stats` counts the pixels once and the voxel updates of all placements. When `footprint` is
-/// given it receives the voxels the added placements (sign > 0) update, exactly as
-/// projectiveFootprint() finds them.
+/// `stats` counts the pixels once and the voxel updates of all placements. When `hits` is given,
+/// the image's surface end points are counted into it at every placement (times its sign), in the
+/// same pass over the pixels and with the same result as countHits() and moveHits() on
+/// backProject(depth_m, K). When `footprint` is given it receives the voxels the added placements
+/// (sign > 0) update, exactly as projectiveFootprint() finds them.
 void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
                          const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
                          const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
-                         IntegrationStats& stats, VoxelFootprint* footprint = nullptr);
+                         openvdb::Int64Grid* hits, IntegrationStats& stats, VoxelFootprint* footprint = nullptr);
 
 /// The voxels integrateProjective would update for the image seen from T_W_S (free space and the
 /// band around the surface; a band voxel whose weight drops to zero behind the surface counts as

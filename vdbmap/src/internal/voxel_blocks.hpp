@@ -23,6 +23,12 @@ inline constexpr std::int64_t kFractionScale = 1 << 16;
 /// Rounds half away from zero, like std::llround, without the libm call (hot loops).
 inline std::int64_t roundToInt64(double x) { return std::int64_t(x < 0.0 ? x - 0.5 : x + 0.5); }
 
+/// floor(x) as an int without the libm call; equal to int(std::floor(x)) for |x| < 2^31.
+inline int fastFloor(double x) {
+  const int i = int(x);
+  return i - int(x < double(i));
+}
+
 inline std::size_t mixHash(std::uint64_t k) {
   k ^= k >> 33;
   k *= 0xff51afd7ed558ccdULL;
