@@ -1,5 +1,7 @@
 #include "vdbmap/keyframe_store.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <zlib.h>
 
 #include <cmath>
@@ -55,17 +57,21 @@ EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<co
   f.stride_ = stride;
   f.count_ = std::uint32_t(depth.depth_m.size());
   // Row-delta coding: neighbouring depths are close, so the differences compress well.
+  // Rows are coded independently, so they are coded in parallel.
   std::vector<std::uint16_t> coded(depth.depth_m.size());
-  for (int v = 0; v < depth.height; ++v) {
-    std::uint16_t prev = 0;
-    for (int u = 0; u < depth.width; ++u) {
-      const float d = depth.at(u, v);
-      std::uint16_t q = 0;
-      if (d > 0.0f && std::isfinite(d)) q = std::uint16_t(std::min(65535.0, std::max(1.0, double(d) / depth_unit_m + 0.5)));
-      coded[std::size_t(v) * depth.width + u] = std::uint16_t(q - prev);
-      prev = q;
+  tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
+    for (int v = rows.begin(); v != rows.end(); ++v) {
+      std::uint16_t prev = 0;
+      for (int u = 0; u < depth.width; ++u) {
+        const float d = depth.at(u, v);
+        std::uint16_t q = 0;
+        if (d > 0.0f && std::isfinite(d))
+          q = std::uint16_t(std::min(65535.0, std::max(1.0, double(d) / depth_unit_m + 0.5)));
+        coded[std::size_t(v) * depth.width + u] = std::uint16_t(q - prev);
+        prev = q;
+      }
     }
-  }
+  });
   f.compressed_ = compress;
   const std::size_t n = coded.size() * sizeof(std::uint16_t);
   f.payload_ = compress ? deflateBytes(coded.data(), n) : rawBytes(coded.data(), n);
@@ -119,13 +125,15 @@ DepthImage EncodedFrame::decodeDepth() const {
   std::vector<std::uint16_t> coded(count_);
   inflateBytes(payload_, coded.data(), coded.size() * sizeof(std::uint16_t), compressed_);
   DepthImage depth(intrinsics_->width, intrinsics_->height, 0.0f);
-  for (int v = 0; v < depth.height; ++v) {
-    std::uint16_t q = 0;
-    for (int u = 0; u < depth.width; ++u) {
-      q = std::uint16_t(q + coded[std::size_t(v) * depth.width + u]);
-      depth.at(u, v) = q == 0 ? 0.0f : float(q * unit_m_);
+  tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
+    for (int v = rows.begin(); v != rows.end(); ++v) {
+      std::uint16_t q = 0;
+      for (int u = 0; u < depth.width; ++u) {
+        q = std::uint16_t(q + coded[std::size_t(v) * depth.width + u]);
+        depth.at(u, v) = q == 0 ? 0.0f : float(q * unit_m_);
+      }
     }
-  }
+  });
   return depth;
 }
 
