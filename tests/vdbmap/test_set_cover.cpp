@@ -16,6 +16,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <tuple>
 
 using namespace vdbmap;
 using openvdb::Coord;
@@ -245,6 +246,53 @@ TEST_CASE("Cells are unions of voxels and the cell transform maps to cell centre
     // cell c = voxels 2c and 2c + 1: its centre is halfway between their centres
     CHECK(w.x() == Approx((2 * c + 0.5) * vs));
     CHECK(cellOf(Vec3d(w.x(), w.y(), w.z()), vs, 2.0) == Coord(c));
+  }
+}
+
+TEST_CASE("footprintCells holds the cells of every voxel of the footprint, for every cell size", "[set_cover][cells]") {
+  // Brute force: each voxel v of the footprint lies in cell floor((v + 0.5) / k). Leaves sit in a
+  // small box (negative coordinates included) so that many share their x or x and y, masks range
+  // from single voxels to full rows and full leaves, and one leaf is listed twice. Cell sizes 1, 2,
+  // 4 and 8 take the leaf-aligned path, 3 and 2.5 the general one; so does a footprint whose
+  // origins are not multiples of 8.
+  std::mt19937 rng(91);
+  std::uniform_int_distribution<int> leaf_coord(-3, 2), bit(0, 511), kind(0, 3);
+  const auto brute = [](const VoxelFootprint& fp, double k) {
+    std::vector<Coord> cells;
+    for (const LeafFootprint& leaf : fp)
+      for (int n = 0; n < 512; ++n)
+        if ((leaf.voxels[std::size_t(n >> 6)] >> (n & 63)) & 1) {
+          const Coord v = leaf.origin.offsetBy(n >> 6, (n >> 3) & 7, n & 7);
+          cells.emplace_back(int(std::floor((v.x() + 0.5) / k)), int(std::floor((v.y() + 0.5) / k)),
+                             int(std::floor((v.z() + 0.5) / k)));
+        }
+    return CellSet::fromCoords(cells);
+  };
+  for (int instance = 0; instance < 50; ++instance) {
+    VoxelFootprint fp;
+    std::set<std::tuple<int, int, int>> used;
+    for (int l = 0; l < 40; ++l) {
+      const int x = leaf_coord(rng), y = leaf_coord(rng), z = leaf_coord(rng);
+      if (!used.insert({x, y, z}).second) continue;
+      LeafFootprint leaf;
+      leaf.origin = Coord(8 * x, 8 * y, 8 * z);
+      switch (kind(rng)) {
+        case 0: leaf.voxels[std::size_t(bit(rng) >> 6)] |= std::uint64_t(1) << (bit(rng) & 63); break;
+        case 1: leaf.voxels[std::size_t(bit(rng) & 7)] = ~std::uint64_t(0); break;
+        case 2: leaf.voxels.fill(~std::uint64_t(0)); break;
+        default:
+          for (int b = 0; b < 40; ++b) leaf.voxels[std::size_t(bit(rng) >> 6)] |= std::uint64_t(1) << (bit(rng) & 63);
+      }
+      fp.push_back(leaf);
+    }
+    fp.push_back(fp.front());
+    for (const double k : {1.0, 2.0, 4.0, 8.0, 3.0, 2.5}) {
+      INFO("instance " << instance << ", cell size " << k);
+      CHECK(footprintCells(fp, k) == brute(fp, k));
+    }
+    VoxelFootprint shifted = fp;
+    for (LeafFootprint& leaf : shifted) leaf.origin = leaf.origin.offsetBy(3, -5, 1);
+    CHECK(footprintCells(shifted, 2.0) == brute(shifted, 2.0));
   }
 }
 

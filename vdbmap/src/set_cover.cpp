@@ -30,6 +30,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <climits>
 #include <limits>
 #include <cmath>
@@ -314,8 +315,86 @@ CellSet visibleCells(const PointCloud& points_S, const Pose3d& T_W_S, const Tsdf
   return CellSet::fromSortedKeys(dense_keys);
 }
 
+/// footprintCells for cells of k = 1, 2, 4 or 8 voxels. Leaves (8^3 voxels at origins that are
+/// multiples of 8) then hold whole cells, m^3 of them (m = 8 / k), and voxel v lies in cell
+/// floor(v / k). A leaf's cells are found from its 64-bit rows, not voxel by voxel, and walking
+/// the leaves in key order emits the keys sorted, with no sort.
+CellSet alignedFootprintCells(const VoxelFootprint& footprint, int k) {
+  const int m = 8 / k;
+  // Row masks: in a 64-bit row of a leaf (bit 8 j + l for voxel (i, j, l) at a fixed i), the
+  // voxels of cell (b, c) are j in [b k, b k + k), l in [c k, c k + k).
+  std::vector<std::uint64_t> cell_rows(std::size_t(m * m), 0);
+  for (int j = 0; j < 8; ++j)
+    for (int l = 0; l < 8; ++l) cell_rows[std::size_t((j / k) * m + l / k)] |= std::uint64_t(1) << (8 * j + l);
+  struct LeafCells {
+    openvdb::Coord origin;
+    std::array<std::uint64_t, 8> bits{};  // bit (a m + b) m + c of the m^3 <= 512 cells
+  };
+  std::vector<LeafCells> leaves;
+  leaves.reserve(footprint.size());
+  for (const LeafFootprint& leaf : footprint) {
+    if (leaf.empty()) continue;
+    LeafCells cells;
+    cells.origin = leaf.origin;
+    for (int a = 0; a < m; ++a) {
+      std::uint64_t rows = 0;
+      for (int i = a * k; i < a * k + k; ++i) rows |= leaf.voxels[std::size_t(i)];
+      if (!rows) continue;
+      for (int bc = 0; bc < m * m; ++bc)
+        if (rows & cell_rows[std::size_t(bc)]) {
+          const int bit = a * m * m + bc;
+          cells.bits[std::size_t(bit >> 6)] |= std::uint64_t(1) << (bit & 63);
+        }
+    }
+    leaves.push_back(cells);
+  }
+  // Coord's < is lexicographic in (x, y, z).
+  std::sort(leaves.begin(), leaves.end(), [](const LeafCells& p, const LeafCells& q) { return p.origin < q.origin; });
+  // A leaf listed twice (footprints list each once, but this costs nothing): its cells merged.
+  std::size_t unique = 0;
+  for (std::size_t n = 0; n < leaves.size(); ++n) {
+    if (unique > 0 && leaves[unique - 1].origin == leaves[n].origin) {
+      for (std::size_t w = 0; w < 8; ++w) leaves[unique - 1].bits[w] |= leaves[n].bits[w];
+      continue;
+    }
+    leaves[unique++] = leaves[n];
+  }
+  leaves.resize(unique);
+  const auto has = [m](const LeafCells& l, int a, int b, int c) {
+    const int bit = (a * m + b) * m + c;
+    return (l.bits[std::size_t(bit >> 6)] >> (bit & 63)) & 1;
+  };
+  std::vector<std::uint64_t> keys;
+  // Key order is x, then y, then z: for each leaf x, each cell x in it; for each leaf y among those
+  // leaves, each cell y; then the leaves of that x and y in z order, each cell z.
+  for (std::size_t x0 = 0; x0 < leaves.size();) {
+    std::size_t x1 = x0;
+    while (x1 < leaves.size() && leaves[x1].origin.x() == leaves[x0].origin.x()) ++x1;
+    for (int a = 0; a < m; ++a)
+      for (std::size_t y0 = x0; y0 < x1;) {
+        std::size_t y1 = y0;
+        while (y1 < x1 && leaves[y1].origin.y() == leaves[y0].origin.y()) ++y1;
+        for (int b = 0; b < m; ++b)
+          for (std::size_t n = y0; n < y1; ++n) {
+            const openvdb::Coord cell0(leaves[n].origin.x() / k + a, leaves[n].origin.y() / k + b,
+                                       leaves[n].origin.z() / k);
+            for (int c = 0; c < m; ++c)
+              if (has(leaves[n], a, b, c)) keys.push_back(packCell(cell0.offsetBy(0, 0, c)));
+          }
+        y0 = y1;
+      }
+    x0 = x1;
+  }
+  return CellSet::fromSortedKeys(keys);
+}
+
 CellSet footprintCells(const VoxelFootprint& footprint, double cell_size_vox) {
   requireCellSize(cell_size_vox);
+  const bool leaf_aligned = std::all_of(footprint.begin(), footprint.end(), [](const LeafFootprint& leaf) {
+    return ((leaf.origin.x() | leaf.origin.y() | leaf.origin.z()) & 7) == 0;
+  });
+  for (const int k : {1, 2, 4, 8})
+    if (leaf_aligned && cell_size_vox == double(k)) return alignedFootprintCells(footprint, k);
   // Voxel v lies in cell floor((v + 0.5) / k): its centre v * voxel in cell space (see cellTransform).
   const double inv_k = 1.0 / cell_size_vox;
   const auto cellOfIndex = [inv_k](int v) { return int(std::floor((double(v) + 0.5) * inv_k)); };
