@@ -72,7 +72,6 @@ class PixelTableLease {
   PixelTableLease(const PixelTableLease&) = delete;
   PixelTableLease& operator=(const PixelTableLease&) = delete;
   PixelTable& operator*() const { return *table_; }
-  PixelTable* operator->() const { return table_.get(); }
 
  private:
   static constexpr std::size_t kKept = 4;
