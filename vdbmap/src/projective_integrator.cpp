@@ -20,15 +20,15 @@ namespace {
 
 /// What each pixel contributes: the range of its surface along its ray (or max range for pixels
 /// beyond it, which only carve free space) and its fixed-point weight (0: invalid pixel). One
-/// 16-byte record per pixel, so a voxel's lookup touches one cache line.
+/// 24-byte record per pixel (the weight needs 64 bits: it grows as 1 / z^2).
 struct PixelRay {
   std::int64_t weight_q = 0;
   float range_m = 0.0f;
   /// A voxel at distance d on this ray is free space when d^2 <= free2 (sdf >= truncation), and in
-  /// the band when free2 < d^2 <= band2; squared, so most voxels need no square root.
+  /// the band when free2 < d^2 <= band2 (band2 = free2 for a pixel beyond max range, which adds no
+  /// surface); squared, so most voxels need no square root.
   float free2 = -1.0f;
   float band2 = -1.0f;
-  std::uint32_t surface = 0;
 };
 
 struct PixelTable {
@@ -51,7 +51,7 @@ struct PixelTable {
   }
 };
 
-/// A pixel table for one image. Tables are 16 bytes per pixel (4.9 MB at 640x480), so they are
+/// A pixel table for one image. Tables are 24 bytes per pixel (7.4 MB at 640x480), so they are
 /// kept for the next image instead of being allocated and cleared for each one; concurrent
 /// integrations take different tables.
 class PixelTableLease {
@@ -167,13 +167,10 @@ void classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, const Ts
             ++bad;
             continue;
           }
-          if (beyond_range)
-            ++far;
-          else
-            ray.surface = 1;
+          if (beyond_range) ++far;
           ray.range_m = float(r_m);
           ray.free2 = r_m >= delta ? float((r_m - delta) * (r_m - delta)) : -1.0f;
-          ray.band2 = ray.surface ? float((r_m + delta) * (r_m + delta)) : ray.free2;
+          ray.band2 = beyond_range ? ray.free2 : float((r_m + delta) * (r_m + delta));
           ray.weight_q = weight_q;
           far_most = std::max(far_most, double(ray.range_m));
           float& m = tile_max[u / kTile];
