@@ -315,6 +315,7 @@ CellSet visibleCells(const PointCloud& points_S, const Pose3d& T_W_S, const Tsdf
   return CellSet::fromSortedKeys(dense_keys);
 }
 
+namespace {
 /// footprintCells for cells of k = 1, 2, 4 or 8 voxels. Leaves (8^3 voxels at origins that are
 /// multiples of 8) then hold whole cells, m^3 of them (m = 8 / k), and voxel v lies in cell
 /// floor(v / k). A leaf's cells are found from its 64-bit rows, not voxel by voxel, and walking
@@ -387,6 +388,7 @@ CellSet alignedFootprintCells(const VoxelFootprint& footprint, int k) {
   }
   return CellSet::fromSortedKeys(keys);
 }
+}  // namespace
 
 CellSet footprintCells(const VoxelFootprint& footprint, double cell_size_vox) {
   requireCellSize(cell_size_vox);
