@@ -1,5 +1,6 @@
 #include "internal/projective_integrator.hpp"
 
+#include "internal/free_list.hpp"
 #include "internal/grid_dda.hpp"
 #include "internal/hit_counter.hpp"
 #include "internal/voxel_blocks.hpp"
@@ -56,31 +57,17 @@ struct PixelTable {
 /// integrations take different tables.
 class PixelTableLease {
  public:
-  PixelTableLease() {
-    std::lock_guard<std::mutex> lock(mutex());
-    if (!pool().empty()) {
-      table_ = std::move(pool().back());
-      pool().pop_back();
-    } else {
-      table_ = std::make_unique<PixelTable>();
-    }
+  PixelTableLease() : table_(pool().take()) {
+    if (!table_) table_ = std::make_unique<PixelTable>();
   }
-  ~PixelTableLease() {
-    std::lock_guard<std::mutex> lock(mutex());
-    if (pool().size() < kKept) pool().push_back(std::move(table_));
-  }
+  ~PixelTableLease() { pool().keep(std::move(table_)); }
   PixelTableLease(const PixelTableLease&) = delete;
   PixelTableLease& operator=(const PixelTableLease&) = delete;
   PixelTable& operator*() const { return *table_; }
 
  private:
-  static constexpr std::size_t kKept = 4;
-  static std::mutex& mutex() {
-    static std::mutex m;
-    return m;
-  }
-  static std::vector<std::unique_ptr<PixelTable>>& pool() {
-    static std::vector<std::unique_ptr<PixelTable>> p;
+  static FreeList<PixelTable>& pool() {
+    static FreeList<PixelTable> p(4);
     return p;
   }
   std::unique_ptr<PixelTable> table_;

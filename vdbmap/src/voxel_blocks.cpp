@@ -1,5 +1,7 @@
 #include "internal/voxel_blocks.hpp"
 
+#include "internal/free_list.hpp"
+
 #include <openvdb/tools/Prune.h>
 
 #include <tbb/blocked_range.h>
@@ -8,7 +10,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cstring>
-#include <mutex>
 
 namespace vdbmap::internal {
 
@@ -39,50 +40,27 @@ bool Block::anyTouched() const {
 
 namespace {
 
-class BlockPool {
- public:
-  std::unique_ptr<Block> acquire() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!free_.empty()) {
-        std::unique_ptr<Block> b = std::move(free_.back());
-        free_.pop_back();
-        return b;
-      }
-    }
-    auto b = std::make_unique<Block>();
-    b->touched.fill(0);
-    b->free_w.fill(0);
-    std::memset(b->band.data(), 0, sizeof(b->band));
-    return b;
-  }
-  void release(std::vector<std::unique_ptr<Block>>& blocks) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (auto& b : blocks)
-      if (b && free_.size() < kMaxPooled) free_.push_back(std::move(b));
-    blocks.clear();
-  }
-
- private:
-  static constexpr std::size_t kMaxPooled = 6144;  // 72 MiB
-  std::mutex mutex_;
-  std::vector<std::unique_ptr<Block>> free_;
-};
-
-BlockPool& pool() {
-  static BlockPool p;
+/// Blocks are 12 KiB each and a frame uses thousands: kept for the next frame, up to 72 MiB.
+FreeList<Block>& pool() {
+  static FreeList<Block> p(6144);
   return p;
 }
 
 }  // namespace
 
 std::unique_ptr<Block> acquireBlock(const openvdb::Coord& origin) {
-  std::unique_ptr<Block> b = pool().acquire();
+  std::unique_ptr<Block> b = pool().take();
+  if (!b) {
+    b = std::make_unique<Block>();
+    b->touched.fill(0);
+    b->free_w.fill(0);
+    std::memset(b->band.data(), 0, sizeof(b->band));
+  }
   b->origin = origin;
   return b;
 }
 
-void releaseBlocks(std::vector<std::unique_ptr<Block>>& blocks) { pool().release(blocks); }
+void releaseBlocks(std::vector<std::unique_ptr<Block>>& blocks) { pool().keep(blocks); }
 
 void applyBlocks(const std::vector<Block*>& blocks, openvdb::Int64Tree& weight, openvdb::Int64Tree& wsdf,
                  std::int64_t sign) {
