@@ -448,12 +448,7 @@ TEST_CASE("a voxel size far too small for a frame is refused before any work, na
 
 TEST_CASE("a pose far beyond the range of the map is refused before any work and names the frame",
           "[tsdf][mapper][hostile]") {
-  CameraIntrinsics K;
-  K.width = 16;
-  K.height = 12;
-  K.fx = K.fy = 10.0;
-  K.cx = 7.5;
-  K.cy = 5.5;
+  const CameraIntrinsics K = test::pinholeCamera(16, 12, 10.0, 7.5, 5.5);
   const DepthImage depth(K.width, K.height, 2.0f);
   TsdfConfig config;
   config.voxel_size_m = 0.05;

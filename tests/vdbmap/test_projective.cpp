@@ -212,12 +212,7 @@ TEST_CASE("hits counted from a depth image's pixels equal those of its back-proj
   // neighbouring voxel there). An odd width leaves each row a last pixel of its own, and min/max
   // range (1 m, 4 m) cut rows between the pixels of one pair. Invalid pixels (NaN, infinite,
   // negative, zero) sit in both lanes of a pair.
-  CameraIntrinsics K;
-  K.width = 641;
-  K.height = 481;
-  K.fx = K.fy = 2000.0;
-  K.cx = 320.3;
-  K.cy = 240.7;
+  const CameraIntrinsics K = pinholeCamera(641, 481, 2000.0, 320.3, 240.7);
   const auto poses = randomPoses(10, 71);
   const AnalyticScene scene = AnalyticScene::demoRoom();
   std::vector<DepthImage> images;

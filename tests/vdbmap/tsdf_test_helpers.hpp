@@ -20,15 +20,19 @@ namespace vdbmap::test {
 using testing::AnalyticScene;
 
 /// A small camera keeps the tests fast; the geometry is the same as FUEL's camera, scaled.
-inline CameraIntrinsics smallCamera() {
+/// A pinhole camera: width x height pixels, focal length f (pixels) on both axes, principal point
+/// (cx, cy).
+inline CameraIntrinsics pinholeCamera(int width, int height, double f, double cx, double cy) {
   CameraIntrinsics K;
-  K.width = 160;
-  K.height = 120;
-  K.fx = K.fy = 96.8;
-  K.cx = 79.5;
-  K.cy = 59.5;
+  K.width = width;
+  K.height = height;
+  K.fx = K.fy = f;
+  K.cx = cx;
+  K.cy = cy;
   return K;
 }
+
+inline CameraIntrinsics smallCamera() { return pinholeCamera(160, 120, 96.8, 79.5, 59.5); }
 
 inline PointCloud render(const AnalyticScene& scene, const Pose3d& T_W_S, const CameraIntrinsics& K = smallCamera(),
                          double max_range_m = 5.0) {
