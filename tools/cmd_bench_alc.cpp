@@ -1,6 +1,6 @@
-// `vdbmap bench alc --world W.ply [--drift s3] [--seeds N] -o OUTDIR`: exploration with and without
-// active loop closure over several seeds (the paper's ALC experiment); the work is in
-// sim/alc_benchmark.hpp.
+// `vdbmap bench alc [--world W.ply | --worlds SPEC...] [--drift s3] [--seeds N] -o OUTDIR`:
+// exploration with and without active loop closure over worlds and seeds (the paper's ALC
+// experiment); the work is in sim/alc_benchmark.hpp.
 #include "command.hpp"
 
 #include "vdbmap/sim/alc_benchmark.hpp"
@@ -14,6 +14,7 @@ namespace {
 
 struct BenchAlcOptions {
   std::filesystem::path world, output;
+  std::vector<std::string> worlds;
   std::string drift = "s3";
   std::size_t seeds = 5;
   double voxel_size_m = 0.1;
@@ -21,22 +22,23 @@ struct BenchAlcOptions {
   double epsilon = planner::AlcConfig{}.epsilon;
   double ceiling_m = 2.5;
   std::string loop_closure = sim::toString(sim::SimulatorConfig{}.loop_closure);
+  double min_finish_coverage = sim::AlcBenchmarkConfig{}.min_finish_coverage;
   bool keep_runs = false;
 };
 
 void runBenchAlc(const BenchAlcOptions& o) {
   sim::AlcBenchmarkConfig c;
-  c.world_mesh = requireWorld(o.world);
-  if (o.ceiling_m > 0.0) {  // as `vdbmap explore`
-    c.world.ceiling_clip_z_m = o.ceiling_m;
-    c.world.cap_ceiling = true;
-  }
+  const std::vector<std::string> specs =
+      o.worlds.empty() ? std::vector<std::string>{requireWorld(o.world).string()} : benchmarkWorldSpecs(o.worlds);
+  for (const std::string& spec : specs)  // mesh files cut and capped as `vdbmap explore` does
+    for (sim::BenchmarkWorld& w : sim::parseBenchmarkWorlds(spec, o.ceiling_m)) c.worlds.push_back(std::move(w));
   c.drift_level = o.drift;
   c.seeds = o.seeds;
   c.voxel_size_m = o.voxel_size_m;
   c.max_time_s = o.max_time_s;
   c.alc.epsilon = o.epsilon;
   c.loop_closure = sim::parseLoopClosureMode(o.loop_closure);
+  c.min_finish_coverage = o.min_finish_coverage;
   c.keep_runs = o.keep_runs;
   c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   sim::runAlcBenchmark(c, o.output);
@@ -48,10 +50,15 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
   auto o = std::make_shared<BenchAlcOptions>();
   CLI::App* sub = bench.add_subcommand(
       "alc",
-      "Active loop closure: explore the world with and without ALC for seeds 1..N (same drift and start per seed), "
-      "evaluate each run; writes OUTDIR/alc.json, OUTDIR/alc.md and OUTDIR/runs/<arm>_seed<k>/summary.json");
+      "Active loop closure: explore each world with and without ALC for seeds 1..N (same drift and start per world "
+      "and seed), evaluate each run; writes OUTDIR/alc.json, OUTDIR/alc.md (pooled, per world, every run) and "
+      "OUTDIR/runs/<world>/<arm>_seed<k>/summary.json");
   sub->option_defaults()->always_capture_default();
-  addWorldOption(*sub, o->world);
+  CLI::Option* world = addWorldOption(*sub, o->world);
+  sub->add_option("--worlds", o->worlds,
+                  "Several worlds instead of --world: mesh files, house (the embedded one), office:SEED[:XxY] for a "
+                  "generated office or office:A-B[:XxY] for the offices of seeds A..B")
+      ->excludes(world);
   addDriftOption(*sub, o->drift);
   sub->add_option("--seeds", o->seeds, "Runs per arm, with seeds 1..N")->check(CLI::Range(1, 1000));
   sub->add_option("--voxel-size", o->voxel_size_m, "Voxel edge in metres")->check(CLI::Range(0.02, 1.0));
@@ -64,8 +71,12 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
       ->check(CLI::IsMember({"pgo", "perfect", "off"}));
   sub->add_option(
          "--ceiling", o->ceiling_m,
-         "Cut the world at this height and close it with a flat ceiling there (metres; 0 keeps the mesh as is)")
+         "Cut mesh files at this height and close them with a flat ceiling there (metres; 0 keeps the mesh as is; "
+         "generated offices are closed at their own ceiling)")
       ->check(CLI::Range(0.0, 1e3));
+  sub->add_option("--min-finish-coverage", o->min_finish_coverage,
+                  "Count a run that ends below this coverage of the observable surface as incomplete")
+      ->check(CLI::Range(0.0, 1.0));
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep each run's log and map in OUTDIR/runs/ (large)");
   sub->add_option("-o,--output", o->output, "Output folder")->required();
   sub->callback([o] { runBenchAlc(*o); });

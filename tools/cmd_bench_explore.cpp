@@ -26,9 +26,8 @@ struct BenchExploreOptions {
 
 void runBenchExplore(const BenchExploreOptions& o) {
   sim::ExploreBenchmarkConfig c;
-  const std::filesystem::path house = defaultWorldPath();
-  const std::vector<std::string> worlds = o.worlds.empty() ? std::vector<std::string>{requireWorld(house).string()} : o.worlds;
-  for (const std::string& spec : worlds) c.worlds.push_back(sim::parseExploreBenchmarkWorld(spec, o.ceiling_m));
+  for (const std::string& spec : benchmarkWorldSpecs(o.worlds))
+    for (sim::BenchmarkWorld& w : sim::parseBenchmarkWorlds(spec, o.ceiling_m)) c.worlds.push_back(std::move(w));
   c.drift_level = o.drift;
   c.seeds = o.seeds;
   c.voxel_size_m = o.voxel_size_m;
@@ -48,8 +47,10 @@ const GroupRegistration registration("bench", "explore", [](CLI::App& bench) {
       "Exploration speed: explore each world for seeds 1..N; writes OUTDIR/explore.json, OUTDIR/explore.md (time to "
       "50/80/90/95/99 % coverage, speed, final sweep, holds, real-time factor) and OUTDIR/runs/<world>_seed<k>/");
   sub->option_defaults()->always_capture_default();
-  sub->add_option("--worlds", o->worlds,
-                  "Worlds: mesh files, or office:SEED[:XxY] for a generated office (default: the embedded house)");
+  sub->add_option(
+      "--worlds", o->worlds,
+      "Worlds: mesh files, house (the embedded one), office:SEED[:XxY] for a generated office or office:A-B[:XxY] "
+      "for the offices of seeds A..B (default: house)");
   addDriftOption(*sub, o->drift);
   sub->add_option("--seeds", o->seeds, "Runs per world, with seeds 1..N")->check(CLI::Range(1, 1000));
   sub->add_option("--voxel-size", o->voxel_size_m, "Voxel edge in metres")->check(CLI::Range(0.02, 1.0));

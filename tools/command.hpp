@@ -49,6 +49,11 @@ CLI::Option* addWorldOption(CLI::App& sub, std::filesystem::path& world);
 /// The world to load: `world` as given, or the error that no default world was found.
 const std::filesystem::path& requireWorld(const std::filesystem::path& world);
 
+/// The world specs of a benchmark's `--worlds` (sim/benchmark_world.hpp) with `house` replaced by
+/// the embedded default world's path; none given means the house alone. Throws as requireWorld
+/// when the house is asked for and not found.
+std::vector<std::string> benchmarkWorldSpecs(const std::vector<std::string>& specs);
+
 /// `--drift`, one of driftLevels().
 inline CLI::Option* addDriftOption(CLI::App& sub, std::string& drift) {
   return sub.add_option("--drift", drift, "Odometry drift level of the paper's Table I")

@@ -44,4 +44,11 @@ const std::filesystem::path& requireWorld(const std::filesystem::path& world) {
   throw std::runtime_error("no --world given, and the default world is not at any of:" + where);
 }
 
+std::vector<std::string> benchmarkWorldSpecs(const std::vector<std::string>& specs) {
+  std::vector<std::string> out;
+  for (const std::string& spec : specs.empty() ? std::vector<std::string>{"house"} : specs)
+    out.push_back(spec == "house" ? requireWorld(defaultWorldPath()).string() : spec);
+  return out;
+}
+
 }  // namespace vdbmap::cli

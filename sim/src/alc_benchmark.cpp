@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -17,12 +18,12 @@ namespace vdbmap::sim {
 
 void AlcBenchmarkConfig::validate() const {
   auto fail = [](const std::string& what) { throw std::invalid_argument("AlcBenchmarkConfig." + what); };
-  if (world_mesh.empty()) fail("world_mesh must name a mesh file");
-  world.validate();
+  validateBenchmarkWorlds(worlds, "AlcBenchmarkConfig");
   DriftConfig::preset(drift_level);  // throws for an unknown level
   if (seeds < 1 || seeds > 1000) fail("seeds must be in [1, 1000]");
   if (!(voxel_size_m > 0.0 && voxel_size_m <= 10.0)) fail("voxel_size_m must be in (0, 10]");
   if (!(max_time_s > 0.0 && max_time_s <= 1e5)) fail("max_time_s must be in (0, 1e5]");
+  if (!(min_finish_coverage >= 0.0 && min_finish_coverage <= 1.0)) fail("min_finish_coverage must be in [0, 1]");
   alc.validate();
 }
 
@@ -32,7 +33,8 @@ constexpr const char* kArms[] = {"no_alc", "alc"};
 
 nlohmann::json toJson(const AlcBenchmarkRun& r) {
   const ExplorationSummary& s = r.summary;
-  return {{"arm", r.arm},
+  return {{"world", r.world},
+          {"arm", r.arm},
           {"seed", r.seed},
           {"exploration_time_s", s.exploration_time_s},
           {"loop_closures", s.loop_closures},
@@ -78,48 +80,126 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
   const auto report = [&](const std::string& line) {
     if (config.report) config.report(line);
   };
-  const World world = World::load(config.world_mesh, config.world);
   std::filesystem::create_directories(out_dir);
   AlcBenchmarkResult result;
-  for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) {
-    for (const char* arm : kArms) {
-      ExplorationConfig ec = explorationConfigFor(world, config.drift_level, seed, config.voxel_size_m);
-      ec.simulator.loop_closure = config.loop_closure;
-      ec.max_time_s = config.max_time_s;
-      ec.planner.alc_enabled = std::string(arm) == "alc";
-      ec.planner.alc = config.alc;
-      ec.planner.alc.tour.seed = seed;
-      ExplorationRunConfig ro;
-      ro.overwrite = true;
-      ro.write_log = config.keep_runs;
-      ro.write_map = config.keep_runs;
-      ro.description = "vdbmap bench alc: arm " + std::string(arm) + ", seed " + std::to_string(seed) + ", drift " +
-                       config.drift_level + ", world " + config.world_mesh.string();
-      const std::string name = std::string(arm) + "_seed" + std::to_string(seed);
-      const AlcBenchmarkRun run{arm, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
-      const ExplorationSummary& s = run.summary;
-      report(name + ": " + (s.finished ? "finished" : "time limit") + " after " +
-             format("%.1f s", s.exploration_time_s) + ", " + std::to_string(s.loop_closures) + " loop closures, rmse " +
-             format("%.4f m", s.accuracy_rmse_m) + ", coverage " + format("%.3f", s.coverage) + ", " +
-             std::to_string(s.alc_detours) + " detours (" + format("%.1f s", s.alc_time_s) + "), " +
-             format("%.0f s wall", s.wall_s));
-      result.runs.push_back(run);
-      result.wall_s = wall.s();
-      writeOutputs(result, config, out_dir);
+  for (const BenchmarkWorld& w : config.worlds) {
+    const World world = loadBenchmarkWorld(w);
+    const std::string world_file = benchmarkWorldFile(w, out_dir).string();
+    for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) {
+      for (const char* arm : kArms) {
+        ExplorationConfig ec = explorationConfigFor(world, config.drift_level, seed, config.voxel_size_m);
+        ec.simulator.loop_closure = config.loop_closure;
+        ec.max_time_s = config.max_time_s;
+        ec.planner.alc_enabled = std::string(arm) == "alc";
+        ec.planner.alc = config.alc;
+        ec.planner.alc.tour.seed = seed;
+        ExplorationRunConfig ro;
+        ro.overwrite = true;
+        ro.write_log = config.keep_runs;
+        ro.write_map = config.keep_runs;
+        ro.world = world_file;
+        ro.description = "vdbmap bench alc: world " + w.name + ", arm " + std::string(arm) + ", seed " +
+                         std::to_string(seed) + ", drift " + config.drift_level;
+        const std::string name = std::string(arm) + "_seed" + std::to_string(seed);
+        const AlcBenchmarkRun run{w.name, arm, seed, exploreToFolder(world, ec, out_dir / "runs" / w.name / name, ro)};
+        const ExplorationSummary& s = run.summary;
+        report(w.name + "/" + name + ": " + (s.finished ? "finished" : "time limit") + " after " +
+               format("%.1f s", s.exploration_time_s) + ", " + std::to_string(s.loop_closures) +
+               " loop closures, rmse " + format("%.4f m", s.accuracy_rmse_m) + ", coverage " +
+               format("%.3f", s.coverage) + ", " + std::to_string(s.alc_detours) + " detours (" +
+               format("%.1f s", s.alc_time_s) + "), " + std::to_string(s.collisions) + " collisions, " +
+               format("%.0f s wall", s.wall_s));
+        result.runs.push_back(run);
+        result.wall_s = wall.s();
+        writeOutputs(result, config, out_dir);
+      }
     }
   }
   return result;
 }
 
+namespace {
+
+/// The two arms of one world and seed.
+struct Pair {
+  std::string world;
+  std::uint64_t seed = 0;
+  const ExplorationSummary *off = nullptr, *on = nullptr;
+};
+
+/// Pairs of `runs` whose two arms are both done, in run order; `world` empty means all worlds.
+std::vector<Pair> pairs(const std::vector<AlcBenchmarkRun>& runs, const std::string& world) {
+  std::vector<Pair> out;
+  std::map<std::pair<std::string, std::uint64_t>, std::size_t> index;
+  for (const AlcBenchmarkRun& r : runs) {
+    if (!world.empty() && r.world != world) continue;
+    const auto [it, added] = index.try_emplace({r.world, r.seed}, out.size());
+    if (added) out.push_back(Pair{r.world, r.seed});
+    (r.arm == "alc" ? out[it->second].on : out[it->second].off) = &r.summary;
+  }
+  std::vector<Pair> done;
+  for (const Pair& p : out)
+    if (p.off && p.on) done.push_back(p);
+  return done;
+}
+
+/// The effect of ALC over `ps`: sums and counts, so that pooled and per-world rows read alike.
+struct Effect {
+  std::size_t n = 0;
+  Spread time_off, time_on, loops_off, loops_on, rmse_off, rmse_on, rmse_change, time_change, loop_gain;
+  std::size_t alc_better = 0;  ///< pairs where ALC's map RMSE is lower
+  std::size_t incomplete_off = 0, incomplete_on = 0;
+  std::size_t collisions_off = 0, collisions_on = 0;
+  double min_coverage_off = 1.0, min_coverage_on = 1.0;
+
+  double overhead() const { return time_on.mean / time_off.mean - 1.0; }
+};
+
+Effect effect(const std::vector<Pair>& ps, double min_finish_coverage) {
+  Effect e;
+  e.n = ps.size();
+  std::vector<double> t0, t1, l0, l1, r0, r1, dr, dt, dl;
+  for (const Pair& p : ps) {
+    t0.push_back(p.off->exploration_time_s);
+    t1.push_back(p.on->exploration_time_s);
+    l0.push_back(double(p.off->loop_closures));
+    l1.push_back(double(p.on->loop_closures));
+    r0.push_back(p.off->accuracy_rmse_m);
+    r1.push_back(p.on->accuracy_rmse_m);
+    dr.push_back(p.on->accuracy_rmse_m - p.off->accuracy_rmse_m);
+    dt.push_back(p.on->exploration_time_s / p.off->exploration_time_s - 1.0);
+    dl.push_back(double(p.on->loop_closures) - double(p.off->loop_closures));
+    e.alc_better += p.on->accuracy_rmse_m < p.off->accuracy_rmse_m ? 1 : 0;
+    e.incomplete_off += p.off->coverage < min_finish_coverage ? 1 : 0;
+    e.incomplete_on += p.on->coverage < min_finish_coverage ? 1 : 0;
+    e.collisions_off += p.off->collisions;
+    e.collisions_on += p.on->collisions;
+    e.min_coverage_off = std::min(e.min_coverage_off, p.off->coverage);
+    e.min_coverage_on = std::min(e.min_coverage_on, p.on->coverage);
+  }
+  e.time_off = spread(t0), e.time_on = spread(t1), e.loops_off = spread(l0), e.loops_on = spread(l1);
+  e.rmse_off = spread(r0), e.rmse_on = spread(r1), e.rmse_change = spread(dr), e.time_change = spread(dt);
+  e.loop_gain = spread(dl);
+  return e;
+}
+
+}  // namespace
+
 std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenchmarkConfig& config) {
   std::ostringstream md;
-  md << "# Exploration with and without active loop closure\n\n"
-     << "World `" << config.world_mesh.string() << "`, drift " << config.drift_level << ", seeds 1.." << config.seeds
-     << ", voxel " << config.voxel_size_m << " m, loop closure `" << toString(config.loop_closure) << "`, time limit "
-     << config.max_time_s << " s. ALC: epsilon " << config.alc.epsilon << ", give-up timeout "
-     << config.alc.give_up_timeout_s << " s, search radius " << config.alc.search_radius_m
-     << " m. Both arms of a seed share the drift and planner seeds and the start. Values: mean ± sample standard "
-        "deviation over the runs done.\n";
+  md << "# Exploration with and without active loop closure\n\n";
+  md << (config.worlds.size() == 1 ? "World" : "Worlds");
+  for (std::size_t i = 0; i < config.worlds.size(); ++i) {
+    const BenchmarkWorld& w = config.worlds[i];
+    md << (i ? ", " : " ") << "`" << (w.office ? w.name : w.mesh.string()) << "`";
+  }
+  md << "; drift " << config.drift_level << ", seeds 1.." << config.seeds << ", voxel " << config.voxel_size_m
+     << " m, loop closure `" << toString(config.loop_closure) << "`, time limit " << config.max_time_s
+     << " s. ALC: epsilon " << config.alc.epsilon << ", give-up timeout " << config.alc.give_up_timeout_s
+     << " s, search radius " << config.alc.search_radius_m
+     << " m. Both arms of a world and seed share the drift and planner seeds and the start. Values: mean ± sample "
+        "standard deviation over the runs done. A run is incomplete when it ends below "
+     << format("%.2f", config.min_finish_coverage) << " coverage of the observable surface, finished or not.\n";
 
   const std::vector<std::pair<std::string, std::pair<const char*, Metric>>> metrics = {
       {"exploration time (s)", {"%.1f", [](const ExplorationSummary& s) { return s.exploration_time_s; }}},
@@ -135,7 +215,7 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
       {"ALC detour time (s)", {"%.1f", [](const ExplorationSummary& s) { return s.alc_time_s; }}},
       {"collisions", {"%.1f", [](const ExplorationSummary& s) { return double(s.collisions); }}},
   };
-  md << "\n## Per arm\n\n| metric |";
+  md << "\n## Per arm" << (config.worlds.size() > 1 ? ", all worlds" : "") << "\n\n| metric |";
   for (const char* arm : kArms)
     md << " " << arm << " (n = " << values(result, arm, metrics[0].second.second).size() << ") |";
   md << "\n|---|---:|---:|\n";
@@ -148,36 +228,46 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
     md << "\n";
   }
 
-  // The effect, over the seeds both arms completed (paired).
-  std::map<std::uint64_t, std::map<std::string, const ExplorationSummary*>> by_seed;
-  for (const AlcBenchmarkRun& r : result.runs) by_seed[r.seed][r.arm] = &r.summary;
-  std::vector<double> time_ratio, loop_gain, rmse_change, time_a, time_b;
-  for (const auto& [seed, arms] : by_seed) {
-    if (arms.size() < 2) continue;
-    const ExplorationSummary &off = *arms.at("no_alc"), &on = *arms.at("alc");
-    time_a.push_back(off.exploration_time_s);
-    time_b.push_back(on.exploration_time_s);
-    time_ratio.push_back(on.exploration_time_s / off.exploration_time_s - 1.0);
-    loop_gain.push_back(double(on.loop_closures) - double(off.loop_closures));
-    rmse_change.push_back(on.accuracy_rmse_m - off.accuracy_rmse_m);
-  }
-  md << "\n## Effect of ALC (paired by seed, " << time_ratio.size() << " seeds)\n\n";
-  if (!time_ratio.empty()) {
-    const Spread ratio = spread(time_ratio), gain = spread(loop_gain), rmse = spread(rmse_change);
-    const double overhead = spread(time_b).mean / spread(time_a).mean - 1.0;
-    md << "- time overhead: " << format("%+.1f %%", 100.0 * overhead) << " (ratio of the mean times; per seed "
-       << format("%+.1f", 100.0 * ratio.mean) << " ± " << format("%.1f %%", 100.0 * ratio.sd) << ")\n"
-       << "- loop-closure gain: " << format("%+.1f", gain.mean) << " ± " << format("%.1f", gain.sd) << " per run\n"
-       << "- accuracy RMSE change: " << format("%+.4f", rmse.mean) << " ± " << format("%.4f m", rmse.sd) << "\n"
+  const std::vector<Pair> all = pairs(result.runs, "");
+  md << "\n## Effect of ALC (paired by world and seed, " << all.size() << " pairs)\n\n";
+  if (!all.empty()) {
+    const Effect e = effect(all, config.min_finish_coverage);
+    md << "- time overhead: " << format("%+.1f %%", 100.0 * e.overhead()) << " (ratio of the mean times; per pair "
+       << format("%+.1f", 100.0 * e.time_change.mean) << " ± " << format("%.1f %%", 100.0 * e.time_change.sd) << ")\n"
+       << "- loop-closure gain: " << format("%+.1f", e.loop_gain.mean) << " ± " << format("%.1f", e.loop_gain.sd)
+       << " per run\n"
+       << "- accuracy RMSE change: " << format("%+.4f", e.rmse_change.mean) << " ± "
+       << format("%.4f m", e.rmse_change.sd) << " (ratio of the means "
+       << format("%.2f", e.rmse_on.mean / e.rmse_off.mean) << "); ALC's map better in " << e.alc_better << " of " << e.n
+       << " pairs (" << format("%.0f %%", 100.0 * double(e.alc_better) / double(e.n)) << ")\n"
+       << "- incomplete runs: " << e.incomplete_off << " without ALC, " << e.incomplete_on
+       << " with ALC; lowest coverage " << format("%.3f", e.min_coverage_off) << " / "
+       << format("%.3f", e.min_coverage_on) << "\n"
        << "- paper (Zhang et al. 2022): +8 % time, +3 loop closures, a better map\n";
   }
 
-  md << "\n## Runs\n\n| seed | arm | finished | time (s) | loops | RMSE (m) | completeness | coverage | estimate "
-        "error (m) | detours (with loop / given up) | detour time (s) | collisions |\n"
-        "|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  md << "\n## Per world\n\n| world | pairs | RMSE no_alc / alc (m) | ALC better | loops no_alc / alc | time no_alc / "
+        "alc (s) | overhead | incomplete no_alc / alc | lowest coverage no_alc / alc | collisions no_alc / alc |\n"
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const BenchmarkWorld& w : config.worlds) {
+    const std::vector<Pair> ps = pairs(result.runs, w.name);
+    if (ps.empty()) continue;
+    const Effect e = effect(ps, config.min_finish_coverage);
+    md << "| " << w.name << " | " << e.n << " | " << format("%.4f", e.rmse_off.mean) << " / "
+       << format("%.4f", e.rmse_on.mean) << " | " << e.alc_better << " / " << e.n << " | "
+       << format("%.1f", e.loops_off.mean) << " / " << format("%.1f", e.loops_on.mean) << " | "
+       << format("%.0f", e.time_off.mean) << " / " << format("%.0f", e.time_on.mean) << " | "
+       << format("%+.1f %%", 100.0 * e.overhead()) << " | " << e.incomplete_off << " / " << e.incomplete_on << " | "
+       << format("%.3f", e.min_coverage_off) << " / " << format("%.3f", e.min_coverage_on) << " | " << e.collisions_off
+       << " / " << e.collisions_on << " |\n";
+  }
+
+  md << "\n## Runs\n\n| world | seed | arm | finished | time (s) | loops | RMSE (m) | completeness | coverage | "
+        "estimate error (m) | detours (with loop / given up) | detour time (s) | collisions |\n"
+        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const AlcBenchmarkRun& r : result.runs) {
     const ExplorationSummary& s = r.summary;
-    md << "| " << r.seed << " | " << r.arm << " | " << (s.finished ? "yes" : "no") << " | "
+    md << "| " << r.world << " | " << r.seed << " | " << r.arm << " | " << (s.finished ? "yes" : "no") << " | "
        << format("%.1f", s.exploration_time_s) << " | " << s.loop_closures << " | " << format("%.4f", s.accuracy_rmse_m)
        << " | " << format("%.3f", s.completeness) << " | " << format("%.3f", s.coverage) << " | "
        << format("%.3f", s.estimate_error_rmse_m) << " | " << s.alc_detours << " (" << s.alc_detour_loops << " / "

@@ -4,65 +4,20 @@
 #include "text_format.hpp"
 
 #include "vdbmap/atomic_file.hpp"
-#include "vdbmap/io/mesh_io.hpp"
 #include "vdbmap/timing.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <cstdlib>
 #include <map>
 #include <sstream>
 #include <stdexcept>
 
 namespace vdbmap::sim {
 
-ExploreBenchmarkWorld parseExploreBenchmarkWorld(const std::string& spec, double ceiling_m) {
-  ExploreBenchmarkWorld w;
-  if (spec.rfind("office:", 0) == 0) {
-    OfficeWorldConfig office;
-    const std::string rest = spec.substr(7);
-    const std::size_t colon = rest.find(':');
-    const std::string seed = rest.substr(0, colon);
-    char* end = nullptr;
-    const unsigned long long s = std::strtoull(seed.c_str(), &end, 10);
-    if (seed.empty() || *end != '\0' || s == 0)
-      throw std::invalid_argument("world '" + spec + "': expected office:SEED or office:SEED:XxY with SEED >= 1");
-    office.seed = s;
-    if (colon != std::string::npos) {
-      const std::string size = rest.substr(colon + 1);
-      double x = 0.0, y = 0.0;
-      char sep = 0, tail = 0;
-      std::istringstream in(size);
-      if (!(in >> x >> sep >> y) || sep != 'x' || (in >> tail))
-        throw std::invalid_argument("world '" + spec + "': the size must read XxY in metres, e.g. 20x16");
-      office.size_x_m = x;
-      office.size_y_m = y;
-    }
-    office.validate();
-    w.office = office;
-    w.name = "office" + std::to_string(s) + (colon == std::string::npos ? "" : "_" + rest.substr(colon + 1));
-    return w;
-  }
-  w.mesh = spec;
-  w.name = w.mesh.stem().string();
-  if (ceiling_m > 0.0) {
-    w.world.ceiling_clip_z_m = ceiling_m;
-    w.world.cap_ceiling = true;
-  }
-  return w;
-}
-
 void ExploreBenchmarkConfig::validate() const {
   const auto fail = [](const std::string& what) { throw std::invalid_argument("ExploreBenchmarkConfig." + what); };
-  if (worlds.empty()) fail("worlds must name at least one world");
-  std::map<std::string, int> names;
-  for (const ExploreBenchmarkWorld& w : worlds) {
-    if (w.office) w.office->validate();
-    else if (w.mesh.empty()) fail("worlds: " + w.name + " has neither a mesh nor an office");
-    w.world.validate();
-    if (++names[w.name] > 1) fail("worlds: " + w.name + " is listed twice");
-  }
+  validateBenchmarkWorlds(worlds, "ExploreBenchmarkConfig");
   DriftConfig::preset(drift_level);  // throws for an unknown level
   if (seeds < 1 || seeds > 1000) fail("seeds must be in [1, 1000]");
   if (!(voxel_size_m > 0.0 && voxel_size_m <= 10.0)) fail("voxel_size_m must be in (0, 10]");
@@ -73,14 +28,6 @@ namespace {
 
 using internal::Spread;
 using internal::spread;
-
-World loadWorld(const ExploreBenchmarkWorld& w) {
-  if (!w.office) return World::load(w.mesh, w.world);
-  WorldConfig wc;
-  wc.ceiling_clip_z_m = w.office->height_m;
-  wc.cap_ceiling = true;
-  return World(generateOffice(*w.office).mesh, wc);
-}
 
 double activity(const ExplorationSummary& s, planner::ExplorationActivity a) { return s.activity_time_s[std::size_t(a)]; }
 
@@ -134,15 +81,10 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
   };
   std::filesystem::create_directories(out_dir);
   ExploreBenchmarkResult result;
-  for (const ExploreBenchmarkWorld& w : config.worlds) {
-    const World world = loadWorld(w);
+  for (const BenchmarkWorld& w : config.worlds) {
+    const World world = loadBenchmarkWorld(w);
     // A generated world is written beside the runs, so that a report can colour a map by it.
-    std::filesystem::path world_file = w.mesh;
-    if (w.office) {
-      world_file = out_dir / "worlds" / (w.name + ".ply");
-      std::filesystem::create_directories(world_file.parent_path());
-      io::writePlyMesh(world_file, generateOffice(*w.office).mesh);
-    }
+    const std::string world_file = benchmarkWorldFile(w, out_dir).string();
     for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) {
       ExplorationConfig ec = explorationConfigFor(world, config.drift_level, seed, config.voxel_size_m);
       ec.max_time_s = config.max_time_s;
@@ -152,7 +94,7 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
       ro.overwrite = true;
       ro.write_log = config.keep_runs;
       ro.write_map = config.keep_runs;
-      ro.world = std::filesystem::absolute(world_file).lexically_normal().string();
+      ro.world = world_file;
       ro.description = "vdbmap bench explore: world " + w.name + ", seed " + std::to_string(seed) + ", drift " +
                        config.drift_level + (config.alc ? ", ALC on" : "");
       const std::string name = w.name + "_seed" + std::to_string(seed);

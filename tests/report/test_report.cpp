@@ -292,6 +292,27 @@ TEST_CASE("bench drift and bench alc folders become the Table II grid and per-se
   CHECK(rmse.at("groups")[0].at("name") == "no_alc");
   CHECK(rmse.at("groups")[0].at("values") == json({0.2, 0.4}));
   CHECK(rmse.at("groups")[1].at("values") == json({0.07, 0.07}));
+
+  // Several worlds: a case is a world and a seed.
+  const fs::path worlds = fs::temp_directory_path() / "vdbmap_report_alc_worlds";
+  fs::remove_all(worlds);
+  json multi = json::array();
+  for (const char* world : {"office1", "office2"})
+    for (const char* arm : {"no_alc", "alc"})
+      multi.push_back({{"world", world},
+                       {"arm", arm},
+                       {"seed", 1},
+                       {"accuracy_rmse_m", std::string(world) == "office1" ? 0.1 : 0.2},
+                       {"exploration_time_s", 200.0},
+                       {"loop_closures", 3},
+                       {"coverage", 0.99},
+                       {"collisions", 0}});
+  writeText(worlds / "alc.json", multi.dump());
+  const json m = vdbmap::report::collectReportData(worlds, {});
+  const json& per_case = byId(m.at("plots"), "accuracy_rmse_m");
+  CHECK(per_case.at("categories") == json({"office1 seed 1", "office2 seed 1"}));
+  CHECK(per_case.at("groups")[1].at("values") == json({0.1, 0.2}));
+  CHECK(byId(m.at("tables"), "runs").at("rows")[2].at(0) == "office2");
 }
 
 TEST_CASE("malformed report inputs are named: the path, the file and line, the field", "[report][errors]") {

@@ -1,5 +1,5 @@
-// `vdbmap bench alc` runs both arms per seed and writes alc.json (one object per run, the keys the
-// issue lists), alc.md and each run's summary.json; bad arguments fail.
+// `vdbmap bench alc` runs both arms per world and seed and writes alc.json (one object per run, the
+// keys the issue lists), alc.md and each run's summary.json; bad arguments fail.
 #include "tools/cli_test_worlds.hpp"
 
 #include "vdbmap/io/mesh_io.hpp"
@@ -46,7 +46,8 @@ TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed",
     CHECK(r.at("accuracy_rmse_m").get<double>() > 0.0);
     arms.insert(r.at("arm").get<std::string>());
     // The run's own summary says which arm it was.
-    const fs::path run_dir = bench / "runs" / (r.at("arm").get<std::string>() + "_seed1");
+    CHECK(r.at("world") == "room");
+    const fs::path run_dir = bench / "runs" / "room" / (r.at("arm").get<std::string>() + "_seed1");
     const auto s = nlohmann::json::parse(slurp(run_dir / "summary.json"));
     CHECK(s.at("alc_enabled") == (r.at("arm") == "alc"));
     if (r.at("arm") == "alc") CHECK(s.at("epsilon").get<double>() == Approx(0.3));
@@ -59,6 +60,30 @@ TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed",
   for (const char* text : {"no_alc", "| alc |", "time overhead", "loop-closure gain", "exploration time (s)"})
     CHECK(md.find(text) != std::string::npos);
   CHECK(slurp(out).find("time overhead") != std::string::npos);  // the table is printed too
+
+  // Several worlds: each gets its runs and its row, and the effect is pooled over all pairs.
+  vdbmap::io::writePlyMesh(dir / "room2.ply", vdbmap::test::roomWithBox());
+  const fs::path multi = dir / "multi";
+  REQUIRE(run("bench alc --worlds " + (dir / "room.ply").string() + " " + (dir / "room2.ply").string() +
+                  " --seeds 1 --max-time-s 10 -o " + multi.string(),
+              out) == 0);
+  const auto multi_runs = nlohmann::json::parse(slurp(multi / "alc.json"));
+  REQUIRE(multi_runs.size() == 4);
+  std::set<std::string> worlds;
+  for (const auto& r : multi_runs) {
+    worlds.insert(r.at("world").get<std::string>());
+    CHECK(fs::exists(multi / "runs" / r.at("world").get<std::string>() / (r.at("arm").get<std::string>() + "_seed1") /
+                     "summary.json"));
+  }
+  CHECK(worlds == std::set<std::string>{"room", "room2"});
+  const std::string multi_md = slurp(multi / "alc.md");
+  CHECK(multi_md.find("2 pairs") != std::string::npos);
+  CHECK(multi_md.find("| room2 | 1 |") != std::string::npos);
+  CHECK(run("bench alc --world " + (dir / "room.ply").string() + " --worlds " + (dir / "room2.ply").string() + " -o " +
+                (dir / "x").string(),
+            out) != 0);  // one or the other
+  CHECK(run("bench alc --worlds office:5-1 -o " + (dir / "x").string(), out) != 0);
+  CHECK(slurp(out).find("office:5-1") != std::string::npos);
 
   CHECK(run("bench alc" + world + " --seeds 0 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("bench alc" + world + " --drift s9 -o " + (dir / "x").string(), out) != 0);

@@ -26,6 +26,7 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -574,13 +575,21 @@ json driftBenchmark(const fs::path& dir, const ReportConfig& config, ReportStats
 json alcBenchmark(const fs::path& dir, const ReportConfig& config, ReportStats& stats) {
   const json runs = readJson(dir / "alc.json");
   if (!runs.is_array() || runs.empty()) throw std::runtime_error((dir / "alc.json").string() + ": no runs");
-  std::vector<std::string> arms, seeds;
+  // A case is a world and a seed ("seed k" alone for a single world, or for folders written before
+  // bench alc took several worlds, whose runs have no "world" and live in runs/<arm>_seed<k>).
+  std::vector<std::string> arms, cases;
   std::map<std::pair<std::string, std::string>, json> by;
+  std::set<std::string> worlds;
+  for (const json& r : runs) worlds.insert(r.value("world", ""));
+  const auto caseOf = [&](const json& r) {
+    const std::string seed = "seed " + std::to_string(r.at("seed").get<long long>());
+    return worlds.size() > 1 ? r.value("world", "") + " " + seed : seed;
+  };
   for (const json& r : runs) {
-    const std::string arm = r.at("arm"), seed = std::to_string(r.at("seed").get<long long>());
+    const std::string arm = r.at("arm"), c = caseOf(r);
     if (std::find(arms.begin(), arms.end(), arm) == arms.end()) arms.push_back(arm);
-    if (std::find(seeds.begin(), seeds.end(), seed) == seeds.end()) seeds.push_back(seed);
-    by[{arm, seed}] = r;
+    if (std::find(cases.begin(), cases.end(), c) == cases.end()) cases.push_back(c);
+    by[{arm, c}] = r;
   }
   json data;
   data["kind"] = "bench_alc";
@@ -592,44 +601,50 @@ json alcBenchmark(const fs::path& dir, const ReportConfig& config, ReportStats& 
                                                                     {"loop_closures", "Loop closures"},
                                                                     {"coverage", "Coverage at finish"},
                                                                     {"collisions", "Collision events"}};
-  std::vector<std::string> categories;
-  for (const std::string& s : seeds) categories.push_back("seed " + s);
   for (const auto& [key, title] : metrics) {
     std::vector<std::pair<std::string, std::vector<double>>> groups;
     for (const std::string& arm : arms) {
       std::vector<double> v;
-      for (const std::string& seed : seeds) {
-        const auto it = by.find({arm, seed});
+      for (const std::string& c : cases) {
+        const auto it = by.find({arm, c});
         v.push_back(it == by.end() ? NAN : it->second.value(key, NAN));
       }
       groups.emplace_back(arm, v);
     }
-    plots.push_back(bars(key, title + " per seed", title, categories, groups));
+    plots.push_back(bars(key, title + (worlds.size() > 1 ? " per world and seed" : " per seed"), title, cases, groups));
   }
   data["plots"] = plots;
   json rows = json::array();
   for (const json& r : runs)
-    rows.push_back({r.value("arm", ""), r.value("seed", 0), rounded(r.value("exploration_time_s", NAN)),
-                    rounded(r.value("accuracy_rmse_m", NAN)), r.value("loop_closures", 0), rounded(r.value("coverage", NAN)),
-                    r.value("collisions", 0), r.value("finished", false)});
-  data["tables"] = json::array({{{"id", "runs"}, {"title", "Every run"},
-                                 {"columns", {"arm", "seed", "time (s)", "RMSE (m)", "loops", "coverage", "collisions", "finished"}},
-                                 {"rows", rows}}});
-  data["figures"] = json::array({figure("seeds", seeds.size()), figure("arms", arms.size())});
+    rows.push_back({r.value("world", ""), r.value("arm", ""), r.value("seed", 0),
+                    rounded(r.value("exploration_time_s", NAN)), rounded(r.value("accuracy_rmse_m", NAN)),
+                    r.value("loop_closures", 0), rounded(r.value("coverage", NAN)), r.value("collisions", 0),
+                    r.value("finished", false)});
+  data["tables"] = json::array(
+      {{{"id", "runs"},
+        {"title", "Every run"},
+        {"columns", {"world", "arm", "seed", "time (s)", "RMSE (m)", "loops", "coverage", "collisions", "finished"}},
+        {"rows", rows}}});
+  data["figures"] =
+      json::array({figure("worlds", worlds.size()), figure("cases", cases.size()), figure("arms", arms.size())});
   json scene;
   scene["lines"] = json::array();
   scene["segments"] = json::array();
   scene["points"] = json::array();
   double t_max = 0.0;
   const char* colors[] = {"#1f77b4", "#ff7f0e"};
+  const json& first = runs.front();
+  const std::string first_world = first.value("world", ""),
+                    first_seed = std::to_string(first.at("seed").get<long long>());
   for (std::size_t a = 0; a < arms.size() && a < 2; ++a) {
-    const fs::path traj = dir / "runs" / (arms[a] + "_seed" + seeds.front()) / "trajectory_true.txt";
+    const fs::path traj = (first_world.empty() ? dir / "runs" : dir / "runs" / first_world) /
+                          (arms[a] + "_seed" + first_seed) / "trajectory_true.txt";
     if (!fs::is_regular_file(traj)) continue;
     const Track track = readTrack(traj);
     if (!track.t.empty()) t_max = std::max(t_max, track.t.back());
-    scene["lines"].push_back(lineLayer("true trajectory, " + arms[a] + ", seed " + seeds.front(), colors[a], track));
+    scene["lines"].push_back(lineLayer("true trajectory, " + arms[a] + ", " + caseOf(first), colors[a], track));
   }
-  if (scene["lines"].empty()) stats.notes.push_back("no runs/<arm>_seed<k>/trajectory_true.txt: no 3D view");
+  if (scene["lines"].empty()) stats.notes.push_back("no runs/[<world>/]<arm>_seed<k>/trajectory_true.txt: no 3D view");
   scene["t_max"] = rounded(t_max);
   data["scene"] = scene;
   return data;

@@ -1,21 +1,26 @@
-// The paper's active-loop-closure experiment (Zhang et al. 2022, Sect. V-C) in one call: the same
-// world explored with and without ALC over several seeds, at one drift level.
+// The paper's active-loop-closure experiment (Zhang et al. 2022, Sect. V-C) in one call: each
+// world explored with and without ALC over several seeds, at one drift level. One world is an
+// anecdote; several generated offices (benchmark_world.hpp) show whether ALC helps on layouts
+// nobody tuned on.
 //
-// For each seed k (1..seeds) both arms run with the same set-up (explorationConfigFor: drift seeded
+// For each world and seed k (1..seeds) both arms run with the same set-up (explorationConfigFor: drift seeded
 // with k, planner seeded with k, same start), one after the other: "no_alc" (plain FUEL) and "alc"
 // (ExplorationManagerConfig::alc_enabled, epsilon from the config). Each run is evaluated like `vdbmap
 // explore` (coverage of the observable surface, map RMSE and completeness against the world mesh)
-// and its folder OUTDIR/runs/<arm>_seed<k>/ gets summary.json and the trajectories (the log and
-// the map too with keep_runs).
+// and its folder OUTDIR/runs/<world>/<arm>_seed<k>/ gets summary.json and the trajectories (the
+// log and the map too with keep_runs).
 //
-// Output: OUTDIR/alc.json (one object per run: arm, seed, exploration_time_s, loop_closures,
-// accuracy_rmse_m, completeness, finished, coverage, alc_detours, alc_time_s, ...) and
-// OUTDIR/alc.md (mean and standard deviation per arm, the relative time overhead and the
-// loop-closure gain of ALC, and the runs side by side per seed). Both files are rewritten after
-// every run, so an interrupted benchmark leaves the runs done so far.
+// Output: OUTDIR/alc.json (one object per run: world, arm, seed, exploration_time_s,
+// loop_closures, accuracy_rmse_m, completeness, finished, coverage, alc_detours, alc_time_s, ...)
+// and OUTDIR/alc.md: pooled over all worlds, the mean and standard deviation per arm and the
+// paired effect of ALC (time overhead, loop-closure gain, RMSE change and the share of pairs
+// where ALC's map is better, runs that finished below `min_finish_coverage`); then the same per
+// world, and every run. Both files are rewritten after every run, so an interrupted benchmark
+// leaves the runs done so far.
 #pragma once
 
 #include "vdbmap/planner/active_loop_closure.hpp"
+#include "vdbmap/sim/benchmark_world.hpp"
 #include "vdbmap/sim/exploration.hpp"
 #include "vdbmap/sim/simulator.hpp"
 #include "vdbmap/sim/world.hpp"
@@ -30,8 +35,7 @@
 namespace vdbmap::sim {
 
 struct AlcBenchmarkConfig {
-  std::filesystem::path world_mesh;                          ///< PLY, OBJ or OFF
-  WorldConfig world;                                         ///< e.g. the ceiling cap `vdbmap explore` uses
+  std::vector<BenchmarkWorld> worlds;                        ///< at least one, names unique
   std::string drift_level = "s3";                            ///< Table I level
   std::size_t seeds = 5;                                     ///< seeds 1..seeds; [1, 1000]
   double voxel_size_m = 0.1;                                 ///< (0, 10]
@@ -39,6 +43,9 @@ struct AlcBenchmarkConfig {
   /// The ALC arm's parameters (its tour seed follows the run's seed).
   planner::AlcConfig alc;
   LoopClosureMode loop_closure = SimulatorConfig{}.loop_closure;
+  /// A run that ends (finished or not) below this coverage of the observable surface counts as
+  /// incomplete in the tables: finishing with large unexplored regions is a failure; [0, 1].
+  double min_finish_coverage = 0.95;
   /// Also keep each run's log and map (large); summary.json and trajectories are always written.
   bool keep_runs = false;
   /// Called with a line of progress text.
@@ -48,13 +55,14 @@ struct AlcBenchmarkConfig {
 };
 
 struct AlcBenchmarkRun {
-  std::string arm;  ///< "alc" or "no_alc"
+  std::string world;  ///< BenchmarkWorld::name
+  std::string arm;    ///< "alc" or "no_alc"
   std::uint64_t seed = 1;
   ExplorationSummary summary;
 };
 
 struct AlcBenchmarkResult {
-  std::vector<AlcBenchmarkRun> runs;  ///< per seed: no_alc, then alc
+  std::vector<AlcBenchmarkRun> runs;  ///< per world, per seed: no_alc, then alc
   double wall_s = 0.0;
 };
 

@@ -1,7 +1,7 @@
 // Exploration speed over worlds and seeds in one call: how fast coverage grows, how fast the
 // vehicle flies, where the time goes, and whether the closed loop keeps up with real time.
 //
-// Each world (a mesh file, or a generated office) is explored once per seed 1..seeds with
+// Each world (benchmark_world.hpp: a mesh file, or a generated office) is explored once per seed 1..seeds with
 // `vdbmap explore`'s set-up (explorationConfigFor: drift and planner seeded with the seed) at one
 // drift level, ALC on or off. Each run's folder OUTDIR/runs/<world>_seed<k>/ gets summary.json,
 // coverage.csv, cycles.csv and the trajectories (the log and the map too with keep_runs).
@@ -13,9 +13,8 @@
 // leaves the runs done so far.
 #pragma once
 
+#include "vdbmap/sim/benchmark_world.hpp"
 #include "vdbmap/sim/exploration.hpp"
-#include "vdbmap/sim/office_world.hpp"
-#include "vdbmap/sim/world.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -26,22 +25,8 @@
 
 namespace vdbmap::sim {
 
-/// A world of the benchmark: a mesh file cut as `world` says, or a generated office (cut and
-/// capped at its ceiling).
-struct ExploreBenchmarkWorld {
-  std::string name;                         ///< the runs' folder prefix and the table's row name
-  std::filesystem::path mesh;               ///< a mesh file, or empty for `office`
-  WorldConfig world;                        ///< for a mesh file
-  std::optional<OfficeWorldConfig> office;  ///< a generated office instead of a file
-};
-
-/// "office:SEED" or "office:SEED:XxY" (a generated office, e.g. office:3:20x16), or a mesh path
-/// (cut and capped at `ceiling_m` when it is positive). Throws std::invalid_argument naming a
-/// malformed spec.
-ExploreBenchmarkWorld parseExploreBenchmarkWorld(const std::string& spec, double ceiling_m);
-
 struct ExploreBenchmarkConfig {
-  std::vector<ExploreBenchmarkWorld> worlds;                 ///< at least one
+  std::vector<BenchmarkWorld> worlds;                        ///< at least one, names unique
   std::string drift_level = "s1";                            ///< Table I level
   std::size_t seeds = 3;                                     ///< seeds 1..seeds; [1, 1000]
   double voxel_size_m = 0.1;                                 ///< (0, 10]
