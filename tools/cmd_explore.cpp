@@ -33,6 +33,7 @@ struct ExploreOptions {
   std::string alc = "off";
   std::string safety = planner::SafetyConfig{}.enabled ? "on" : "off";
   double safety_window_s = planner::RecentFramesConfig{}.window_s;
+  std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   int min_cluster_size = planner::FrontierConfig{}.min_cluster_size;
@@ -82,6 +83,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.alc.epsilon = o.epsilon;
   config.planner.safety.enabled = o.safety == "on";
   config.planner.safety.recent.window_s = o.safety_window_s;
+  config.planner.safety.seen_free_is_free = o.safety_seen_free == "on";
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.final_min_cluster_size = o.final_min_cluster_size;
@@ -98,7 +100,9 @@ void runExplore(const ExploreOptions& o) {
       " --budgets " + o.budgets + " --alc " + o.alc +
       (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string()) + " --safety " +
       o.safety +
-      (config.planner.safety.enabled ? " --safety-window-s " + std::to_string(o.safety_window_s) : std::string());
+      (config.planner.safety.enabled
+           ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-seen-free " + o.safety_seen_free
+           : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
                o.world.c_str(), world.stats().triangles, b.min().x(), b.min().y(), b.min().z(), b.max().x(),
@@ -174,6 +178,10 @@ const Registration registration("explore", [](CLI::App& app) {
                   "The safety layer trusts the depth frames of the last this many seconds (drift within them is "
                   "small)")
       ->check(CLI::Range(0.1, 600.0));
+  sub->add_option("--safety-seen-free", o->safety_seen_free,
+                  "With the safety layer, paths also read free the space the recent frames saw free, whatever the "
+                  "global map says (a door that drift closed in the map, seen open now, is open)")
+      ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
                   "small unknown pockets of cluttered places (e.g. 50 for shelving)")

@@ -418,7 +418,9 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap map(base_map, free_boxes_);
   std::optional<RecentObstacleMap> recent_map;
-  if (recent_) recent_map.emplace(map, recent_->surfaceVoxels(map.voxelSize()));
+  if (recent_)
+    recent_map.emplace(map, recent_->surfaceVoxels(map.voxelSize()),
+                       params_.safety.seen_free_is_free ? recent_.get() : nullptr);
   const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;
   ExplorationStep step;
   const Stopwatch map_update;

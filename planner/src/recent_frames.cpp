@@ -98,6 +98,16 @@ bool RecentFrames::seesFree(const Vec3d& p_W) const {
   return false;
 }
 
+Eigen::AlignedBox3d RecentFrames::reach_W() const {
+  Eigen::AlignedBox3d box;  // empty
+  for (const Frame& f : frames_) box.extend(f.T_W_S.translation());
+  if (!box.isEmpty()) {
+    box.min() -= Vec3d::Constant(config_.max_range_m);
+    box.max() += Vec3d::Constant(config_.max_range_m);
+  }
+  return box;
+}
+
 const SurfaceVoxels& RecentFrames::surfaceVoxels(double voxel_size_m) {
   if (!(voxel_size_m > 0.0 && std::isfinite(voxel_size_m)))
     throw std::invalid_argument("RecentFrames::surfaceVoxels: voxel_size_m must be finite and > 0");

@@ -9,15 +9,23 @@ class RecentObstacleReader : public MapReader {
       : base_(std::move(base)), map_(map) {}
 
   Occupancy at(const openvdb::Coord& ijk) override {
-    return map_.isRecentSurface(ijk) ? Occupancy::Occupied : base_->at(ijk);
+    if (map_.isRecentSurface(ijk)) return Occupancy::Occupied;
+    const Occupancy base = base_->at(ijk);
+    return base != Occupancy::Free && map_.isSeenFree(ijk) ? Occupancy::Free : base;
   }
 
   void readBox(const openvdb::CoordBBox& box, Occupancy* out) override {
     base_->readBox(box, out);
+    const openvdb::Coord dim = box.dim();
+    openvdb::CoordBBox seen = box;
+    seen.intersect(map_.seenFreeBounds());
+    for (auto it = seen.begin(); it; ++it) {  // before the surfaces, which win
+      Occupancy& o = out[boxIndex(box.min(), dim, *it)];
+      if (o != Occupancy::Free && map_.isSeenFree(*it)) o = Occupancy::Free;
+    }
     openvdb::CoordBBox overlap = box;
     overlap.intersect(map_.surfaceBounds());
     if (overlap.empty()) return;
-    const openvdb::Coord dim = box.dim();
     for (int x = overlap.min().x(); x <= overlap.max().x(); ++x)
       for (int y = overlap.min().y(); y <= overlap.max().y(); ++y)
         for (int z = overlap.min().z(); z <= overlap.max().z(); ++z) {
@@ -32,8 +40,17 @@ class RecentObstacleReader : public MapReader {
 };
 }  // namespace
 
-RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface)
-    : base_(&base), surface_(&surface) {
+RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free)
+    : base_(&base), surface_(&surface), seen_free_(seen_free) {
+  if (seen_free_) {
+    const Eigen::AlignedBox3d reach = seen_free_->reach_W();
+    if (!reach.isEmpty()) {
+      // The frames were integrated into the base map, so what they saw lies in its known bounds.
+      free_bounds_ = voxelsIn(reach);
+      free_bounds_.intersect(base.knownBounds());
+      free_dim_ = free_bounds_.dim();
+    }
+  }
   for (const auto& [c, n] : surface) bounds_.expand(c);
   if (bounds_.empty()) return;
   dim_ = bounds_.dim();
@@ -44,6 +61,22 @@ RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& 
     const std::size_t i = boxIndex(bounds_.min(), dim_, c);
     bits_[i / 64] |= std::uint64_t(1) << (i % 64);
   }
+}
+
+bool RecentObstacleMap::isSeenFree(const openvdb::Coord& ijk) const {
+  if (!free_bounds_.isInside(ijk)) return false;
+  std::call_once(free_cache_once_, [this] {  // on first use: most cycles never ask
+    const std::size_t volume = std::size_t(free_dim_.x()) * std::size_t(free_dim_.y()) * std::size_t(free_dim_.z());
+    if (volume <= kMaxCachedVoxels) free_cache_ = std::make_unique<std::atomic<std::uint8_t>[]>(volume);  // zeros
+  });
+  if (!free_cache_) return seen_free_->seesFree(voxelCenter(ijk));
+  std::atomic<std::uint8_t>& known = free_cache_[boxIndex(free_bounds_.min(), free_dim_, ijk)];
+  std::uint8_t answer = known.load(std::memory_order_relaxed);
+  if (answer == 0) {
+    answer = seen_free_->seesFree(voxelCenter(ijk)) ? 1 : 2;
+    known.store(answer, std::memory_order_relaxed);
+  }
+  return answer == 1;
 }
 
 bool RecentObstacleMap::nearSurface(const Vec3d& p_W, double radius_m) const {

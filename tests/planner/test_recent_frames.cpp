@@ -4,6 +4,8 @@
 #include "common/quarter_camera.hpp"
 #include "planner/planner_test_maps.hpp"
 
+#include "vdbmap/planner/path_planner.hpp"
+#include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
 #include "vdbmap/planner/recent_obstacle_map.hpp"
 
@@ -251,4 +253,61 @@ TEST_CASE("RecentObstacleMap reads recent surface voxels occupied and everything
   CHECK(sparse_reader->at(Coord(1200, 1200, 200)) == Occupancy::Occupied);
   CHECK(sparse_reader->at(Coord(6, 5, 5)) == Occupancy::Free);
   CHECK(sparse_reader->at(Coord(600, 600, 100)) == Occupancy::Unknown);
+}
+
+TEST_CASE("RecentObstacleMap with seen free space reopens what drift closed in the map, and only that",
+          "[planner][safety]") {
+  // A 4 x 2 x 1.2 m room whose map holds a ghost wall across it at x = 2 m (where drift put a wall
+  // seen earlier); the vehicle at x = 0.5 m looks along +x at the real end wall, 3.4 m away.
+  DenseMap base = planner::test::makeRoom(Eigen::Vector3i(40, 20, 12));
+  for (int y = 1; y <= 18; ++y)
+    for (int z = 1; z <= 10; ++z) base.set(Coord(20, y, z), Occupancy::Occupied);
+  base.set(Coord(8, 10, 6), Occupancy::Unknown);    // a hole the map never saw, in front of the camera
+  base.set(Coord(10, 18, 6), Occupancy::Occupied);  // a ghost voxel outside the field of view
+  const CameraIntrinsics K = quarterCamera();
+  RecentFrames recent;
+  recent.add(0.0, flatWall(K, 3.4f), K, lookingPose(Vec3d(0.5, 1.0, 0.6), 0.0));
+  const SurfaceVoxels& surface = recent.surfaceVoxels(base.voxelSize());
+  const RecentObstacleMap plain(base, surface), reopened(base, surface, &recent);
+  auto plain_reader = plain.reader(), reader = reopened.reader(), base_reader = base.reader();
+
+  // Ahead of the camera, the ghost wall and the hole read free; outside the field of view and
+  // behind the end wall they keep the base's state; without seen_free nothing changes.
+  CHECK(reader->at(Coord(20, 10, 6)) == Occupancy::Free);
+  CHECK(reader->at(Coord(8, 10, 6)) == Occupancy::Free);
+  CHECK(plain_reader->at(Coord(20, 10, 6)) == Occupancy::Occupied);
+  CHECK(plain_reader->at(Coord(8, 10, 6)) == Occupancy::Unknown);
+  CHECK(reader->at(Coord(10, 18, 6)) == Occupancy::Occupied);
+  CHECK(reader->at(Coord(39, 10, 6)) == Occupancy::Occupied);
+  CHECK(reader->at(Coord(41, 10, 6)) == Occupancy::Unknown);
+
+  // Every voxel: a recent surface is occupied, else what a recent frame saw free within the
+  // base's known bounds is free, else the base; readBox agrees with at(). (The flat image sees
+  // "through" the room's side walls, into space the base map does not know.)
+  const CoordBBox all(Coord(-2), Coord(41, 21, 13));
+  std::size_t reopened_voxels = 0;
+  for (auto it = all.begin(); it; ++it) {
+    const Occupancy b = base_reader->at(*it);
+    const bool seen = base.knownBounds().isInside(*it) && recent.seesFree(base.voxelCenter(*it));
+    const Occupancy expected =
+        surface.count(*it) ? Occupancy::Occupied : (b != Occupancy::Free && seen ? Occupancy::Free : b);
+    reopened_voxels += b != Occupancy::Free && expected == Occupancy::Free;
+    REQUIRE(reader->at(*it) == expected);
+  }
+  CHECK(reopened_voxels > 50);  // the ghost wall's part in view, and the hole
+  for (const CoordBBox& box : {CoordBBox(Coord(18, 5, 3), Coord(22, 15, 9)), all}) {
+    std::vector<Occupancy> out(box.volume());
+    reader->readBox(box, out.data());
+    std::size_t i = 0;
+    for (int x = box.min().x(); x <= box.max().x(); ++x)
+      for (int y = box.min().y(); y <= box.max().y(); ++y)
+        for (int z = box.min().z(); z <= box.max().z(); ++z) REQUIRE(out[i++] == reader->at(Coord(x, y, z)));
+  }
+
+  // A path across the room: the ghost wall blocks it in the map, the frame seen now reopens it.
+  const Vec3d start(0.5, 1.0, 0.6), goal(3.2, 1.0, 0.6);
+  CHECK_FALSE(PathPlanner(plain).plan(start, goal, 1).ok());
+  const PathResult through = PathPlanner(reopened).plan(start, goal, 1);
+  REQUIRE(through.ok());
+  CHECK((through.waypoints.back() - goal).norm() < 1e-9);
 }

@@ -73,8 +73,9 @@ namespace vdbmap::planner {
 ///    it was flying; else it replans at rest. Points that
 ///    lie more steeply above or below the vehicle than the camera's vertical half field of view
 ///    are exempt: no yaw would bring them into view.
-/// Paths and trajectories are planned with the recent surfaces as obstacles too, and (face_travel)
-/// their yaw faces the way while moving.
+/// Paths and trajectories are planned with the recent surfaces as obstacles too (and, with
+/// seen_free_is_free, the space recent frames saw free as free), and (face_travel) their yaw faces
+/// the way while moving.
 struct SafetyConfig {
   bool enabled = false;
   /// Trajectories to targets face the direction of travel while moving
@@ -95,6 +96,10 @@ struct SafetyConfig {
   /// Looks in a row that leave the way ahead unseen before the target gets a failure and the
   /// vehicle holds (the way may be hidden behind a corner); [1, 100]
   int max_chained_looks = 3;
+  /// Paths and trajectories also read free the voxels a recent frame saw free, whatever the
+  /// global map says (recent_obstacle_map.hpp): a door that drift closed in the map, seen open now,
+  /// is open.
+  bool seen_free_is_free = false;
 
   void validate() const;
 };

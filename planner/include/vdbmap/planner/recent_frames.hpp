@@ -81,6 +81,9 @@ class RecentFrames {
 
   /// True when some recent frame saw p_W free (see the header comment).
   bool seesFree(const Vec3d& p_W) const;
+  /// A box that holds every point seesFree() can be true for: the frames' origins grown by
+  /// max_range_m (empty without frames).
+  Eigen::AlignedBox3d reach_W() const;
 
   /// The voxels (of size voxel_size_m, OpenVDB's convention) that hold a surface point of a recent
   /// frame. Kept up to date incrementally between calls with the same voxel size; valid until the

@@ -3,6 +3,13 @@
 // metre from where the vehicle now sees it; paths, trajectories and their collision checks read
 // through this wrapper so that what is seen now is an obstacle whatever the global map says.
 //
+// Optionally the other way round too (`seen_free`): a voxel without a recent surface whose centre a
+// recent frame saw free (RecentFrames::seesFree) reads free, whatever the global map says (within
+// the map's known bounds: the frames were integrated into it). Under
+// drift the global map also holds walls where the vehicle now sees space: the wall beside a door,
+// seen from the corridor and again, displaced, from the room, narrows or closes the door in the
+// map, and the vehicle inside the room finds no way out. Free space seen now reopens it.
+//
 // Lines of sight (sightMap) and frontiers read the base map: a recent surface voxel changes what
 // the vehicle may fly through, not what the map knows.
 #pragma once
@@ -10,7 +17,10 @@
 #include "vdbmap/planner/map_query.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
 
+#include <atomic>
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -21,7 +31,9 @@ class RecentObstacleMap : public MapQuery {
   /// wrapper. The surface is copied into a bit per voxel of its bounding box, so that a lookup
   /// costs a few nanoseconds (paths check many voxels), unless that box holds more than
   /// kMaxDenseVoxels (then the set is looked up).
-  RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface);
+  /// With `seen_free` (it must outlive the wrapper too), the voxels it saw free read free (above);
+  /// each voxel's answer is computed once per wrapper, when first read.
+  RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free = nullptr);
 
   double voxelSize() const override { return base_->voxelSize(); }
   /// The base map's bounds grown by the surface voxels.
@@ -36,19 +48,32 @@ class RecentObstacleMap : public MapQuery {
     const std::size_t i = boxIndex(bounds_.min(), dim_, ijk);
     return (bits_[i / 64] >> (i % 64)) & 1u;
   }
+  /// A recent frame saw the voxel's centre free (false without `seen_free`).
+  bool isSeenFree(const openvdb::Coord& ijk) const;
+  /// The voxels isSeenFree() may be true for (empty without `seen_free`).
+  const openvdb::CoordBBox& seenFreeBounds() const { return free_bounds_; }
   /// Some recent surface voxel's centre lies within radius_m of p_W.
   bool nearSurface(const Vec3d& p_W, double radius_m) const;
   /// The bounding box of the recent surface voxels (empty when there are none).
   const openvdb::CoordBBox& surfaceBounds() const { return bounds_; }
 
  private:
-  static constexpr std::size_t kMaxDenseVoxels = std::size_t(1) << 27;  ///< 16 MB of bits
+  static constexpr std::size_t kMaxDenseVoxels = std::size_t(1) << 27;   ///< 16 MB of bits
+  static constexpr std::size_t kMaxCachedVoxels = std::size_t(1) << 25;  ///< 32 MB of answers
 
   const MapQuery* base_;
   const SurfaceVoxels* surface_;
   openvdb::CoordBBox bounds_;
   openvdb::Coord dim_;
   std::vector<std::uint64_t> bits_;  ///< one per voxel of bounds_, z fastest (empty: look up surface_)
+
+  const RecentFrames* seen_free_ = nullptr;
+  openvdb::CoordBBox free_bounds_;
+  openvdb::Coord free_dim_;
+  /// isSeenFree() per voxel of free_bounds_, z fastest: 0 not asked yet, 1 free, 2 not (empty: ask
+  /// every time). Readers on several threads fill it; every writer writes the same answer.
+  mutable std::unique_ptr<std::atomic<std::uint8_t>[]> free_cache_;
+  mutable std::once_flag free_cache_once_;
 };
 
 }  // namespace vdbmap::planner
