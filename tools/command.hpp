@@ -54,6 +54,16 @@ const std::filesystem::path& requireWorld(const std::filesystem::path& world);
 /// when the house is asked for and not found.
 std::vector<std::string> benchmarkWorldSpecs(const std::vector<std::string>& specs);
 
+/// `--safety on|off` and `--safety-seen-free on|off` of the benchmarks (as `vdbmap explore`'s).
+inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& seen_free) {
+  sub.add_option("--safety", safety, "The drift-free safety layer of recent depth frames (as vdbmap explore --safety)")
+      ->check(CLI::IsMember({"on", "off"}));
+  sub.add_option("--safety-seen-free", seen_free,
+                 "With the safety layer, paths also read free the space the recent frames saw free (as vdbmap "
+                 "explore --safety-seen-free)")
+      ->check(CLI::IsMember({"on", "off"}));
+}
+
 /// `--drift`, one of driftLevels().
 inline CLI::Option* addDriftOption(CLI::App& sub, std::string& drift) {
   return sub.add_option("--drift", drift, "Odometry drift level of the paper's Table I")

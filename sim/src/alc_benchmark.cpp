@@ -25,6 +25,7 @@ void AlcBenchmarkConfig::validate() const {
   if (!(max_time_s > 0.0 && max_time_s <= 1e5)) fail("max_time_s must be in (0, 1e5]");
   if (!(min_finish_coverage >= 0.0 && min_finish_coverage <= 1.0)) fail("min_finish_coverage must be in [0, 1]");
   alc.validate();
+  safety.validate();
 }
 
 namespace {
@@ -93,6 +94,7 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
         ec.planner.alc_enabled = std::string(arm) == "alc";
         ec.planner.alc = config.alc;
         ec.planner.alc.tour.seed = seed;
+        ec.planner.safety = config.safety;
         ExplorationRunConfig ro;
         ro.overwrite = true;
         ro.write_log = config.keep_runs;
@@ -196,8 +198,10 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
   md << "; drift " << config.drift_level << ", seeds 1.." << config.seeds << ", voxel " << config.voxel_size_m
      << " m, loop closure `" << toString(config.loop_closure) << "`, time limit " << config.max_time_s
      << " s. ALC: epsilon " << config.alc.epsilon << ", give-up timeout " << config.alc.give_up_timeout_s
-     << " s, search radius " << config.alc.search_radius_m
-     << " m. Both arms of a world and seed share the drift and planner seeds and the start. Values: mean ± sample "
+     << " s, search radius " << config.alc.search_radius_m << " m. Safety layer "
+     << (config.safety.enabled ? "on" : "off")
+     << (config.safety.enabled && config.safety.seen_free_is_free ? " (seen free is free)" : "")
+     << ". Both arms of a world and seed share the drift and planner seeds and the start. Values: mean ± sample "
         "standard deviation over the runs done. A run is incomplete when it ends below "
      << format("%.2f", config.min_finish_coverage) << " coverage of the observable surface, finished or not.\n";
 

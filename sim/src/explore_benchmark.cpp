@@ -22,6 +22,7 @@ void ExploreBenchmarkConfig::validate() const {
   if (seeds < 1 || seeds > 1000) fail("seeds must be in [1, 1000]");
   if (!(voxel_size_m > 0.0 && voxel_size_m <= 10.0)) fail("voxel_size_m must be in (0, 10]");
   if (!(max_time_s > 0.0 && max_time_s <= 1e5)) fail("max_time_s must be in (0, 1e5]");
+  safety.validate();
 }
 
 namespace {
@@ -90,6 +91,7 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
       ec.max_time_s = config.max_time_s;
       ec.planner.alc_enabled = config.alc;
       ec.planner.alc.tour.seed = seed;
+      ec.planner.safety = config.safety;
       ExplorationRunConfig ro;
       ro.overwrite = true;
       ro.write_log = config.keep_runs;
@@ -115,7 +117,9 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
 std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const ExploreBenchmarkConfig& config) {
   std::ostringstream md;
   md << "# Exploration speed\n\nDrift " << config.drift_level << ", seeds 1.." << config.seeds << ", voxel "
-     << config.voxel_size_m << " m, ALC " << (config.alc ? "on" : "off") << ", time limit " << config.max_time_s
+     << config.voxel_size_m << " m, ALC " << (config.alc ? "on" : "off") << ", safety layer "
+     << (config.safety.enabled ? (config.safety.seen_free_is_free ? "on (seen free is free)" : "on") : "off")
+     << ", time limit " << config.max_time_s
      << " s. Times are simulated seconds; `t95` is the time to 95 % coverage of the observable surface (`-`: never "
         "reached); the final sweep is the time spent on the small clusters after the main ones were done; the "
         "real-time factor is simulated over wall-clock time (this machine). Per world: mean ± sample standard "

@@ -65,20 +65,23 @@ TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed",
   vdbmap::io::writePlyMesh(dir / "room2.ply", vdbmap::test::roomWithBox());
   const fs::path multi = dir / "multi";
   REQUIRE(run("bench alc --worlds " + (dir / "room.ply").string() + " " + (dir / "room2.ply").string() +
-                  " --seeds 1 --max-time-s 10 -o " + multi.string(),
+                  " --seeds 1 --max-time-s 10 --safety on --safety-seen-free on -o " + multi.string(),
               out) == 0);
   const auto multi_runs = nlohmann::json::parse(slurp(multi / "alc.json"));
   REQUIRE(multi_runs.size() == 4);
   std::set<std::string> worlds;
   for (const auto& r : multi_runs) {
     worlds.insert(r.at("world").get<std::string>());
-    CHECK(fs::exists(multi / "runs" / r.at("world").get<std::string>() / (r.at("arm").get<std::string>() + "_seed1") /
-                     "summary.json"));
+    const fs::path summary = multi / "runs" / r.at("world").get<std::string>() /
+                             (r.at("arm").get<std::string>() + "_seed1") / "summary.json";
+    REQUIRE(fs::exists(summary));
+    CHECK(nlohmann::json::parse(slurp(summary)).at("safety_layer") == true);
   }
   CHECK(worlds == std::set<std::string>{"room", "room2"});
   const std::string multi_md = slurp(multi / "alc.md");
   CHECK(multi_md.find("2 pairs") != std::string::npos);
   CHECK(multi_md.find("| room2 | 1 |") != std::string::npos);
+  CHECK(multi_md.find("Safety layer on (seen free is free)") != std::string::npos);
   CHECK(run("bench alc --world " + (dir / "room.ply").string() + " --worlds " + (dir / "room2.ply").string() + " -o " +
                 (dir / "x").string(),
             out) != 0);  // one or the other

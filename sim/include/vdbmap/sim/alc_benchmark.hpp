@@ -43,6 +43,8 @@ struct AlcBenchmarkConfig {
   /// The ALC arm's parameters (its tour seed follows the run's seed).
   planner::AlcConfig alc;
   LoopClosureMode loop_closure = SimulatorConfig{}.loop_closure;
+  /// Both arms' safety layer (exploration_manager.hpp; off by default, as in `vdbmap explore`).
+  planner::SafetyConfig safety;
   /// A run that ends (finished or not) below this coverage of the observable surface counts as
   /// incomplete in the tables: finishing with large unexplored regions is a failure; [0, 1].
   double min_finish_coverage = 0.95;

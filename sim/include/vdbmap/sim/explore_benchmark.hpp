@@ -32,6 +32,7 @@ struct ExploreBenchmarkConfig {
   double voxel_size_m = 0.1;                                 ///< (0, 10]
   double max_time_s = ExplorationConfig::kDefaultMaxTime_s;  ///< per run; (0, 1e5]
   bool alc = false;                                          ///< active loop closure on
+  planner::SafetyConfig safety;  ///< the safety layer (off by default, as in `vdbmap explore`)
   bool keep_runs = false;  ///< also keep each run's log and map (large)
   std::function<void(const std::string&)> report;  ///< a line of progress text
 
