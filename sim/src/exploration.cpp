@@ -416,6 +416,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["revisit_rounds"] = r.planner_counters.revisit_rounds;
   j["final_sweep_clusters"] = r.planner_counters.final_sweep_clusters;
   j["safety_layer"] = c.planner.safety.enabled;
+  j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
   j["emergency_stops"] = r.planner_counters.emergency_stops;
   j["look_stops"] = r.planner_counters.look_stops;
   j["map_update_ms_median"] = r.map_update_ms_median;
