@@ -379,6 +379,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["accuracy_rmse_m"] = s.accuracy_rmse_m;
   j["completeness"] = s.completeness;
   j["finished"] = s.finished;
+  j["complete"] = s.complete;
   j["alc_enabled"] = s.alc_enabled;
   j["epsilon"] = s.epsilon;
   j["alc_detours"] = s.alc_detours;
@@ -521,6 +522,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   s.frames_total = r.frames_total;
   s.keyframes_kept = r.keyframes_kept;
   s.finished = r.finished;
+  s.complete = s.finished && s.coverage >= kCompleteCoverage;
   s.alc_enabled = config.planner.alc_enabled;
   s.epsilon = config.planner.alc_enabled ? config.planner.alc.epsilon : 0.0;
   s.alc_detours = r.alc.detours;

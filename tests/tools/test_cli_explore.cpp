@@ -55,6 +55,9 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   // edges; keyframe pruning (coarse cells of 2 voxels) releases some of those voxels. The coverage
   // goal itself (>= 0.95) is asserted on two rooms in tests/sim/test_exploration.cpp.
   CHECK(s.at("coverage").get<double>() >= 0.85);
+  // Complete exactly when finished at 0.95 coverage or more; an incomplete finish is said.
+  CHECK(s.at("complete") == (s.at("coverage").get<double>() >= 0.95));
+  CHECK((slurp(out).find("incomplete:") != std::string::npos) == (s.at("complete") == false));
   const std::size_t frames = s.at("frames_total");
   CHECK(frames > 30);
   CHECK(lineCount(runs / "trajectory_true.txt") == frames);

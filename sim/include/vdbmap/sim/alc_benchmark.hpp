@@ -47,7 +47,7 @@ struct AlcBenchmarkConfig {
   planner::SafetyConfig safety;
   /// A run that ends (finished or not) below this coverage of the observable surface counts as
   /// incomplete in the tables: finishing with large unexplored regions is a failure; [0, 1].
-  double min_finish_coverage = 0.95;
+  double min_finish_coverage = kCompleteCoverage;
   /// Also keep each run's log and map (large); summary.json and trajectories are always written.
   bool keep_runs = false;
   /// Called with a line of progress text.

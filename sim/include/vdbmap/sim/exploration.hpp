@@ -250,6 +250,7 @@ struct ExplorationSummary {
   double accuracy_rmse_m = 0.0;  ///< map surface vs the world mesh (vdbmap/eval.hpp), as bench drift
   double completeness = 0.0;     ///< of the WHOLE world mesh within 2 voxels (hidden surfaces included)
   bool finished = false;
+  bool complete = false;  ///< finished with coverage >= kCompleteCoverage
   ObservableSurfaceStats observable;
   /// Simulated time at which the timeline's coverage first reached each of kCoverageMilestones
   /// (negative: never).
@@ -264,6 +265,11 @@ struct ExplorationSummary {
 
 /// The coverage fractions summary.json reports time_to_coverage_s for.
 inline constexpr std::array<double, 5> kCoverageMilestones = {0.5, 0.8, 0.9, 0.95, 0.99};
+
+/// A run is complete when it finished with at least this coverage of the observable surface.
+/// Finishing below it (the planner believed the world explored: under drift, paths to what is
+/// left failed in a map that drift bent) is a failure of the run, not a success.
+inline constexpr double kCompleteCoverage = 0.95;
 
 struct ExplorationRunConfig {
   SurfaceCoverageConfig coverage;  ///< max_view_distance_m and the fov are set from the planner's camera
