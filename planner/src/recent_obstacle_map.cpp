@@ -65,7 +65,7 @@ RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& 
 
 bool RecentObstacleMap::isSeenFree(const openvdb::Coord& ijk) const {
   if (!free_bounds_.isInside(ijk)) return false;
-  std::call_once(free_cache_once_, [this] {  // on first use: most cycles never ask
+  std::call_once(free_cache_once_, [this] {  // allocated on first use
     const std::size_t volume = std::size_t(free_dim_.x()) * std::size_t(free_dim_.y()) * std::size_t(free_dim_.z());
     if (volume <= kMaxCachedVoxels) free_cache_ = std::make_unique<std::atomic<std::uint8_t>[]>(volume);  // zeros
   });

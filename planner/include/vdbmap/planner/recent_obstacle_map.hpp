@@ -3,12 +3,12 @@
 // metre from where the vehicle now sees it; paths, trajectories and their collision checks read
 // through this wrapper so that what is seen now is an obstacle whatever the global map says.
 //
-// Optionally the other way round too (`seen_free`): a voxel without a recent surface whose centre a
-// recent frame saw free (RecentFrames::seesFree) reads free, whatever the global map says (within
-// the map's known bounds: the frames were integrated into it). Under
-// drift the global map also holds walls where the vehicle now sees space: the wall beside a door,
-// seen from the corridor and again, displaced, from the room, narrows or closes the door in the
-// map, and the vehicle inside the room finds no way out. Free space seen now reopens it.
+// Optionally the other way round too (`seen_free`): a voxel without a recent surface whose centre
+// a recent frame saw free (RecentFrames::seesFree) reads free, whatever the global map says
+// (within the map's known bounds: the frames were integrated into it). Under drift the global map
+// also holds walls where the vehicle now sees space: the wall beside a door, seen from the
+// corridor and again, displaced, from the room, narrows or closes the door in the map, and the
+// vehicle inside the room finds no way out. Free space seen now reopens it.
 //
 // Lines of sight (sightMap) and frontiers read the base map: a recent surface voxel changes what
 // the vehicle may fly through, not what the map knows.
