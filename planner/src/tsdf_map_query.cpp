@@ -117,21 +117,33 @@ class TsdfReader : public MapReader {
         }
   }
 
-  /// The tsdf of every voxel of `box` (NaN when unknown), x-major as readBox's output.
+  /// The tsdf of every voxel of `box` (NaN when unknown), x-major as readBox's output. Rows along
+  /// z are contiguous both in a leaf's buffer and in `out`, so each row is read straight through.
   void readTsdf(const openvdb::CoordBBox& box, float* out) {
+    using Leaf = openvdb::Int64Tree::LeafNodeType;
+    const openvdb::Coord dim = box.dim();
     forEachLeafPart(box, [&](const openvdb::Coord& origin, const openvdb::CoordBBox& part) {
       // Without a leaf the region holds one tile value (usually the background 0: unknown).
-      const auto* w_leaf = w_acc_.probeConstLeaf(origin);
-      const auto* wd_leaf = wd_acc_.probeConstLeaf(origin);
+      const Leaf* w_leaf = w_acc_.probeConstLeaf(origin);
+      const Leaf* wd_leaf = wd_acc_.probeConstLeaf(origin);
       const std::int64_t w_tile = w_leaf ? 0 : w_acc_.getValue(origin);
       const std::int64_t wd_tile = wd_leaf ? 0 : wd_acc_.getValue(origin);
+      const int nz = part.max().z() - part.min().z() + 1;
       for (int x = part.min().x(); x <= part.max().x(); ++x)
-        for (int y = part.min().y(); y <= part.max().y(); ++y)
-          for (int z = part.min().z(); z <= part.max().z(); ++z) {
-            const openvdb::Coord c(x, y, z);
-            out[boxIndex(box.min(), box.dim(), c)] =
-                tsdfOf(w_leaf ? w_leaf->getValue(c) : w_tile, wd_leaf ? wd_leaf->getValue(c) : wd_tile);
+        for (int y = part.min().y(); y <= part.max().y(); ++y) {
+          const openvdb::Coord first(x, y, part.min().z());
+          float* row = out + boxIndex(box.min(), dim, first);
+          if (w_leaf && wd_leaf) {
+            const std::int64_t* w = w_leaf->buffer().data() + Leaf::coordToOffset(first);
+            const std::int64_t* wd = wd_leaf->buffer().data() + Leaf::coordToOffset(first);
+            for (int k = 0; k < nz; ++k) row[k] = tsdfOf(w[k], wd[k]);
+          } else {
+            for (int k = 0; k < nz; ++k) {
+              const openvdb::Coord c(x, y, part.min().z() + k);
+              row[k] = tsdfOf(w_leaf ? w_leaf->getValue(c) : w_tile, wd_leaf ? wd_leaf->getValue(c) : wd_tile);
+            }
           }
+        }
     });
   }
 
