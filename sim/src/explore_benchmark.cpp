@@ -44,6 +44,7 @@ nlohmann::json toJson(const ExploreBenchmarkRun& r) {
   return {{"world", r.world},
           {"seed", r.seed},
           {"finished", s.finished},
+          {"complete", s.complete},
           {"exploration_time_s", s.exploration_time_s},
           {"time_to_coverage_s", to_coverage},
           {"coverage", s.coverage},
@@ -122,7 +123,8 @@ std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const
      << ", time limit " << config.max_time_s
      << " s. Times are simulated seconds; `t95` is the time to 95 % coverage of the observable surface (`-`: never "
         "reached); the final sweep is the time spent on the small clusters after the main ones were done; the "
-        "real-time factor is simulated over wall-clock time (this machine). Per world: mean ± sample standard "
+        "real-time factor is simulated over wall-clock time (this machine). A run is complete when it finished at 0.95 "
+        "coverage or more; finishing below that is a failed run. Per world: mean ± sample standard "
         "deviation over the seeds (a `-` in a run leaves it out of the mean).\n\n";
   std::map<std::string, std::vector<const ExplorationSummary*>> by_world;
   std::vector<std::string> order;
@@ -135,9 +137,10 @@ std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const
     if (s.n == 0) return std::string("-");
     return format(fmt, s.mean) + (s.n > 1 ? " ± " + format(fmt, s.sd) : std::string());
   };
-  md << "## Per world\n\n| world | runs | finished | t50 | t80 | t90 | t95 | t99 | time (s) | coverage | speed (m/s) | "
+  md << "## Per world\n\n| world | runs | finished | complete | t50 | t80 | t90 | t95 | t99 | time (s) | coverage | "
+        "speed (m/s) | "
         "final sweep (s) | longest hold (s) | collisions | planner p50 / max (ms) | real-time factor |\n"
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const std::string& world : order) {
     const std::vector<const ExplorationSummary*>& runs = by_world[world];
     const auto values = [&](const auto& f) {
@@ -148,9 +151,12 @@ std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const
       }
       return v;
     };
-    std::size_t finished = 0;
-    for (const ExplorationSummary* s : runs) finished += s->finished ? 1 : 0;
-    md << "| " << world << " | " << runs.size() << " | " << finished << " |";
+    std::size_t finished = 0, complete = 0;
+    for (const ExplorationSummary* s : runs) {
+      finished += s->finished ? 1 : 0;
+      complete += s->complete ? 1 : 0;
+    }
+    md << "| " << world << " | " << runs.size() << " | " << finished << " | " << complete << " |";
     for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i)
       md << " " << cell(values([i](const ExplorationSummary& s) { return s.time_to_coverage_s[i]; }), "%.0f") << " |";
     md << " " << cell(values([](const ExplorationSummary& s) { return s.exploration_time_s; }), "%.0f") << " | "

@@ -39,12 +39,21 @@ TEST_CASE("vdbmap bench explore tabulates time to coverage per world and seed", 
     CHECK(r.at("exploration_time_s") == s.at("exploration_time_s"));
     CHECK(r.at("time_to_coverage_s") == s.at("time_to_coverage_s"));
     CHECK(r.at("mean_speed_mps") == s.at("mean_speed_mps"));
+    CHECK(r.at("complete") == s.at("complete"));
     CHECK(fs::exists(run_dir / "coverage.csv"));
     CHECK(r.at("real_time_factor").get<double>() > 0.0);
   }
   const std::string md = slurp(bench / "explore.md");
-  for (const char* text : {"## Per world", "| room | 2 |", "t95", "final sweep", "real-time factor"})
+  for (const char* text : {"## Per world", "| room | 2 |", "t95", "final sweep", "real-time factor", "| complete |"})
     CHECK(md.find(text) != std::string::npos);
+  // The complete column counts the runs summary.json calls complete.
+  std::size_t finished = 0, complete = 0;
+  for (const auto& r : runs) {
+    finished += r.at("finished").get<bool>();
+    complete += r.at("complete").get<bool>();
+  }
+  CHECK(md.find("| room | 2 | " + std::to_string(finished) + " | " + std::to_string(complete) + " |") !=
+        std::string::npos);
 
   // A generated office is written beside the runs (a report colours maps by it); its spec is checked.
   CHECK(run("bench explore --worlds office:0 -o " + (dir / "x").string(), out) != 0);
