@@ -6,11 +6,11 @@
 // drift level, ALC on or off. Each run's folder OUTDIR/runs/<world>_seed<k>/ gets summary.json,
 // coverage.csv, cycles.csv and the trajectories (the log and the map too with keep_runs).
 //
-// Output: OUTDIR/explore.json (one object per run) and OUTDIR/explore.md (per world: runs finished
-// and complete (kCompleteCoverage), mean over
-// the seeds of the time to 50/80/90/95/99 % coverage, the exploration time, mean speed, the
-// final sweep's share, the longest hold, collisions, the planner's time per replan and the real-
-// time factor; then every run). Both are rewritten after every run, so an interrupted benchmark
+// Output: OUTDIR/explore.json (one object per run) and OUTDIR/explore.md (per world: the runs
+// finished and complete (kCompleteCoverage), and the mean over the seeds of the time to
+// 50/80/90/95/99 % coverage, the exploration time, mean speed, the final sweep's share, the
+// longest hold, collisions, the planner's time per replan and the real-time factor; then every
+// run). Both are rewritten after every run, so an interrupted benchmark
 // leaves the runs done so far.
 #pragma once
 
