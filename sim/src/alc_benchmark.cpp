@@ -1,6 +1,7 @@
 #include "vdbmap/sim/alc_benchmark.hpp"
 #include "vdbmap/timing.hpp"
 
+#include "internal/benchmark_run.hpp"
 #include "internal/spread.hpp"
 #include "text_format.hpp"
 
@@ -95,13 +96,10 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
         ec.planner.alc = config.alc;
         ec.planner.alc.tour.seed = seed;
         ec.planner.safety = config.safety;
-        ExplorationRunConfig ro;
-        ro.overwrite = true;
-        ro.write_log = config.keep_runs;
-        ro.write_map = config.keep_runs;
-        ro.world = world_file;
-        ro.description = "vdbmap bench alc: world " + w.name + ", arm " + std::string(arm) + ", seed " +
-                         std::to_string(seed) + ", drift " + config.drift_level;
+        const ExplorationRunConfig ro =
+            internal::benchmarkRunConfig(config.keep_runs, world_file,
+                                         "vdbmap bench alc: world " + w.name + ", arm " + std::string(arm) + ", seed " +
+                                             std::to_string(seed) + ", drift " + config.drift_level);
         const std::string name = std::string(arm) + "_seed" + std::to_string(seed);
         const AlcBenchmarkRun run{w.name, arm, seed, exploreToFolder(world, ec, out_dir / "runs" / w.name / name, ro)};
         const ExplorationSummary& s = run.summary;

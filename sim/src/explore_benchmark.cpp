@@ -1,5 +1,6 @@
 #include "vdbmap/sim/explore_benchmark.hpp"
 
+#include "internal/benchmark_run.hpp"
 #include "internal/spread.hpp"
 #include "text_format.hpp"
 
@@ -93,13 +94,10 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
       ec.planner.alc_enabled = config.alc;
       ec.planner.alc.tour.seed = seed;
       ec.planner.safety = config.safety;
-      ExplorationRunConfig ro;
-      ro.overwrite = true;
-      ro.write_log = config.keep_runs;
-      ro.write_map = config.keep_runs;
-      ro.world = world_file;
-      ro.description = "vdbmap bench explore: world " + w.name + ", seed " + std::to_string(seed) + ", drift " +
-                       config.drift_level + (config.alc ? ", ALC on" : "");
+      const ExplorationRunConfig ro =
+          internal::benchmarkRunConfig(config.keep_runs, world_file,
+                                       "vdbmap bench explore: world " + w.name + ", seed " + std::to_string(seed) +
+                                           ", drift " + config.drift_level + (config.alc ? ", ALC on" : ""));
       const std::string name = w.name + "_seed" + std::to_string(seed);
       const ExploreBenchmarkRun run{w.name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
       const ExplorationSummary& s = run.summary;
