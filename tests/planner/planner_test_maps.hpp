@@ -1,8 +1,10 @@
-// Synthetic maps and brute-force references shared by the planner tests.
+// Synthetic maps, brute-force references and checks shared by the planner tests.
 #pragma once
 
 #include "vdbmap/planner/dense_map.hpp"
 #include "vdbmap/planner/vehicle_state.hpp"
+
+#include <catch2/catch.hpp>
 
 #include <cmath>
 #include <vector>
@@ -27,6 +29,16 @@ inline DenseMap makeRoom(const Eigen::Vector3i& size_vox, double voxel_m = 0.1) 
   map.fill(openvdb::CoordBBox(openvdb::Coord(1), openvdb::Coord(size_vox.x() - 2, size_vox.y() - 2, size_vox.z() - 2)),
            Occupancy::Free);
   return map;
+}
+
+/// A reader's readBox over `box` reads, voxel by voxel, what its at() reads.
+inline void requireReadBoxMatchesAt(MapReader& reader, const openvdb::CoordBBox& box) {
+  std::vector<Occupancy> out(box.volume());
+  reader.readBox(box, out.data());
+  std::size_t i = 0;
+  for (int x = box.min().x(); x <= box.max().x(); ++x)
+    for (int y = box.min().y(); y <= box.max().y(); ++y)
+      for (int z = box.min().z(); z <= box.max().z(); ++z) REQUIRE(out[i++] == reader.at(openvdb::Coord(x, y, z)));
 }
 
 /// Distance from p to the segment a-b.

@@ -218,14 +218,8 @@ TEST_CASE("RecentObstacleMap reads recent surface voxels occupied and everything
     REQUIRE(reader->at(*it) == expected);
   }
   // readBox equals at() voxel by voxel, for a box smaller than the set and one larger.
-  for (const CoordBBox& box : {CoordBBox(Coord(5, 5, 5), Coord(6, 5, 5)), CoordBBox(Coord(-1), Coord(30, 10, 8))}) {
-    std::vector<Occupancy> out(box.volume());
-    reader->readBox(box, out.data());
-    std::size_t i = 0;
-    for (int x = box.min().x(); x <= box.max().x(); ++x)
-      for (int y = box.min().y(); y <= box.max().y(); ++y)
-        for (int z = box.min().z(); z <= box.max().z(); ++z) REQUIRE(out[i++] == reader->at(Coord(x, y, z)));
-  }
+  for (const CoordBBox& box : {CoordBBox(Coord(5, 5, 5), Coord(6, 5, 5)), CoordBBox(Coord(-1), Coord(30, 10, 8))})
+    planner::test::requireReadBoxMatchesAt(*reader, box);
   CHECK(&map.sightMap() == &base.sightMap());
 
   // nearSurface: some surface voxel's centre within the radius (brute force over the set).
@@ -295,14 +289,8 @@ TEST_CASE("RecentObstacleMap with seen free space reopens what drift closed in t
     REQUIRE(reader->at(*it) == expected);
   }
   CHECK(reopened_voxels > 50);  // the ghost wall's part in view, and the hole
-  for (const CoordBBox& box : {CoordBBox(Coord(18, 5, 3), Coord(22, 15, 9)), all}) {
-    std::vector<Occupancy> out(box.volume());
-    reader->readBox(box, out.data());
-    std::size_t i = 0;
-    for (int x = box.min().x(); x <= box.max().x(); ++x)
-      for (int y = box.min().y(); y <= box.max().y(); ++y)
-        for (int z = box.min().z(); z <= box.max().z(); ++z) REQUIRE(out[i++] == reader->at(Coord(x, y, z)));
-  }
+  for (const CoordBBox& box : {CoordBBox(Coord(18, 5, 3), Coord(22, 15, 9)), all})
+    planner::test::requireReadBoxMatchesAt(*reader, box);
 
   // A path across the room: the ghost wall blocks it in the map, the frame seen now reopens it.
   const Vec3d start(0.5, 1.0, 0.6), goal(3.2, 1.0, 0.6);

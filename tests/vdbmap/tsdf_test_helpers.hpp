@@ -19,7 +19,6 @@ namespace vdbmap::test {
 
 using testing::AnalyticScene;
 
-/// A small camera keeps the tests fast; the geometry is the same as FUEL's camera, scaled.
 /// A pinhole camera: width x height pixels, focal length f (pixels) on both axes, principal point
 /// (cx, cy).
 inline CameraIntrinsics pinholeCamera(int width, int height, double f, double cx, double cy) {
@@ -32,6 +31,7 @@ inline CameraIntrinsics pinholeCamera(int width, int height, double f, double cx
   return K;
 }
 
+/// A small camera keeps the tests fast; the geometry is the same as FUEL's camera, scaled.
 inline CameraIntrinsics smallCamera() { return pinholeCamera(160, 120, 96.8, 79.5, 59.5); }
 
 inline PointCloud render(const AnalyticScene& scene, const Pose3d& T_W_S, const CameraIntrinsics& K = smallCamera(),
