@@ -3,6 +3,7 @@
 #include "vdbmap/timing.hpp"
 
 #include "vdbmap/planner/assume_free_map.hpp"
+#include "vdbmap/planner/cached_map.hpp"
 #include "vdbmap/planner/recent_obstacle_map.hpp"
 
 #include <algorithm>
@@ -416,7 +417,10 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   ++counters_.updates;
   if (!escaping(t_s)) escapes_.recordFlown(vehicle.position_W, base_map.voxelSize());  // not an escape's way
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
-  const AssumeFreeMap map(base_map, free_boxes_);
+  const AssumeFreeMap free_map(base_map, free_boxes_);
+  // The map does not change during an update: its voxels are read once per block for the many
+  // tests of paths, costs and trajectories.
+  const CachedMap map(free_map);
   std::optional<RecentObstacleMap> recent_map;
   if (recent_)
     recent_map.emplace(map, recent_->surfaceVoxels(map.voxelSize()),

@@ -1,8 +1,9 @@
-// The planner's map interface: synthetic maps, the TSDF adapter, the assume-free wrapper, and
-// MapProbe's clearance, segment and visibility checks against brute force.
+// The planner's map interface: synthetic maps, the TSDF adapter, the assume-free wrapper, the
+// per-cycle block cache, and MapProbe's clearance, segment and visibility checks against brute force.
 #include "planner/planner_test_maps.hpp"
 
 #include "vdbmap/planner/assume_free_map.hpp"
+#include "vdbmap/planner/cached_map.hpp"
 #include "vdbmap/planner/dense_map.hpp"
 #include "vdbmap/planner/map_query.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
@@ -11,7 +12,10 @@
 
 #include <catch2/catch.hpp>
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -390,4 +394,72 @@ TEST_CASE("TsdfMapQuery reads a post as an obstacle from its hits when rays besi
   CHECK(&exact.sightMap() == &exact);
   const AssumeFreeMap exact_start(exact, {});
   CHECK(&exact_start.sightMap() == &exact_start);
+}
+
+TEST_CASE("CachedMap reads every voxel as its base, inside and outside the cached blocks", "[planner][map]") {
+  // A base whose bounds start at negative, unaligned coordinates: blocks straddle its edges.
+  DenseMap base(0.1, CoordBBox(Coord(-13, -7, -3), Coord(18, 11, 9)));
+  base.fill(base.extent(), Occupancy::Free);
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> state(0, 9);
+  for (auto it = base.extent().begin(); it; ++it)
+    if (const int s = state(rng); s < 2) base.set(*it, s == 0 ? Occupancy::Occupied : Occupancy::Unknown);
+  const CachedMap cached(base);
+  CHECK(cached.blocksRead() == 0);  // nothing is read before the first query
+  CHECK(cached.knownBounds() == base.knownBounds());
+  CHECK(cached.voxelSize() == base.voxelSize());
+  auto want = base.reader();
+  auto got = cached.reader();
+  const CoordBBox around = base.extent().expandBy(9);  // the table's blocks and beyond
+  for (int pass = 0; pass < 2; ++pass)                 // the second pass answers from the blocks the first read
+    for (auto it = around.begin(); it; ++it) REQUIRE(got->at(*it) == want->at(*it));
+  // Blocks of 8^3 covering [-13, 18] x [-7, 11] x [-3, 9]: 5 x 3 x 3 of them, each read once.
+  CHECK(cached.blocksRead() == 45);
+  test::requireReadBoxMatchesAt(*got, CoordBBox(Coord(-15, -9, -5), Coord(3, 4, 2)));
+}
+
+TEST_CASE("CachedMap readers on many threads agree with the base and read each block once", "[planner][map]") {
+  const DenseMap base = randomMap(17);
+  const CachedMap cached(base);
+  const CoordBBox around = base.extent().expandBy(3);
+  std::vector<Coord> queries;
+  std::mt19937 rng(9);
+  std::uniform_int_distribution<int> x(around.min().x(), around.max().x()), z(around.min().z(), around.max().z());
+  for (int i = 0; i < 200000; ++i) queries.emplace_back(x(rng), x(rng), z(rng));
+  std::atomic<int> mismatches{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      auto want = base.reader();
+                      auto got = cached.reader();
+                      for (std::size_t i = r.begin(); i < r.end(); ++i)
+                        if (got->at(queries[i]) != want->at(queries[i])) ++mismatches;
+                    });
+  CHECK(mismatches == 0);
+  CHECK(cached.blocksRead() == 4 * 4 * 2);  // [0, 29] x [0, 29] x [0, 14]: every block was asked for
+}
+
+TEST_CASE("CachedMap keeps no blocks beyond its limit, and caches a separate sight map", "[planner][map]") {
+  const DenseMap base = randomMap(3);
+  const CachedMap uncached(base, /*max_blocks=*/31);  // the map spans 32 blocks
+  auto want = base.reader();
+  auto got = uncached.reader();
+  for (auto it = base.extent().begin(); it; ++it) REQUIRE(got->at(*it) == want->at(*it));
+  CHECK(uncached.blocksRead() == 0);
+  CHECK(&uncached.sightMap() == &uncached);
+
+  // The TSDF map with thin-obstacle rules has its own sight map (without them): so has the cache.
+  const TsdfVolume volume = postScene(true, Eigen::Vector2d(0.03, 0.03));
+  const TsdfMapQuery tsdf(volume);
+  REQUIRE(&tsdf.sightMap() != &tsdf);
+  const CachedMap cached(tsdf);
+  REQUIRE(&cached.sightMap() != &cached);
+  auto flight = cached.reader(), flight_base = tsdf.reader();
+  auto sight = cached.sightMap().reader(), sight_base = tsdf.sightMap().reader();
+  int differ = 0;
+  for (auto it = CoordBBox(Coord(-8, -8, -5), Coord(8, 8, 5)).begin(); it; ++it) {
+    REQUIRE(flight->at(*it) == flight_base->at(*it));
+    REQUIRE(sight->at(*it) == sight_base->at(*it));
+    differ += flight->at(*it) != sight->at(*it) ? 1 : 0;
+  }
+  CHECK(differ > 0);  // the two maps differ at the post, and each cache follows its own
 }

@@ -2,6 +2,7 @@
 // densely against the map by brute force; failures are statuses; results repeat for a seed.
 #include "planner/planner_test_maps.hpp"
 
+#include "vdbmap/planner/cached_map.hpp"
 #include "vdbmap/planner/path_planner.hpp"
 
 #include <catch2/catch.hpp>
@@ -151,4 +152,23 @@ TEST_CASE("PathConfig::validate names the field", "[planner][path]") {
   p = PathConfig{};
   p.max_iterations = 2'000'000'000u;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("max_iterations"));
+}
+
+TEST_CASE("A path search on a CachedMap finds the same path as on its base", "[planner][path]") {
+  const DenseMap map = wallRoom(true);
+  PathConfig params;
+  params.time_limit_s = 10.0;  // the iteration cap ends every search: no dependence on speed
+  params.max_iterations = 5000;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    params.seed = seed;
+    const CachedMap cached(map);
+    PathPlanner on_base(map, params), on_cache(cached, params);
+    const PathResult want = on_base.plan(Vec3d(2, 1, 1), Vec3d(8, 1.2, 1.4), seed);
+    const PathResult got = on_cache.plan(Vec3d(2, 1, 1), Vec3d(8, 1.2, 1.4), seed);
+    REQUIRE(want.status == PathStatus::Planned);
+    CHECK(got.status == want.status);
+    CHECK(got.waypoints == want.waypoints);
+    CHECK(got.iterations == want.iterations);
+    CHECK(cached.blocksRead() > 0);
+  }
 }
