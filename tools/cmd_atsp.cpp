@@ -47,6 +47,12 @@ const Registration registration("atsp", [](CLI::App& app) {
   sub->add_option("--open-from", args->open_from, "Solve an open path from this node (no return) instead of a tour");
   sub->add_option("--exact-max-n", args->options.exact_max_n, "Largest n solved exactly by dynamic programming")
       ->capture_default_str();
+  sub->add_option("--max-iterations", args->options.max_iterations,
+                  "Stop after this many local-search rounds (0 = only the time limit)")
+      ->capture_default_str();
+  sub->add_option("--max-stale-iterations", args->options.max_stale_iterations,
+                  "Stop after this many rounds in a row without a cheaper tour (0 = never)")
+      ->capture_default_str();
   sub->add_option("--json", args->json, "Write the result as JSON to this file ('-' = standard output)")
       ->expected(0, 1)
       ->default_str("-");

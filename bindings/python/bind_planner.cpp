@@ -92,6 +92,8 @@ void bindCostsAndPaths(py::module_& m) {
   t.def_readwrite("time_limit_s", &TourConfig::time_limit_s, "solver budget; (0, 60]")
       .def_readwrite("seed", &TourConfig::seed, "solver seed")
       .def_readwrite("max_iterations", &TourConfig::max_iterations, "solver rounds; 0 = only the time limit")
+      .def_readwrite("max_stale_iterations", &TourConfig::max_stale_iterations,
+                     "rounds in a row without a shorter tour after which the solver stops; 0 = never")
       .def("validate", &TourConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<RefinementConfig> r(m, "RefinementConfig", "Local viewpoint refinement (FUEL's refined_*).");

@@ -64,6 +64,7 @@ struct Search {
   std::int64_t lower_bound = std::numeric_limits<std::int64_t>::min();
   bool optimal = false;
   bool iteration_limit = false;
+  bool settled = false;
   double time_to_best_s = 0.0;
   std::uint64_t iterations = 0;
 };
@@ -97,6 +98,7 @@ Search solveInstance(const AtspInstance& instance, const AtspConfig& options, co
   atsp::IlsSettings settings;
   settings.seed = options.seed;
   settings.max_iterations = options.max_iterations;
+  settings.max_stale_iterations = options.max_stale_iterations;
   if (exact) {
     const std::uint64_t rounds = kRoundsBeforeExactPerNode * std::uint64_t(instance.n);
     settings.max_iterations = settings.max_iterations == 0 ? rounds : std::min(settings.max_iterations, rounds);
@@ -108,6 +110,7 @@ Search solveInstance(const AtspInstance& instance, const AtspConfig& options, co
   search.iterations = ils.iterations;
   search.optimal = ils.reached_bound;
   search.iteration_limit = ils.reached_max_iterations;
+  search.settled = ils.settled;
 
   if (exact && !search.optimal) {
     if (const auto optimal = atsp::heldKarpTour(instance, deadline)) {
@@ -116,7 +119,7 @@ Search solveInstance(const AtspInstance& instance, const AtspConfig& options, co
       search.lower_bound = atsp::closedTourCost(instance, *optimal);
       search.optimal = true;
     } else {
-      search.iteration_limit = false;  // the DP ran out of time: that is why the search stopped
+      search.iteration_limit = search.settled = false;  // the DP ran out of time: that is why the search stopped
     }
   }
   return search;
@@ -132,6 +135,7 @@ std::string toString(AtspStatus status) {
       return "time_limit";
     case AtspStatus::kIterationLimit:
       return "iteration_limit";
+    case AtspStatus::kSettled: return "settled";
   }
   return "unknown";
 }
@@ -186,6 +190,7 @@ AtspResult solveAtsp(const CostMatrix& costs, const AtspConfig& options) {
   result.optimal_proven = search.optimal;
   result.status = search.optimal           ? AtspStatus::kOptimal
                   : search.iteration_limit ? AtspStatus::kIterationLimit
+                  : search.settled         ? AtspStatus::kSettled
                                            : AtspStatus::kTimeLimit;
   result.iterations = search.iterations;
   result.time_to_best_s = search.time_to_best_s;

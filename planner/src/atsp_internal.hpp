@@ -82,6 +82,7 @@ std::optional<CandidateLists> buildCandidates(const AtspInstance& instance, cons
 struct IlsSettings {
   std::uint64_t seed = 1;
   std::uint64_t max_iterations = 0;  // 0 = until the deadline or the bound
+  std::uint64_t max_stale_iterations = 0;  // rounds in a row without a better tour; 0 = no limit
   /// Stop as soon as the tour costs this much (a proven lower bound); nullopt = never.
   std::optional<std::int64_t> lower_bound;
 };
@@ -93,6 +94,7 @@ struct IlsOutcome {
   double time_to_best_s = 0.0;  // as Deadline::elapsedS()
   bool reached_bound = false;
   bool reached_max_iterations = false;
+  bool settled = false;  // stopped after max_stale_iterations rounds without a better tour
 };
 
 /// Iterated local search from `initial` (a closed tour, n >= 4): orientation-preserving 3-opt

@@ -336,6 +336,7 @@ IlsOutcome iteratedLocalSearch(const AtspInstance& instance, const CandidateList
   const int max_rejections = std::max(1, instance.n / kRejectionsPerWalkStepDivisor);
   int rejections = 0;
   TourSearch::Snapshot before_kick;
+  std::uint64_t best_round = 0;
   while (true) {
     if (settings.lower_bound && outcome.cost <= *settings.lower_bound) {
       outcome.reached_bound = true;
@@ -343,6 +344,10 @@ IlsOutcome iteratedLocalSearch(const AtspInstance& instance, const CandidateList
     }
     if (settings.max_iterations != 0 && outcome.iterations >= settings.max_iterations) {
       outcome.reached_max_iterations = true;
+      break;
+    }
+    if (settings.max_stale_iterations != 0 && outcome.iterations - best_round >= settings.max_stale_iterations) {
+      outcome.settled = true;
       break;
     }
     if (deadline.passed()) break;
@@ -354,6 +359,7 @@ IlsOutcome iteratedLocalSearch(const AtspInstance& instance, const CandidateList
       outcome.order = search.order();
       outcome.cost = search.cost();
       outcome.time_to_best_s = deadline.elapsedS();
+      best_round = outcome.iterations;
       rejections = 0;
     } else if (search.cost() > before_kick.cost) {
       if (++rejections < max_rejections)

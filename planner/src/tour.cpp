@@ -42,6 +42,7 @@ TourResult solveOpenTour(const RealCostMatrix& costs, const TourConfig& params) 
   options.time_limit_s = params.time_limit_s;
   options.seed = params.seed;
   options.max_iterations = params.max_iterations;
+  options.max_stale_iterations = params.max_stale_iterations;
   options.open_from = 0;
   const AtspResult solved = solveAtsp(costs, options);
   // The solver's order starts at node 0 (the vehicle); targets are nodes 1..n-1.

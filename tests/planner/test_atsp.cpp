@@ -246,6 +246,38 @@ TEST_CASE("the same seed and round count give the same tour", "[atsp]") {
   checkResult(costs, a, 3);
 }
 
+TEST_CASE("a settled search stops after max_stale_iterations rounds without a cheaper tour", "[atsp]") {
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    const CostMatrix costs = mixedCosts(30, 77 + seed);
+    AtspConfig options;
+    options.time_limit_s = 30.0;
+    options.max_iterations = 20000;
+    options.max_stale_iterations = 300;
+    options.seed = seed;
+    options.open_from = 0;
+    const AtspResult settled = solveAtsp(costs, options);
+    INFO("seed " << seed << ": settled after " << settled.iterations << " rounds");
+    checkResult(costs, settled, 0);
+    if (settled.status == AtspStatus::kOptimal) continue;  // met the assignment bound first
+    REQUIRE(settled.status == AtspStatus::kSettled);
+    REQUIRE(settled.iterations >= 300);
+    CHECK(settled.iterations < 20000);
+    // The rounds are those of the unlimited search: stopped at the same round, it has the same tour,
+    // and 300 rounds earlier it already had that tour's cost.
+    options.max_stale_iterations = 0;
+    options.max_iterations = settled.iterations;
+    const AtspResult same = solveAtsp(costs, options);
+    CHECK(same.order == settled.order);
+    CHECK(same.status == AtspStatus::kIterationLimit);
+    const std::uint64_t best_round = settled.iterations - 300;  // 0: the first descent's tour
+    if (best_round < 2) continue;                               // (max_iterations 0 means no limit)
+    options.max_iterations = best_round;
+    CHECK(solveAtsp(costs, options).cost == settled.cost);
+    options.max_iterations = best_round - 1;
+    CHECK(solveAtsp(costs, options).cost > settled.cost);
+  }
+}
+
 TEST_CASE("unreachable (huge) costs neither overflow nor get used when avoidable", "[atsp]") {
   constexpr std::int64_t kHuge = std::numeric_limits<std::int64_t>::max();
   for (const std::size_t n : {7, 40}) {  // exact and local-search paths

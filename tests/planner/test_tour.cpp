@@ -50,6 +50,22 @@ TEST_CASE("openTourCost sums the legs from the vehicle and rejects non-permutati
   CHECK_THROWS_AS(openTourCost(m, {0}), std::invalid_argument);
 }
 
+TEST_CASE("A tour of tens of clusters stops once it has settled, long before a generous limit", "[planner][tour]") {
+  for (std::uint32_t seed = 1; seed <= 3; ++seed) {
+    const RealCostMatrix m = randomTourMatrix(30, seed);
+    TourConfig settling;
+    settling.time_limit_s = 60.0;  // never reached: the default stale-round rule ends the search
+    const TourResult settled = solveOpenTour(m, settling);
+    INFO("seed " << seed);
+    REQUIRE((settled.status == AtspStatus::kSettled || settled.status == AtspStatus::kOptimal));
+    // The same rounds without the rule, capped well beyond where it stopped: no shorter tour.
+    TourConfig capped = settling;
+    capped.max_stale_iterations = 0;
+    capped.max_iterations = 20000;
+    CHECK(solveOpenTour(m, capped).cost_s >= settled.cost_s - 1e-9);
+  }
+}
+
 TEST_CASE("Small open tours are optimal and their cost is the matrix's", "[planner][tour]") {
   for (std::uint32_t seed = 1; seed <= 5; ++seed) {
     const RealCostMatrix m = randomTourMatrix(7, seed);

@@ -64,6 +64,10 @@ struct AtspConfig {
   /// Iterated local search rounds (perturbation + local search); 0 = no limit but the time.
   /// Setting it makes a run independent of machine speed (as long as the time limit is not hit).
   std::uint64_t max_iterations = 0;
+  /// Rounds in a row without a cheaper tour after which the search stops, settled; 0 = never.
+  /// Small instances find their best tour in the first few hundred rounds and would otherwise
+  /// spend the rest of their time or iteration budget confirming it.
+  std::uint64_t max_stale_iterations = 0;
   /// Only for RealCostMatrix: costs are solved as round(cost / cost_resolution), > 0.
   double cost_resolution = 1e-6;
 
@@ -76,6 +80,7 @@ enum class AtspStatus {
   kOptimal,         ///< proven optimal (exact DP, lower bound met, or n <= 3)
   kTimeLimit,       ///< best tour found when the time limit was reached
   kIterationLimit,  ///< best tour found after max_iterations rounds
+  kSettled,         ///< best tour unchanged for max_stale_iterations rounds
 };
 
 std::string toString(AtspStatus status);
