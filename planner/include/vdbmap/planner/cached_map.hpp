@@ -9,8 +9,9 @@
 // base's, bit for bit (readBox reads what at() reads).
 //
 // Threads: the blocks are shared by every reader of the map (each filled by whichever reader
-// first needs it), so parallel path searches fill each block once. Readers are per thread, as
-// always. The base must not change while the CachedMap is in use: make one per cycle.
+// first needs it; two readers missing the same block at the same moment both read it, and one
+// copy is kept). Readers are per thread, as always. The base must not change while the
+// CachedMap is in use: make one per cycle.
 #pragma once
 
 #include "vdbmap/planner/map_query.hpp"
@@ -40,7 +41,7 @@ class CachedMap : public MapQuery {
   /// This map when the base is its own sight map; else a cached map of the base's.
   const MapQuery& sightMap() const override;
 
-  /// Blocks read so far (each block is read once, by any reader).
+  /// Blocks kept so far.
   std::size_t blocksRead() const { return blocks_read_.load(std::memory_order_relaxed); }
 
  private:
