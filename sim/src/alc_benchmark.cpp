@@ -120,6 +120,9 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
 
 namespace {
 
+/// Whether a run ended with at least the coverage a complete run needs (finished or not).
+bool complete(const ExplorationSummary& s, double min_finish_coverage) { return s.coverage >= min_finish_coverage; }
+
 /// The two arms of one world and seed.
 struct Pair {
   std::string world;
@@ -170,8 +173,8 @@ Effect effect(const std::vector<Pair>& ps, double min_finish_coverage) {
     dt.push_back(p.on->exploration_time_s / p.off->exploration_time_s - 1.0);
     dl.push_back(double(p.on->loop_closures) - double(p.off->loop_closures));
     e.alc_better += p.on->accuracy_rmse_m < p.off->accuracy_rmse_m ? 1 : 0;
-    e.incomplete_off += p.off->coverage < min_finish_coverage ? 1 : 0;
-    e.incomplete_on += p.on->coverage < min_finish_coverage ? 1 : 0;
+    e.incomplete_off += complete(*p.off, min_finish_coverage) ? 0 : 1;
+    e.incomplete_on += complete(*p.on, min_finish_coverage) ? 0 : 1;
     e.collisions_off += p.off->collisions;
     e.collisions_on += p.on->collisions;
     e.min_coverage_off = std::min(e.min_coverage_off, p.off->coverage);
@@ -247,15 +250,15 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
        << format("%.3f", e.min_coverage_on) << "\n";
     // A map's RMSE is over the surface it holds: a run that stops early holds only what it saw
     // near the start, before drift grew, so RMSEs compare fairly only between complete runs.
-    std::vector<Pair> complete;
+    std::vector<Pair> both_complete;
     for (const Pair& p : all)
-      if (p.off->coverage >= config.min_finish_coverage && p.on->coverage >= config.min_finish_coverage)
-        complete.push_back(p);
-    md << "- over the " << complete.size() << " pairs where both runs are complete: ";
-    if (complete.empty()) {
+      if (complete(*p.off, config.min_finish_coverage) && complete(*p.on, config.min_finish_coverage))
+        both_complete.push_back(p);
+    md << "- over the " << both_complete.size() << " pairs where both runs are complete: ";
+    if (both_complete.empty()) {
       md << "-\n";
     } else {
-      const Effect c = effect(complete, config.min_finish_coverage);
+      const Effect c = effect(both_complete, config.min_finish_coverage);
       md << "RMSE change " << format("%+.4f", c.rmse_change.mean) << " ± " << format("%.4f m", c.rmse_change.sd)
          << ", ALC's map better in " << c.alc_better << " of " << c.n << ", time overhead "
          << format("%+.1f %%", 100.0 * c.overhead()) << "\n";

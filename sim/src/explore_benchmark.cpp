@@ -136,8 +136,7 @@ std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const
     return format(fmt, s.mean) + (s.n > 1 ? " ± " + format(fmt, s.sd) : std::string());
   };
   md << "## Per world\n\n| world | runs | finished | complete | t50 | t80 | t90 | t95 | t99 | time (s) | coverage | "
-        "speed (m/s) | "
-        "final sweep (s) | longest hold (s) | collisions | planner p50 / max (ms) | real-time factor |\n"
+        "speed (m/s) | final sweep (s) | longest hold (s) | collisions | planner p50 / max (ms) | real-time factor |\n"
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const std::string& world : order) {
     const std::vector<const ExplorationSummary*>& runs = by_world[world];

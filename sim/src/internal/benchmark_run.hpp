@@ -4,6 +4,7 @@
 #include "vdbmap/sim/exploration.hpp"
 
 #include <string>
+#include <utility>
 
 namespace vdbmap::sim::internal {
 

@@ -10,8 +10,8 @@
 // finished and complete (kCompleteCoverage), and the mean over the seeds of the time to
 // 50/80/90/95/99 % coverage, the exploration time, mean speed, the final sweep's share, the
 // longest hold, collisions, the planner's time per replan and the real-time factor; then every
-// run). Both are rewritten after every run, so an interrupted benchmark
-// leaves the runs done so far.
+// run). Both are rewritten after every run, so an interrupted benchmark leaves the runs done so
+// far.
 #pragma once
 
 #include "vdbmap/sim/benchmark_world.hpp"
