@@ -1,5 +1,7 @@
 #include "vdbmap/planner/cached_map.hpp"
 
+#include <algorithm>
+
 namespace vdbmap::planner {
 
 namespace {
@@ -16,24 +18,78 @@ struct CachedMap::Block {
   Occupancy states[kBlockSide * kBlockSide * kBlockSide];  ///< z fastest (boxIndex)
 };
 
-/// Answers from the shared blocks, filling a missing one through its own base reader.
+/// Answers from the shared blocks, filling a missing one through its own base reader. Queries
+/// come in runs within one block, so the last block used is kept at hand.
 class CachedMap::Reader : public MapReader {
  public:
   explicit Reader(const CachedMap& map) : map_(map), base_(map.base_->reader()) {}
 
   Occupancy at(const openvdb::Coord& ijk) override {
-    std::atomic<const Block*>* slot = map_.slot(ijk);
-    if (!slot) return base_->at(ijk);
-    const Block* block = slot->load(std::memory_order_acquire);
-    if (!block) block = fill(*slot, ijk);
-    const int m = kBlockSide - 1;
-    return block->states[((ijk.x() & m) << (2 * kLog2Block)) | ((ijk.y() & m) << kLog2Block) | (ijk.z() & m)];
+    const Block* block = blockAt(ijk);
+    return block ? block->states[indexInBlock(ijk)] : base_->at(ijk);
   }
 
-  /// Whole boxes (frontier scans, viewpoint scoring) are read from the base directly.
-  void readBox(const openvdb::CoordBBox& box, Occupancy* out) override { base_->readBox(box, out); }
+  /// Block by block: from the cached blocks (filling those it needs), and from the base for the
+  /// parts of the box beyond them.
+  void readBox(const openvdb::CoordBBox& box, Occupancy* out) override {
+    const openvdb::Coord dim = box.dim();
+    const openvdb::Coord lo_block = blockOf(box.min()), hi_block = blockOf(box.max());
+    if (lo_block == hi_block) {  // the usual case: a run of a few voxels
+      const Block* block = blockAt(box.min());
+      if (!block) {
+        base_->readBox(box, out);
+        return;
+      }
+      const int nz = dim.z();
+      for (int x = box.min().x(); x <= box.max().x(); ++x)
+        for (int y = box.min().y(); y <= box.max().y(); ++y, out += nz)
+          std::copy_n(&block->states[indexInBlock(openvdb::Coord(x, y, box.min().z()))], nz, out);
+      return;
+    }
+    for (int bx = lo_block.x(); bx <= hi_block.x(); ++bx)
+      for (int by = lo_block.y(); by <= hi_block.y(); ++by)
+        for (int bz = lo_block.z(); bz <= hi_block.z(); ++bz) {
+          const openvdb::Coord origin(bx << kLog2Block, by << kLog2Block, bz << kLog2Block);
+          openvdb::CoordBBox part(origin, origin.offsetBy(kBlockSide - 1));
+          part.intersect(box);
+          const Block* block = blockAt(origin);
+          const Occupancy* from = block ? block->states : beyond(part);
+          const openvdb::Coord from_min = block ? origin : part.min(),
+                               from_dim = block ? openvdb::Coord(kBlockSide) : part.dim();
+          const int nz = part.max().z() - part.min().z() + 1;
+          for (int x = part.min().x(); x <= part.max().x(); ++x)
+            for (int y = part.min().y(); y <= part.max().y(); ++y) {
+              const openvdb::Coord row(x, y, part.min().z());
+              std::copy_n(from + boxIndex(from_min, from_dim, row), nz, out + boxIndex(box.min(), dim, row));
+            }
+        }
+  }
 
  private:
+  static int indexInBlock(const openvdb::Coord& ijk) {
+    const int m = kBlockSide - 1;
+    return ((ijk.x() & m) << (2 * kLog2Block)) | ((ijk.y() & m) << kLog2Block) | (ijk.z() & m);
+  }
+
+  /// The block holding ijk (read now if no reader has yet), or nullptr outside the cached blocks.
+  const Block* blockAt(const openvdb::Coord& ijk) {
+    const openvdb::Coord b = blockOf(ijk);
+    if (last_ && b == last_coord_) return last_;
+    std::atomic<const Block*>* slot = map_.slot(ijk);
+    if (!slot) return nullptr;
+    const Block* block = slot->load(std::memory_order_acquire);
+    if (!block) block = fill(*slot, ijk);
+    last_coord_ = b;
+    last_ = block;
+    return block;
+  }
+
+  /// The states of a part of a block outside the cached ones, from the base (valid until the next call).
+  const Occupancy* beyond(const openvdb::CoordBBox& part) {
+    base_->readBox(part, beyond_.states);
+    return beyond_.states;
+  }
+
   const Block* fill(std::atomic<const Block*>& slot, const openvdb::Coord& ijk) {
     auto block = std::make_unique<Block>();
     const openvdb::Coord lo(ijk.x() & ~(kBlockSide - 1), ijk.y() & ~(kBlockSide - 1), ijk.z() & ~(kBlockSide - 1));
@@ -48,6 +104,9 @@ class CachedMap::Reader : public MapReader {
 
   const CachedMap& map_;
   std::unique_ptr<MapReader> base_;
+  openvdb::Coord last_coord_;  ///< block coordinates (voxel >> 3) of last_
+  const Block* last_ = nullptr;
+  Block beyond_;  ///< beyond()'s buffer
 };
 
 CachedMap::CachedMap(const MapQuery& base, std::size_t max_blocks)

@@ -62,6 +62,22 @@ void MapProbe::cacheBox(const openvdb::CoordBBox& box) {
   reader_->readBox(box, cache_.data());
 }
 
+const Occupancy* MapProbe::readRun(const openvdb::Coord& first, int axis, int n) {
+  openvdb::Coord last = first;
+  last[axis] += n - 1;
+  run_.resize(std::size_t(n));
+  if (cache_box_.isInside(first) && cache_box_.isInside(last)) {
+    const std::size_t stride = axis == 2   ? 1
+                               : axis == 1 ? std::size_t(cache_dim_.z())
+                                           : std::size_t(cache_dim_.y()) * std::size_t(cache_dim_.z());
+    const Occupancy* from = &cache_[boxIndex(cache_box_.min(), cache_dim_, first)];
+    for (int i = 0; i < n; ++i) run_[std::size_t(i)] = from[std::size_t(i) * stride];
+  } else {
+    reader_->readBox(openvdb::CoordBBox(first, last), run_.data());
+  }
+  return run_.data();
+}
+
 const std::vector<MapProbe::Offset>& MapProbe::offsetsFor(double radius_m) {
   const double radius_vox = radius_m / voxel_size_m_;
   if (!(radius_vox >= 0.0) || radius_vox > kMaxRadiusVox)
@@ -174,7 +190,9 @@ bool MapProbe::isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_
   int k = 0;  // the main axis: every layer perpendicular to it meets the capsule in a small box
   for (int j = 1; j < 3; ++j)
     if (std::abs(d[j]) > std::abs(d[k])) k = j;
-  const int u = (k + 1) % 3, v = (k + 2) % 3;
+  // The layer's box is read in runs along v: along z (contiguous in blocks and caches) unless z is
+  // the main axis. Which of the other two axes is u does not change the voxels visited.
+  const int v = k == 2 ? 1 : 2, u = 3 - k - v;
   const double r2 = r * r;
   const int layer_lo = int(std::ceil(std::min(a[k], b[k]) - r)), layer_hi = int(std::floor(std::max(a[k], b[k]) + r));
   int c[3];
@@ -187,14 +205,21 @@ bool MapProbe::isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_
     const Vec3d p0 = a + d * t0, p1 = a + d * t1;
     const int u_lo = int(std::ceil(std::min(p0[u], p1[u]) - r)), u_hi = int(std::floor(std::max(p0[u], p1[u]) + r));
     const int v_lo = int(std::ceil(std::min(p0[v], p1[v]) - r)), v_hi = int(std::floor(std::max(p0[v], p1[v]) + r));
+    if (v_lo > v_hi) continue;
     c[k] = layer;
-    for (c[u] = u_lo; c[u] <= u_hi; ++c[u])
-      for (c[v] = v_lo; c[v] <= v_hi; ++c[v]) {
+    for (c[u] = u_lo; c[u] <= u_hi; ++c[u]) {
+      c[v] = v_lo;
+      const Occupancy* run = readRun(openvdb::Coord(c[0], c[1], c[2]), v, v_hi - v_lo + 1);
+      // Only a voxel that is not free can fail the test; whether its centre is within r of the
+      // segment is asked of those alone.
+      for (int i = 0; i <= v_hi - v_lo; ++i) {
+        if (run[i] == Occupancy::Free) continue;
+        c[v] = v_lo + i;
         const Vec3d centre(c[0], c[1], c[2]);
         const double t = std::clamp((centre - a).dot(d) / len2, 0.0, 1.0);
-        if ((a + d * t - centre).squaredNorm() > r2) continue;
-        if (at(openvdb::Coord(c[0], c[1], c[2])) != Occupancy::Free) return false;
+        if ((a + d * t - centre).squaredNorm() <= r2) return false;
       }
+    }
   }
   return true;
 }

@@ -26,16 +26,19 @@ using openvdb::Coord;
 using openvdb::CoordBBox;
 
 namespace {
-/// A 3 x 3 x 1.5 m map at 0.1 m: free with ~8% occupied and ~4% unknown voxels at random.
-DenseMap randomMap(std::uint32_t seed) {
+/// A 3 x 3 x 1.5 m map at 0.1 m: free with ~8% occupied and ~4% unknown voxels at random (or
+/// the given fractions).
+DenseMap randomMap(std::uint32_t seed, double occupied = 0.08, double unknown = 0.04) {
   DenseMap map(0.1, CoordBBox(Coord(0), Coord(29, 29, 14)));
   map.fill(map.extent(), Occupancy::Free);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   for (auto it = map.extent().begin(); it; ++it) {
     const double x = u(rng);
-    if (x < 0.08) map.set(*it, Occupancy::Occupied);
-    else if (x < 0.12) map.set(*it, Occupancy::Unknown);
+    if (x < occupied)
+      map.set(*it, Occupancy::Occupied);
+    else if (x < occupied + unknown)
+      map.set(*it, Occupancy::Unknown);
   }
   return map;
 }
@@ -120,6 +123,64 @@ TEST_CASE("MapProbe::isSegmentClear is the exact capsule test", "[planner][map]"
       clear += ok;
     }
     CHECK(clear > 20);
+  }
+}
+
+namespace {
+/// isSegmentClear's answer by brute force over every voxel near the segment, with the same
+/// predicate in voxel units: the end points clear, the crossed voxels free (for capsules thinner
+/// than half a voxel's diagonal; isVisible, itself checked against brute force above, decides
+/// ties at voxel corners), and each voxel whose centre c has |a + t d - c|^2 <= r^2 (t the clamped
+/// projection) free.
+bool bruteCapsuleExact(const DenseMap& map, MapProbe& probe, const Vec3d& a_W, const Vec3d& b_W, double radius_m) {
+  if (!probe.isClear(a_W, radius_m) || !probe.isClear(b_W, radius_m)) return false;
+  const double s = map.voxelSize(), r = radius_m / s;
+  if (r < 0.8660254037844386 && !probe.isVisible(a_W, b_W)) return false;
+  const Vec3d a = a_W / s, b = b_W / s, d = b - a;
+  const double len2 = d.squaredNorm();
+  if (len2 < 1e-18) return true;
+  const Coord lo = map.worldToVoxel(a_W.cwiseMin(b_W)).offsetBy(-int(r) - 2);
+  const Coord hi = map.worldToVoxel(a_W.cwiseMax(b_W)).offsetBy(int(r) + 2);
+  for (auto it = CoordBBox(lo, hi).begin(); it; ++it) {
+    const Vec3d c((*it).x(), (*it).y(), (*it).z());
+    const double t = std::clamp((c - a).dot(d) / len2, 0.0, 1.0);
+    if ((a + d * t - c).squaredNorm() <= r * r && map.get(*it) != Occupancy::Free) return false;
+  }
+  return true;
+}
+}  // namespace
+
+TEST_CASE("MapProbe::isSegmentClear gives the brute-force answer bit for bit, on every reader", "[planner][map]") {
+  const DenseMap map = randomMap(31, 0.004, 0.002);  // sparse: capsules three voxels wide pass too
+  const CachedMap cached(map);
+  MapProbe plain(map), on_cache(cached), on_box(map);
+  on_box.cacheBox(CoordBBox(Coord(4, 6, 1), Coord(22, 25, 12)));  // runs inside, across and outside it
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> pos(0.3, 2.6), posz(0.3, 1.1), len(0.0, 1.2);
+  std::uniform_int_distribution<int> grid(3, 26), gridz(3, 11), axis(0, 2);
+  // Whole and half voxels put voxel centres exactly on the capsule's surface.
+  for (const double r : {0.3, 0.1, 0.05, 0.12, 0.07, 0.25}) {
+    int clear = 0, blocked = 0;
+    for (int i = 0; i < 2000; ++i) {
+      Vec3d a, b;
+      if (i % 2 == 0) {
+        a = Vec3d(pos(rng), pos(rng), posz(rng));
+        b = a + (Vec3d(pos(rng), pos(rng), posz(rng)) - a).normalized() * len(rng);
+      } else {  // on voxel centres, along an axis or a diagonal
+        a = Vec3d(grid(rng), grid(rng), gridz(rng)) * 0.1;
+        Vec3d step = Vec3d::Zero();
+        step[axis(rng)] = 0.1;
+        if (i % 4 == 1) step[(axis(rng) + 1) % 3] += 0.1;
+        b = a + step * double(1 + i % 7);
+      }
+      const bool want = bruteCapsuleExact(map, plain, a, b, r);
+      REQUIRE(plain.isSegmentClear(a, b, r) == want);
+      REQUIRE(on_cache.isSegmentClear(a, b, r) == want);
+      REQUIRE(on_box.isSegmentClear(a, b, r) == want);
+      (want ? clear : blocked) += 1;
+    }
+    CHECK(clear > 50);
+    CHECK(blocked > 50);
   }
 }
 
@@ -415,7 +476,21 @@ TEST_CASE("CachedMap reads every voxel as its base, inside and outside the cache
     for (auto it = around.begin(); it; ++it) REQUIRE(got->at(*it) == want->at(*it));
   // Blocks of 8^3 covering [-13, 18] x [-7, 11] x [-3, 9]: 5 x 3 x 3 of them, each read once.
   CHECK(cached.blocksRead() == 45);
-  test::requireReadBoxMatchesAt(*got, CoordBBox(Coord(-15, -9, -5), Coord(3, 4, 2)));
+  test::requireReadBoxMatchesAt(*got, CoordBBox(Coord(-15, -9, -5), Coord(3, 4, 2)));  // beyond the table
+
+  // Boxes inside the table are assembled from blocks, filled by readBox itself when missing.
+  const CachedMap fresh(base);
+  auto boxes = fresh.reader();
+  for (const CoordBBox& box :
+       {CoordBBox(Coord(-12, -6, -2), Coord(17, 10, 8)), CoordBBox(Coord(3, -1, -3), Coord(3, -1, 9)),
+        CoordBBox(Coord(-9, 2, 4), Coord(14, 2, 4)), CoordBBox(Coord(1, 1, 1), Coord(6, 3, 5)),
+        CoordBBox(Coord(0), Coord(0))}) {
+    std::vector<Occupancy> got_box(box.volume()), want_box(box.volume());
+    boxes->readBox(box, got_box.data());
+    want->readBox(box, want_box.data());
+    REQUIRE(got_box == want_box);
+  }
+  CHECK(fresh.blocksRead() == 45);
 }
 
 TEST_CASE("CachedMap readers on many threads agree with the base and read each block once", "[planner][map]") {

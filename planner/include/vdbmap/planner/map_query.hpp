@@ -126,6 +126,8 @@ class MapProbe {
   /// Offsets of every voxel whose centre can lie within radius_m of a point of the centre voxel,
   /// nearest first (so a blocked neighbour is found early).
   const std::vector<Offset>& offsetsFor(double radius_m);
+  /// The states of the n > 0 voxels from `first` along `axis` (0, 1, 2), valid until the next call.
+  const Occupancy* readRun(const openvdb::Coord& first, int axis, int n);
 
   const MapQuery* map_;
   std::unique_ptr<MapReader> reader_;
@@ -134,6 +136,7 @@ class MapProbe {
   openvdb::CoordBBox cache_box_;  ///< empty: no block
   openvdb::Coord cache_dim_;
   std::vector<Occupancy> cache_;
+  std::vector<Occupancy> run_;  ///< readRun's buffer
 };
 
 }  // namespace vdbmap::planner
