@@ -23,16 +23,24 @@ void CameraFrustum::validate() const {
   if (!(min_range_m >= 0.0 && min_range_m < max_range_m)) fail("CameraFrustum", "min_range_m", "[0, max_range_m)");
 }
 
-bool CameraFrustum::contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_W) const {
+namespace {
+/// CameraFrustum::contains with the cosine and sine of the yaw given: a view tests many points.
+bool frustumContains(const CameraFrustum& camera, const Vec3d& eye_W, double cos_yaw, double sin_yaw,
+                     const Vec3d& p_W) {
   const Vec3d d = p_W - eye_W;
   const double range2 = d.squaredNorm();
-  if (range2 > max_range_m * max_range_m || range2 < min_range_m * min_range_m) return false;
+  if (range2 > camera.max_range_m * camera.max_range_m || range2 < camera.min_range_m * camera.min_range_m)
+    return false;
   // Camera axes at zero pitch: forward along yaw, left, up.
-  const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
-  const double forward = c * d.x() + s * d.y();
-  const double left = -s * d.x() + c * d.y();
+  const double forward = cos_yaw * d.x() + sin_yaw * d.y();
+  const double left = -sin_yaw * d.x() + cos_yaw * d.y();
   if (forward <= 0.0) return false;
-  return std::abs(left) <= tan_half_fov_x * forward && std::abs(d.z()) <= tan_half_fov_y * forward;
+  return std::abs(left) <= camera.tan_half_fov_x * forward && std::abs(d.z()) <= camera.tan_half_fov_y * forward;
+}
+}  // namespace
+
+bool CameraFrustum::contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_W) const {
+  return frustumContains(*this, eye_W, std::cos(yaw_rad), std::sin(yaw_rad), p_W);
 }
 
 void ViewpointFallback::validate() const {
@@ -66,9 +74,11 @@ void ViewpointConfig::validate() const {
 }
 
 double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, const MapQuery& map) {
+  const double voxel_size_m = map.voxelSize();
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   for (const openvdb::Coord& c : voxels) {
-    const Eigen::Vector2d d = (map.voxelCenter(c) - eye_W).head<2>();
+    const Vec3d centre = Vec3d(c.x(), c.y(), c.z()) * voxel_size_m;  // MapQuery::voxelCenter
+    const Eigen::Vector2d d = (centre - eye_W).head<2>();
     const double n = d.norm();
     if (n > 1e-9) sum += d / n;
   }
@@ -76,27 +86,31 @@ double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, 
 }
 
 namespace {
-/// The camera sees the voxel's centre: inside the frustum and range, nothing but known-free
-/// voxels on the ray.
-bool sees(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const openvdb::Coord& voxel,
-          const CameraFrustum& camera) {
-  const Vec3d p = probe.map().voxelCenter(voxel);
-  return camera.contains(eye_W, yaw_rad, p) && probe.isVisible(p, eye_W);
+/// Calls on_seen(voxel) for each voxel whose centre the camera sees: inside the frustum and
+/// range, nothing but known-free voxels on the ray.
+template <typename OnSeen>
+void forEachSeen(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
+                 const CameraFrustum& camera, OnSeen&& on_seen) {
+  const double voxel_size_m = probe.voxelSize();
+  const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
+  for (const openvdb::Coord& v : voxels) {
+    const Vec3d p = Vec3d(v.x(), v.y(), v.z()) * voxel_size_m;  // MapQuery::voxelCenter
+    if (frustumContains(camera, eye_W, c, s, p) && probe.isVisible(p, eye_W)) on_seen(v);
+  }
 }
 }  // namespace
 
 int countVisible(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
                  const CameraFrustum& camera) {
   int seen = 0;
-  for (const openvdb::Coord& c : voxels) seen += sees(probe, eye_W, yaw_rad, c, camera) ? 1 : 0;
+  forEachSeen(probe, eye_W, yaw_rad, voxels, camera, [&](const openvdb::Coord&) { ++seen; });
   return seen;
 }
 
 std::vector<openvdb::Coord> visibleVoxels(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
                                           const std::vector<openvdb::Coord>& voxels, const CameraFrustum& camera) {
   std::vector<openvdb::Coord> seen;
-  for (const openvdb::Coord& c : voxels)
-    if (sees(probe, eye_W, yaw_rad, c, camera)) seen.push_back(c);
+  forEachSeen(probe, eye_W, yaw_rad, voxels, camera, [&](const openvdb::Coord& v) { seen.push_back(v); });
   return seen;
 }
 

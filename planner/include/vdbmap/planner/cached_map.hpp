@@ -6,7 +6,9 @@
 // one, each test descends the tree and, on the TSDF map, reads up to six neighbours for its
 // thin-structure and hit rules. A CachedMap reads a whole block through the base's readBox the
 // first time any of its voxels is asked for, and answers from it afterwards: the states are the
-// base's, bit for bit (readBox reads what at() reads).
+// base's, bit for bit (readBox reads what at() reads). Its own readBox copies from the blocks
+// too (viewpoint regions and frontier scans share them with the path searches); only the parts
+// of a box beyond the cached blocks are read from the base.
 //
 // Threads: the blocks are shared by every reader of the map (each filled by whichever reader
 // first needs it; two readers missing the same block at the same moment both read it, and one
