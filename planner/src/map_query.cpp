@@ -30,9 +30,7 @@ openvdb::Coord voxelOf(const Vec3d& p_W, double voxel_size_m) {
 
 openvdb::Coord MapQuery::worldToVoxel(const Vec3d& p_W) const { return voxelOf(p_W, voxelSize()); }
 
-Vec3d MapQuery::voxelCenter(const openvdb::Coord& ijk) const {
-  return Vec3d(ijk.x(), ijk.y(), ijk.z()) * voxelSize();
-}
+Vec3d MapQuery::voxelCenter(const openvdb::Coord& ijk) const { return voxelCenterOf(ijk, voxelSize()); }
 
 openvdb::CoordBBox MapQuery::voxelsIn(const Eigen::AlignedBox3d& box_W) const {
   if (box_W.isEmpty()) return {};

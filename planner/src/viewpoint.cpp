@@ -77,8 +77,7 @@ double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, 
   const double voxel_size_m = map.voxelSize();
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   for (const openvdb::Coord& c : voxels) {
-    const Vec3d centre = Vec3d(c.x(), c.y(), c.z()) * voxel_size_m;  // MapQuery::voxelCenter
-    const Eigen::Vector2d d = (centre - eye_W).head<2>();
+    const Eigen::Vector2d d = (voxelCenterOf(c, voxel_size_m) - eye_W).head<2>();
     const double n = d.norm();
     if (n > 1e-9) sum += d / n;
   }
@@ -94,7 +93,7 @@ void forEachSeen(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std:
   const double voxel_size_m = probe.voxelSize();
   const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
   for (const openvdb::Coord& v : voxels) {
-    const Vec3d p = Vec3d(v.x(), v.y(), v.z()) * voxel_size_m;  // MapQuery::voxelCenter
+    const Vec3d p = voxelCenterOf(v, voxel_size_m);
     if (frustumContains(camera, eye_W, c, s, p) && probe.isVisible(p, eye_W)) on_seen(v);
   }
 }

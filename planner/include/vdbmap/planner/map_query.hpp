@@ -34,6 +34,10 @@ using Occupancy = VoxelState;
 
 /// The voxel that holds p_W, for voxels of voxel_size_m (the convention above).
 openvdb::Coord voxelOf(const Vec3d& p_W, double voxel_size_m);
+/// The centre of voxel ijk, for voxels of voxel_size_m (MapQuery::voxelCenter with the size at hand).
+inline Vec3d voxelCenterOf(const openvdb::Coord& ijk, double voxel_size_m) {
+  return Vec3d(ijk.x(), ijk.y(), ijk.z()) * voxel_size_m;
+}
 
 /// Where voxel ijk goes in a z-fastest array over the box with corner `min` and sides `dim`
 /// (MapReader::readBox's order): ((x - min.x) * dim.y + (y - min.y)) * dim.z + (z - min.z).
