@@ -397,13 +397,16 @@ ReplanReason ExplorationManager::replanReason(const MapQuery& map, const RecentO
   if (pending_.retry) return ReplanReason::Retry;
   if (alc_ && alc_->detourTimedOut(t_s)) return ReplanReason::LoopDetourTimeout;
   if (book_.target() == 0 && !on_detour && !escaping) return ReplanReason::Start;
+  // An escape ends where the start is clear again; a replan before that end would plan from a
+  // start still blocked, and so retreat again from rest, a few millimetres per frame.
+  if (escaping) return ReplanReason::None;
   const double elapsed = t_s - trajectory_t0_;
   const double left = trajectory_t0_ + trajectory_.duration() - t_s;
   if (left < params_.replan_time_left_s) return ReplanReason::TrajectoryEnd;
   // A detour flies through known space to a pose flown before: new frontiers cannot change where
   // it goes, so it is not replanned periodically (that would also switch viewpoints just before
   // arriving, since refinement skips viewpoints near the vehicle).
-  if (on_detour || escaping) return ReplanReason::None;
+  if (on_detour) return ReplanReason::None;
   if (elapsed > params_.replan_covered_after_s && book_.coveredFraction(frontiers_) > params_.covered_fraction)
     return ReplanReason::TargetCovered;
   if (elapsed > params_.replan_period_s) return ReplanReason::Periodic;
