@@ -3,7 +3,9 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -79,53 +81,104 @@ RefinementResult shortestLayeredPath(const LayeredCosts& costs) {
   return result;
 }
 
-LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
-                          const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost,
-                          const PathConfig& path) {
-  LayeredCosts costs;
-  if (layers.empty()) return costs;
-  // Every edge as one job: (layer of its head, tail index, head index); layer 0's tail is the vehicle.
-  struct Edge {
-    std::size_t layer, k, j;
-  };
+namespace {
+/// An edge of the layered graph: (layer of its head, tail index, head index); layer 0's tail is
+/// the vehicle.
+struct Edge {
+  std::size_t layer, k, j;
+};
+
+/// The edge's cost, seeded by the edge alone: the same whichever evaluator or thread plans it.
+double edgeCost(CostEvaluator& evaluator, const VehicleState& vehicle,
+                const std::vector<std::vector<Viewpoint>>& layers, const Edge& e) {
+  const Viewpoint& head = layers[e.layer][e.j];
+  const FlatPose to{head.position_W, head.yaw_rad};
+  const std::uint64_t seed = (std::uint64_t(e.layer) << 40) ^ (std::uint64_t(e.k) << 20) ^ e.j;
+  if (e.layer == 0) return evaluator.cost(vehicle, to, seed).cost_s;
+  const Viewpoint& tail = layers[e.layer - 1][e.k];
+  return evaluator.cost(FlatPose{tail.position_W, tail.yaw_rad}, to, seed).cost_s;
+}
+
+/// A lower bound of the edge's cost: no path is shorter than the straight segment, and the
+/// direction term is not negative; a pose without a path costs unreachable_cost_s.
+double edgeBound(const VehicleState& vehicle, const std::vector<std::vector<Viewpoint>>& layers, const Edge& e,
+                 const CostConfig& cost) {
+  const Viewpoint& head = layers[e.layer][e.j];
+  const Vec3d& from = e.layer == 0 ? vehicle.position_W : layers[e.layer - 1][e.k].position_W;
+  const double from_yaw = e.layer == 0 ? vehicle.yaw_rad : layers[e.layer - 1][e.k].yaw_rad;
+  const double straight = motionCost((head.position_W - from).norm(), yawDistance(from_yaw, head.yaw_rad), 0.0, cost);
+  return std::min(straight, cost.unreachable_cost_s);
+}
+
+double& costOf(LayeredCosts& costs, const Edge& e) {
+  return e.layer == 0 ? costs.first[e.j] : costs.between[e.layer - 1](Eigen::Index(e.k), Eigen::Index(e.j));
+}
+
+/// Every edge of the layers, layer by layer.
+std::vector<Edge> allEdges(const std::vector<std::vector<Viewpoint>>& layers) {
   std::vector<Edge> edges;
   for (std::size_t j = 0; j < layers[0].size(); ++j) edges.push_back({0, 0, j});
   for (std::size_t l = 1; l < layers.size(); ++l)
     for (std::size_t k = 0; k < layers[l - 1].size(); ++k)
       for (std::size_t j = 0; j < layers[l].size(); ++j) edges.push_back({l, k, j});
-  std::vector<double> values(edges.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, edges.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
-    CostEvaluator evaluator(map, cost, path);
-    for (std::size_t i = r.begin(); i < r.end(); ++i) {
-      const Edge& e = edges[i];
-      const Viewpoint& head = layers[e.layer][e.j];
-      const FlatPose to{head.position_W, head.yaw_rad};
-      const std::uint64_t seed = (std::uint64_t(e.layer) << 40) ^ (std::uint64_t(e.k) << 20) ^ e.j;
-      if (e.layer == 0) {
-        values[i] = evaluator.cost(vehicle, to, seed).cost_s;
-      } else {
-        const Viewpoint& tail = layers[e.layer - 1][e.k];
-        values[i] = evaluator.cost(FlatPose{tail.position_W, tail.yaw_rad}, to, seed).cost_s;
-      }
-    }
-  });
+  return edges;
+}
+
+LayeredCosts sizedCosts(const std::vector<std::vector<Viewpoint>>& layers) {
+  LayeredCosts costs;
   costs.first.resize(layers[0].size());
   for (std::size_t l = 1; l < layers.size(); ++l)
     costs.between.emplace_back(Eigen::Index(layers[l - 1].size()), Eigen::Index(layers[l].size()));
-  for (std::size_t i = 0; i < edges.size(); ++i) {
-    const Edge& e = edges[i];
-    if (e.layer == 0)
-      costs.first[e.j] = values[i];
-    else
-      costs.between[e.layer - 1](Eigen::Index(e.k), Eigen::Index(e.j)) = values[i];
-  }
+  return costs;
+}
+}  // namespace
+
+LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
+                          const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost,
+                          const PathConfig& path) {
+  if (layers.empty()) return {};
+  const std::vector<Edge> edges = allEdges(layers);
+  std::vector<double> values(edges.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, edges.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
+    CostEvaluator evaluator(map, cost, path);
+    for (std::size_t i = r.begin(); i < r.end(); ++i) values[i] = edgeCost(evaluator, vehicle, layers, edges[i]);
+  });
+  LayeredCosts costs = sizedCosts(layers);
+  for (std::size_t i = 0; i < edges.size(); ++i) costOf(costs, edges[i]) = values[i];
   return costs;
 }
 
 RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicle,
                                  const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost,
                                  const PathConfig& path) {
-  return shortestLayeredPath(layeredCosts(map, vehicle, layers, cost, path));
+  // Lazy shortest path (Dellin and Srinivasa, ICAPS 2016): search the layers with each edge's
+  // lower bound in place of its cost, plan the edges the shortest path takes, and repeat until
+  // it takes planned edges only. No other path can then be cheaper, since its cost is at least
+  // its bound, so the result is layeredCosts' shortest path; most edges, those between far
+  // apart viewpoints, are never planned.
+  if (layers.empty()) return {};
+  LayeredCosts costs = sizedCosts(layers);
+  for (const Edge& e : allEdges(layers)) costOf(costs, e) = edgeBound(vehicle, layers, e, cost);
+  std::vector<std::vector<char>> planned;  // per layer, tail-major
+  for (std::size_t l = 0; l < layers.size(); ++l)
+    planned.emplace_back((l == 0 ? 1 : layers[l - 1].size()) * layers[l].size(), 0);
+  const auto flag = [&](const Edge& e) -> char& { return planned[e.layer][e.k * layers[e.layer].size() + e.j]; };
+  // One evaluator per edge of a path, kept over the rounds: each round plans at most one edge per layer.
+  std::vector<std::unique_ptr<CostEvaluator>> evaluators(layers.size());
+  for (;;) {
+    const RefinementResult shortest = shortestLayeredPath(costs);
+    std::vector<Edge> open;
+    for (std::size_t l = 0; l < layers.size(); ++l) {
+      const Edge e{l, l == 0 ? 0 : shortest.choice[l - 1], shortest.choice[l]};
+      if (!flag(e)) open.push_back(e);
+    }
+    if (open.empty()) return shortest;
+    tbb::parallel_for(std::size_t(0), open.size(), [&](std::size_t i) {
+      if (!evaluators[i]) evaluators[i] = std::make_unique<CostEvaluator>(map, cost, path);
+      costOf(costs, open[i]) = edgeCost(*evaluators[i], vehicle, layers, open[i]);
+    });
+    for (const Edge& e : open) flag(e) = 1;
+  }
 }
 
 }  // namespace vdbmap::planner

@@ -100,3 +100,30 @@ TEST_CASE("refineLocalTour on a map picks the cheapest chain of viewpoints", "[p
   CHECK(r.choice[0] == 1);
   CHECK(r.cost_s == Approx((2.0 + 3.0) / 2.0));  // straight legs of 2 m and 3 m at 2 m/s
 }
+
+TEST_CASE("refineLocalTour's lazy search gives the shortest path over every planned edge", "[planner][refinement]") {
+  // A room with a wall (a door at one end) and a closed box: straight legs, legs around the wall,
+  // and viewpoints with no path, so that many straight-leg bounds are far below the costs.
+  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 1, 1), openvdb::Coord(50, 58, 28)), Occupancy::Occupied);
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 45, 1), openvdb::Coord(50, 55, 20)), Occupancy::Free);
+  map.fill(openvdb::CoordBBox(openvdb::Coord(70, 5, 1), openvdb::Coord(90, 20, 28)), Occupancy::Occupied);
+  map.fill(openvdb::CoordBBox(openvdb::Coord(71, 6, 2), openvdb::Coord(89, 19, 27)), Occupancy::Free);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> x(0.5, 9.5), y(0.5, 5.5), z(0.6, 2.4), yaw(-M_PI, M_PI);
+  std::uniform_int_distribution<int> size(1, 5);
+  for (int trial = 0; trial < 12; ++trial) {
+    VehicleState vehicle;
+    vehicle.position_W = Vec3d(1.0, 1.0 + 0.3 * trial, 1.0);
+    vehicle.velocity_W = trial % 2 ? Vec3d(0.0, 1.0, 0.0) : Vec3d::Zero();  // the direction term, sometimes
+    vehicle.yaw_rad = yaw(rng);
+    std::vector<std::vector<Viewpoint>> layers(std::size_t(2 + trial % 5));
+    for (auto& layer : layers) {
+      for (int n = size(rng); n > 0; --n) layer.push_back(Viewpoint{Vec3d(x(rng), y(rng), z(rng)), yaw(rng), 20});
+    }
+    const RefinementResult all = shortestLayeredPath(layeredCosts(map, vehicle, layers));
+    const RefinementResult lazy = refineLocalTour(map, vehicle, layers);
+    CHECK(lazy.cost_s == all.cost_s);
+    CHECK(lazy.choice == all.choice);
+  }
+}

@@ -63,7 +63,9 @@ LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
                           const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost = {},
                           const PathConfig& path = {});
 
-/// layeredCosts + shortestLayeredPath.
+/// The result of shortestLayeredPath(layeredCosts(...)) (ties aside), planning only the edges a
+/// lazy search needs: those of paths that are shortest when unplanned edges count at their
+/// straight leg's cost, a lower bound.
 RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicle,
                                  const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost = {},
                                  const PathConfig& path = {});
