@@ -94,6 +94,8 @@ void bindCostsAndPaths(py::module_& m) {
       .def_readwrite("max_iterations", &TourConfig::max_iterations, "solver rounds; 0 = only the time limit")
       .def_readwrite("max_stale_iterations", &TourConfig::max_stale_iterations,
                      "rounds in a row without a shorter tour after which the solver stops; 0 = never")
+      .def_readwrite("max_planned_pairs", &TourConfig::max_planned_pairs,
+                     "pairs of targets planned per tour at most, the rest estimated by the straight leg; 0 = all")
       .def("validate", &TourConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<RefinementConfig> r(m, "RefinementConfig", "Local viewpoint refinement (FUEL's refined_*).");
@@ -101,6 +103,8 @@ void bindCostsAndPaths(py::module_& m) {
   r.def_readwrite("max_clusters", &RefinementConfig::max_clusters, "clusters of the tour refined; [1, 100]")
       .def_readwrite("radius_m", &RefinementConfig::radius_m, "refine no farther than this (after two); (0, 1e4]")
       .def_readwrite("top_viewpoints", &RefinementConfig::top_viewpoints, "viewpoints per layer; [1, 1000]")
+      .def_readwrite("max_planned_edges", &RefinementConfig::max_planned_edges,
+                     "edges the lazy search plans at most, the rest at their straight-leg bound; 0 = all it needs")
       .def_readwrite("max_decay", &RefinementConfig::max_decay,
                      "keep viewpoints seeing this share of the best's; [0, 1]")
       .def_readwrite("min_distance_m", &RefinementConfig::min_distance_m, "skip viewpoints this close; [0, 1e3]")

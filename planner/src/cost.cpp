@@ -65,7 +65,8 @@ PairCostTable::PairCostTable(const CostConfig& cost, const PathConfig& path) : c
   path_.validate();
 }
 
-std::size_t PairCostTable::update(const MapQuery& map, const std::vector<TourTarget>& targets) {
+std::size_t PairCostTable::update(const MapQuery& map, const std::vector<TourTarget>& targets,
+                                  std::size_t max_planned) {
   // Forget targets that are gone or whose pose changed.
   std::map<ClusterId, FlatPose> now;
   for (const TourTarget& t : targets) now[t.cluster] = t.pose;
@@ -82,8 +83,27 @@ std::size_t PairCostTable::update(const MapQuery& map, const std::vector<TourTar
 
   std::vector<std::pair<ClusterId, ClusterId>> missing;
   for (auto a = now.begin(); a != now.end(); ++a)
-    for (auto b = std::next(a); b != now.end(); ++b)
-      if (!pairs_.count({a->first, b->first})) missing.emplace_back(a->first, b->first);
+    for (auto b = std::next(a); b != now.end(); ++b) {
+      const auto it = pairs_.find({a->first, b->first});
+      if (it == pairs_.end() || !it->second.planned) missing.emplace_back(a->first, b->first);
+    }
+  if (max_planned > 0 && missing.size() > max_planned) {
+    // The tour's legs join near targets: plan the shortest straight legs now, estimate the rest.
+    const auto straight = [&](const std::pair<ClusterId, ClusterId>& ab) {
+      const FlatPose &a = now.at(ab.first), &b = now.at(ab.second);
+      return motionCost((a.position_W - b.position_W).norm(), yawDistance(a.yaw_rad, b.yaw_rad), 0.0, cost_);
+    };
+    std::vector<std::pair<double, std::pair<ClusterId, ClusterId>>> by_cost;
+    for (const auto& ab : missing) by_cost.emplace_back(straight(ab), ab);
+    std::sort(by_cost.begin(), by_cost.end());  // ties by ids: the same choice on every machine
+    missing.clear();
+    for (std::size_t i = 0; i < by_cost.size(); ++i) {
+      if (i < max_planned)
+        missing.push_back(by_cost[i].second);
+      else
+        pairs_[by_cost[i].second] = Entry{by_cost[i].first, true, false};
+    }
+  }
 
   std::vector<Entry> results(missing.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, missing.size(), 8), [&](const tbb::blocked_range<std::size_t>& r) {
@@ -96,6 +116,10 @@ std::size_t PairCostTable::update(const MapQuery& map, const std::vector<TourTar
   });
   for (std::size_t i = 0; i < missing.size(); ++i) pairs_[missing[i]] = results[i];
   return missing.size();
+}
+
+std::size_t PairCostTable::estimatedCount() const {
+  return std::size_t(std::count_if(pairs_.begin(), pairs_.end(), [](const auto& p) { return !p.second.planned; }));
 }
 
 double PairCostTable::cost(ClusterId from, ClusterId to) const {

@@ -118,6 +118,14 @@ PathConfig ExplorationManagerConfig::flightPathDefaults() {
   return p;
 }
 
+TourConfig ExplorationManagerConfig::tourDefaults() {
+  // A burst of new clusters (a frontier component split anew) brought up to 585 new pairs at
+  // once in the warehouse, 100-180 ms; 64 pairs take about 25 ms (docs/exploration.md, stop 44).
+  TourConfig t;
+  t.max_planned_pairs = 64;
+  return t;
+}
+
 PathConfig ExplorationManagerConfig::costPathDefaults() {
   PathConfig p;
   p.time_limit_s = 0.01;
@@ -587,7 +595,8 @@ ExplorationManager::TourChoice ExplorationManager::chooseTour(const MapQuery& ma
     for (std::size_t i : choice.order) in_order.push_back(target_views[i]);
     choice.layers = refinementLayers(vehicle, in_order, params_.refinement);
   }
-  choice.refined = refineLocalTour(map, vehicle, choice.layers, params_.cost, params_.cost_path);
+  choice.refined = refineLocalTour(map, vehicle, choice.layers, params_.cost, params_.cost_path,
+                                   params_.refinement.max_planned_edges);
   return choice;
 }
 

@@ -18,6 +18,7 @@ void RefinementConfig::validate() const {
   if (top_viewpoints < 1 || top_viewpoints > 1000) check.fail("top_viewpoints", "[1, 1000]");
   if (!(max_decay >= 0.0 && max_decay <= 1.0)) check.fail("max_decay", "[0, 1]");
   if (!(min_distance_m >= 0.0 && min_distance_m <= 1e3)) check.fail("min_distance_m", "[0, 1000]");
+  if (max_planned_edges < 0 || max_planned_edges > 1000000) check.fail("max_planned_edges", "[0, 1e6]");
 }
 
 std::vector<std::vector<Viewpoint>> refinementLayers(const VehicleState& vehicle,
@@ -150,7 +151,8 @@ LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
 
 RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicle,
                                  const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost,
-                                 const PathConfig& path) {
+                                 const PathConfig& path, int max_planned_edges) {
+  if (max_planned_edges < 0) throw std::invalid_argument("refineLocalTour: max_planned_edges must be >= 0");
   // Lazy shortest path (Dellin and Srinivasa, ICAPS 2016): search the layers with each edge's
   // lower bound in place of its cost, plan the edges the shortest path takes, and repeat until
   // it takes planned edges only. No other path can then be cheaper, since its cost is at least
@@ -165,14 +167,16 @@ RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicl
   const auto flag = [&](const Edge& e) -> char& { return planned[e.layer][e.k * layers[e.layer].size() + e.j]; };
   // One evaluator per edge of a path, kept over the rounds: each round plans at most one edge per layer.
   std::vector<std::unique_ptr<CostEvaluator>> evaluators(layers.size());
-  for (;;) {
-    const RefinementResult shortest = shortestLayeredPath(costs);
+  for (std::size_t planned_edges = 0;;) {
+    RefinementResult shortest = shortestLayeredPath(costs);
+    shortest.planned_edges = planned_edges;
     std::vector<Edge> open;
     for (std::size_t l = 0; l < layers.size(); ++l) {
       const Edge e{l, l == 0 ? 0 : shortest.choice[l - 1], shortest.choice[l]};
       if (!flag(e)) open.push_back(e);
     }
-    if (open.empty()) return shortest;
+    if (open.empty() || (max_planned_edges > 0 && planned_edges >= std::size_t(max_planned_edges))) return shortest;
+    planned_edges += open.size();
     tbb::parallel_for(std::size_t(0), open.size(), [&](std::size_t i) {
       if (!evaluators[i]) evaluators[i] = std::make_unique<CostEvaluator>(map, cost, path);
       costOf(costs, open[i]) = edgeCost(*evaluators[i], vehicle, layers, open[i]);

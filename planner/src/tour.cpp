@@ -57,7 +57,7 @@ TourResult solveOpenTour(const RealCostMatrix& costs, const TourConfig& params) 
 GlobalTour planGlobalTour(const MapQuery& map, const VehicleState& vehicle, const std::vector<TourTarget>& targets,
                           PairCostTable& table, const TourConfig& tour) {
   GlobalTour g;
-  table.update(map, targets);
+  table.update(map, targets, tour.max_planned_pairs);
   g.from_vehicle = costsFromVehicle(map, vehicle, targets, table.costParams(), table.pathParams());
   std::vector<double> row;
   for (const LegCost& leg : g.from_vehicle) row.push_back(leg.cost_s);

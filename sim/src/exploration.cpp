@@ -399,6 +399,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
                   {"cost_path_time_limit_s", c.planner.cost_path.time_limit_s},
                   {"tour_max_iterations", c.planner.tour.max_iterations},
                   {"tour_max_stale_iterations", c.planner.tour.max_stale_iterations},
+                  {"tour_max_planned_pairs", c.planner.tour.max_planned_pairs},
                   {"tour_time_limit_s", c.planner.tour.time_limit_s},
                   {"reintegration_budget_frames", c.mapper.reintegration.budget_frames},
                   {"reintegration_budget_ms", c.mapper.reintegration.budget_ms}};

@@ -92,6 +92,40 @@ TEST_CASE("PairCostTable plans each new pair once and forgets pairs of removed t
   CHECK_THROWS_AS(table.cost(1, 9), std::out_of_range);
 }
 
+TEST_CASE("PairCostTable with a budget plans the shortest legs first and estimates the rest until later updates",
+          "[planner][cost]") {
+  const DenseMap map = costRoom();
+  const std::vector<TourTarget> targets{{1, {Vec3d(1, 1, 1), 0.0}},
+                                        {2, {Vec3d(4, 5, 1), 0.0}},
+                                        {5, {Vec3d(8, 1, 1), 0.0}},
+                                        {9, {Vec3d(8, 4.7, 1.5), 0.0}}};
+  PairCostTable all;
+  REQUIRE(all.update(map, targets) == 6);
+  PairCostTable budgeted;
+  // Straight legs, shortest first: 5-9 (3.7 m), 2-9 (4.0 m), 1-2 (5 m), 2-5 (5.7 m), 1-5 (7 m), 1-9 (7.9 m).
+  CHECK(budgeted.update(map, targets, 2) == 2);
+  CHECK(budgeted.pairCount() == 6);
+  CHECK(budgeted.estimatedCount() == 4);
+  CHECK_FALSE(budgeted.reachable(5, 9));  // planned: the closed room
+  CHECK_FALSE(budgeted.reachable(2, 9));
+  // An estimate is the straight leg's cost, a lower bound of the planned one (around the wall).
+  CHECK(budgeted.reachable(1, 5));
+  CHECK(budgeted.cost(1, 5) == Approx(7.0 / 2.0));
+  CHECK(budgeted.cost(1, 5) < all.cost(1, 5));
+  CHECK(budgeted.update(map, targets, 2) == 2);
+  CHECK(budgeted.estimatedCount() == 2);
+  CHECK(budgeted.cost(1, 2) == all.cost(1, 2));
+  CHECK(budgeted.update(map, targets, 2) == 2);
+  CHECK(budgeted.estimatedCount() == 0);
+  CHECK(budgeted.update(map, targets, 2) == 0);
+  // Planned late, each pair's cost is the one planned at once (legs are seeded by their ids).
+  for (const TourTarget& a : targets)
+    for (const TourTarget& b : targets) {
+      CHECK(budgeted.cost(a.cluster, b.cluster) == all.cost(a.cluster, b.cluster));
+      CHECK(budgeted.reachable(a.cluster, b.cluster) == all.reachable(a.cluster, b.cluster));
+    }
+}
+
 TEST_CASE("The tour matrix: vehicle row, zero return column, pair costs", "[planner][cost]") {
   const DenseMap map = costRoom();
   PairCostTable table;

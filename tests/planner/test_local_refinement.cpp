@@ -112,6 +112,7 @@ TEST_CASE("refineLocalTour's lazy search gives the shortest path over every plan
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> x(0.5, 9.5), y(0.5, 5.5), z(0.6, 2.4), yaw(-M_PI, M_PI);
   std::uniform_int_distribution<int> size(1, 5);
+  std::size_t planned = 0, edges = 0;
   for (int trial = 0; trial < 12; ++trial) {
     VehicleState vehicle;
     vehicle.position_W = Vec3d(1.0, 1.0 + 0.3 * trial, 1.0);
@@ -125,5 +126,22 @@ TEST_CASE("refineLocalTour's lazy search gives the shortest path over every plan
     const RefinementResult lazy = refineLocalTour(map, vehicle, layers);
     CHECK(lazy.cost_s == all.cost_s);
     CHECK(lazy.choice == all.choice);
+    planned += lazy.planned_edges;
+    edges += layers[0].size();
+    for (std::size_t l = 1; l < layers.size(); ++l) edges += layers[l - 1].size() * layers[l].size();
+
+    // A budget the search needs anyway changes nothing.
+    const RefinementResult enough = refineLocalTour(map, vehicle, layers, {}, {}, int(lazy.planned_edges));
+    CHECK(enough.choice == lazy.choice);
+    CHECK(enough.cost_s == lazy.cost_s);
+    // A smaller one stops after the round that reaches it (a round plans at most one edge per
+    // layer), with a path no dearer than the true shortest: unplanned edges count at their bound.
+    const int half = std::max(1, int(lazy.planned_edges) / 2);
+    const RefinementResult cut = refineLocalTour(map, vehicle, layers, {}, {}, half);
+    CHECK(cut.planned_edges >= std::min<std::size_t>(std::size_t(half), lazy.planned_edges));
+    CHECK(cut.planned_edges < std::size_t(half) + layers.size());
+    CHECK(cut.cost_s <= lazy.cost_s);
   }
+  INFO("planned " << planned << " of " << edges << " edges");
+  CHECK(planned < edges / 2);  // the point of the lazy search: most edges are never planned
 }

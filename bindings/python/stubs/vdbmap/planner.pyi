@@ -104,6 +104,7 @@ class TourConfig:
     seed: int
     max_iterations: int
     max_stale_iterations: int
+    max_planned_pairs: int
     def __init__(self, **kwargs: Any) -> None: ...
     def validate(self) -> None: ...
     def __copy__(self) -> TourConfig: ...
@@ -114,6 +115,7 @@ class RefinementConfig:
     max_clusters: int
     radius_m: float
     top_viewpoints: int
+    max_planned_edges: int
     max_decay: float
     min_distance_m: float
     def __init__(self, **kwargs: Any) -> None: ...

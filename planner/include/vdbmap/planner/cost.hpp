@@ -70,19 +70,27 @@ struct TourTarget {
 /// Costs between the targets of the global tour, kept across replanning: FUEL recomputes only the
 /// pairs that involve new clusters. update() drops pairs of targets that are gone, and computes
 /// the missing ones (or those whose pose moved) in parallel, one CostEvaluator per task, each leg
-/// seeded by its cluster ids so the result does not depend on the thread count. Legs between
-/// targets are symmetric (both at rest), so each pair is planned once.
+/// seeded by its cluster ids so that the result depends neither on the thread count nor on the
+/// update that plans it. Legs between targets are symmetric (both at rest), so each pair is
+/// planned once.
 class PairCostTable {
  public:
   explicit PairCostTable(const CostConfig& cost = {}, const PathConfig& path = {});
 
-  /// Returns how many pairs were computed.
-  std::size_t update(const MapQuery& map, const std::vector<TourTarget>& targets);
+  /// Plans the missing pairs (of new targets, of targets whose pose moved, and estimates left by
+  /// an earlier update) and returns how many it planned. With `max_planned` > 0 it plans at most
+  /// that many, shortest straight leg first; each other missing pair holds the straight leg's
+  /// cost, a lower bound, until a later update plans it. That bounds the time of one update when
+  /// many clusters change at once.
+  std::size_t update(const MapQuery& map, const std::vector<TourTarget>& targets, std::size_t max_planned = 0);
   /// The cost from one target to another (0 for a == b); throws std::out_of_range for a pair that
   /// update() has not seen.
   double cost(ClusterId from, ClusterId to) const;
+  /// False for a pair without a path; true for an estimate (not planned yet).
   bool reachable(ClusterId from, ClusterId to) const;
   std::size_t pairCount() const { return pairs_.size(); }
+  /// Pairs that hold an estimate, to be planned by a later update.
+  std::size_t estimatedCount() const;
   const CostConfig& costParams() const { return cost_; }
   const PathConfig& pathParams() const { return path_; }
 
@@ -90,6 +98,7 @@ class PairCostTable {
   struct Entry {
     double cost_s = 0.0;
     bool reachable = false;
+    bool planned = true;  ///< false: the straight leg's estimate
   };
   CostConfig cost_;
   PathConfig path_;

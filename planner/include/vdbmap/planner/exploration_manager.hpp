@@ -116,7 +116,7 @@ struct ExplorationManagerConfig {
   PathConfig path = flightPathDefaults();
   /// Paths only measured for costs (pair table, legs from the vehicle, refinement).
   PathConfig cost_path = costPathDefaults();
-  TourConfig tour;
+  TourConfig tour = tourDefaults();
   RefinementConfig refinement;
   TrajectoryConfig trajectory;
 
@@ -192,6 +192,8 @@ struct ExplorationManagerConfig {
   /// The defaults of `path` and `cost_path` (0.1 s and 0.01 s OMPL budgets).
   static PathConfig flightPathDefaults();
   static PathConfig costPathDefaults();
+  /// The default of `tour`: at most 64 pairs of targets planned per replan (TourConfig::max_planned_pairs).
+  static TourConfig tourDefaults();
   /// Throws std::invalid_argument naming the field and its allowed range (including the pieces').
   void validate() const;
 };

@@ -29,6 +29,11 @@ struct RefinementConfig {
   /// FUEL min_candidate_dist: viewpoints closer than this to the vehicle are skipped (unless that
   /// would leave the layer empty: then the best one is kept); [0, 1e3]
   double min_distance_m = 0.75;
+  /// Edges refineLocalTour plans at most (0 = as many as its lazy search needs); the search stops
+  /// after the round that reaches it, and the path is then shortest with the unplanned edges at
+  /// their bound. Bounds a replan where many straight legs are blocked (each an OMPL search, up to
+  /// 4 ms when it finds no path); [0, 1e6]
+  int max_planned_edges = 128;
 
   void validate() const;
 };
@@ -52,6 +57,7 @@ struct LayeredCosts {
 struct RefinementResult {
   std::vector<std::size_t> choice;  ///< per layer, the index of the chosen viewpoint
   double cost_s = 0.0;              ///< sum of the chosen edges
+  std::size_t planned_edges = 0;    ///< edges refineLocalTour planned (0 from shortestLayeredPath)
 };
 
 /// The cheapest path through the layers (ties: the lower index). Empty when there are no layers.
@@ -65,9 +71,9 @@ LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
 
 /// The result of shortestLayeredPath(layeredCosts(...)) (ties aside), planning only the edges a
 /// lazy search needs: those of paths that are shortest when unplanned edges count at their
-/// straight leg's cost, a lower bound.
+/// straight leg's cost, a lower bound. With max_planned_edges > 0, see RefinementConfig.
 RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicle,
                                  const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost = {},
-                                 const PathConfig& path = {});
+                                 const PathConfig& path = {}, int max_planned_edges = 0);
 
 }  // namespace vdbmap::planner

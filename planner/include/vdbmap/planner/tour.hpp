@@ -22,6 +22,10 @@ struct TourConfig {
   /// tens of clusters mostly settle within a few hundred rounds (docs/atsp.md); this spares the
   /// rest of the budget, about 35 ms per replan at 30 clusters.
   std::uint64_t max_stale_iterations = 1500;
+  /// Pairs of targets planned per planGlobalTour at most (0 = all); the others hold the straight
+  /// leg's cost until a later call plans them (PairCostTable::update). A burst of new clusters
+  /// then spreads over several replans instead of stalling one.
+  std::size_t max_planned_pairs = 0;
   void validate() const;
 };
 using TourParams [[deprecated("renamed TourConfig")]] = TourConfig;
