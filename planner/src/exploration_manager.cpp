@@ -407,7 +407,7 @@ ReplanReason ExplorationManager::replanReason(const MapQuery& map, const RecentO
   if (book_.target() == 0 && !on_detour && !escaping) return ReplanReason::Start;
   // An escape ends where the start is clear again; a replan before that end would plan from a
   // start still blocked, and so retreat again from rest, a few millimetres per frame.
-  if (escaping) return ReplanReason::None;
+  if (escaping && !trajectoryDone(t_s)) return ReplanReason::None;
   const double elapsed = t_s - trajectory_t0_;
   const double left = trajectory_t0_ + trajectory_.duration() - t_s;
   if (left < params_.replan_time_left_s) return ReplanReason::TrajectoryEnd;
