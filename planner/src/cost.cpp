@@ -30,6 +30,12 @@ double motionCost(double path_length_m, double yaw_change_rad, double departure_
   return std::max(position_s, yaw_s);
 }
 
+double straightLegBound(const Vec3d& from_W, double from_yaw_rad, const Vec3d& to_W, double to_yaw_rad,
+                        const CostConfig& p) {
+  return std::min(motionCost((to_W - from_W).norm(), yawDistance(from_yaw_rad, to_yaw_rad), 0.0, p),
+                  p.unreachable_cost_s);
+}
+
 CostEvaluator::CostEvaluator(const MapQuery& map, const CostConfig& cost, const PathConfig& path)
     : params_(cost), planner_(map, path) {
   params_.validate();
@@ -89,12 +95,11 @@ std::size_t PairCostTable::update(const MapQuery& map, const std::vector<TourTar
     }
   if (max_planned > 0 && missing.size() > max_planned) {
     // The tour's legs join near targets: plan the shortest straight legs now, estimate the rest.
-    const auto straight = [&](const std::pair<ClusterId, ClusterId>& ab) {
-      const FlatPose &a = now.at(ab.first), &b = now.at(ab.second);
-      return motionCost((a.position_W - b.position_W).norm(), yawDistance(a.yaw_rad, b.yaw_rad), 0.0, cost_);
-    };
     std::vector<std::pair<double, std::pair<ClusterId, ClusterId>>> by_cost;
-    for (const auto& ab : missing) by_cost.emplace_back(straight(ab), ab);
+    for (const auto& ab : missing) {
+      const FlatPose &a = now.at(ab.first), &b = now.at(ab.second);
+      by_cost.emplace_back(straightLegBound(a.position_W, a.yaw_rad, b.position_W, b.yaw_rad, cost_), ab);
+    }
     std::sort(by_cost.begin(), by_cost.end());  // ties by ids: the same choice on every machine
     missing.clear();
     for (std::size_t i = 0; i < by_cost.size(); ++i) {

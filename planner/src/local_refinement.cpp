@@ -100,15 +100,13 @@ double edgeCost(CostEvaluator& evaluator, const VehicleState& vehicle,
   return evaluator.cost(FlatPose{tail.position_W, tail.yaw_rad}, to, seed).cost_s;
 }
 
-/// A lower bound of the edge's cost: no path is shorter than the straight segment, and the
-/// direction term is not negative; a pose without a path costs unreachable_cost_s.
+/// A lower bound of the edge's cost (straightLegBound).
 double edgeBound(const VehicleState& vehicle, const std::vector<std::vector<Viewpoint>>& layers, const Edge& e,
                  const CostConfig& cost) {
   const Viewpoint& head = layers[e.layer][e.j];
   const Vec3d& from = e.layer == 0 ? vehicle.position_W : layers[e.layer - 1][e.k].position_W;
   const double from_yaw = e.layer == 0 ? vehicle.yaw_rad : layers[e.layer - 1][e.k].yaw_rad;
-  const double straight = motionCost((head.position_W - from).norm(), yawDistance(from_yaw, head.yaw_rad), 0.0, cost);
-  return std::min(straight, cost.unreachable_cost_s);
+  return straightLegBound(from, from_yaw, head.position_W, head.yaw_rad, cost);
 }
 
 double& costOf(LayeredCosts& costs, const Edge& e) {

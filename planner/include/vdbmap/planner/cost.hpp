@@ -35,6 +35,11 @@ using CostParams [[deprecated("renamed CostConfig")]] = CostConfig;
 /// The cost formula on its own: path length, yaw change, and the angle between the current
 /// velocity and the direction of departure (0 when at rest).
 double motionCost(double path_length_m, double yaw_change_rad, double departure_angle_rad, const CostConfig& params);
+/// A lower bound of every leg's cost between the two poses (CostEvaluator::cost, from rest or
+/// moving): the straight segment at rest (no path is shorter, the direction term is not
+/// negative), at most unreachable_cost_s.
+double straightLegBound(const Vec3d& from_W, double from_yaw_rad, const Vec3d& to_W, double to_yaw_rad,
+                        const CostConfig& params);
 
 /// One evaluated leg.
 struct LegCost {
