@@ -120,9 +120,10 @@ PathConfig ExplorationManagerConfig::flightPathDefaults() {
 
 TourConfig ExplorationManagerConfig::tourDefaults() {
   // A burst of new clusters (a frontier component split anew) brought up to 585 new pairs at
-  // once in the warehouse, 100-180 ms; 64 pairs take about 25 ms (docs/exploration.md, stop 44).
+  // once in the warehouse, 100-180 ms; 32 pairs take 5-35 ms there (docs/exploration.md, stops 44
+  // and 45).
   TourConfig t;
-  t.max_planned_pairs = 64;
+  t.max_planned_pairs = 32;
   return t;
 }
 
@@ -596,7 +597,7 @@ ExplorationManager::TourChoice ExplorationManager::chooseTour(const MapQuery& ma
     choice.layers = refinementLayers(vehicle, in_order, params_.refinement);
   }
   choice.refined = refineLocalTour(map, vehicle, choice.layers, params_.cost, params_.cost_path,
-                                   params_.refinement.max_planned_edges);
+                                   params_.refinement.max_planned_edges, &refinement_legs_);
   return choice;
 }
 

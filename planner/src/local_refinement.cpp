@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -89,15 +90,37 @@ struct Edge {
   std::size_t layer, k, j;
 };
 
-/// The edge's cost, seeded by the edge alone: the same whichever evaluator or thread plans it.
+FlatPose poseOf(const Viewpoint& v) { return FlatPose{v.position_W, v.yaw_rad}; }
+FlatPose poseOf(const VehicleState& v) { return FlatPose{v.position_W, v.yaw_rad}; }
+
+/// The edge's ends (layer 0's tail is the vehicle).
+std::pair<FlatPose, FlatPose> endsOf(const VehicleState& vehicle, const std::vector<std::vector<Viewpoint>>& layers,
+                                     const Edge& e) {
+  const FlatPose tail = e.layer == 0 ? poseOf(vehicle) : poseOf(layers[e.layer - 1][e.k]);
+  return {tail, poseOf(layers[e.layer][e.j])};
+}
+
+/// A seed from the two poses' bits: a leg's search is the same wherever its ends sit in the
+/// layers, so that a cost kept from an earlier replan (LegCostCache) is the one planned now.
+std::uint64_t legSeed(const FlatPose& from, const FlatPose& to) {
+  std::uint64_t h = 0x9e3779b97f4a7c15ULL;
+  for (const FlatPose* p : {&from, &to})
+    for (const double v : {p->position_W.x(), p->position_W.y(), p->position_W.z(), p->yaw_rad}) {
+      std::uint64_t bits = 0;
+      std::memcpy(&bits, &v, sizeof bits);
+      h = (h ^ bits) * 0xff51afd7ed558ccdULL;
+      h ^= h >> 33;
+    }
+  return h;
+}
+
+/// The edge's cost, seeded by its ends alone: the same whichever evaluator or thread plans it.
 double edgeCost(CostEvaluator& evaluator, const VehicleState& vehicle,
                 const std::vector<std::vector<Viewpoint>>& layers, const Edge& e) {
-  const Viewpoint& head = layers[e.layer][e.j];
-  const FlatPose to{head.position_W, head.yaw_rad};
-  const std::uint64_t seed = (std::uint64_t(e.layer) << 40) ^ (std::uint64_t(e.k) << 20) ^ e.j;
-  if (e.layer == 0) return evaluator.cost(vehicle, to, seed).cost_s;
-  const Viewpoint& tail = layers[e.layer - 1][e.k];
-  return evaluator.cost(FlatPose{tail.position_W, tail.yaw_rad}, to, seed).cost_s;
+  const auto [tail, head] = endsOf(vehicle, layers, e);
+  const std::uint64_t seed = legSeed(tail, head);
+  if (e.layer == 0) return evaluator.cost(vehicle, head, seed).cost_s;
+  return evaluator.cost(tail, head, seed).cost_s;
 }
 
 /// A lower bound of the edge's cost (straightLegBound).
@@ -149,7 +172,7 @@ LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
 
 RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicle,
                                  const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost,
-                                 const PathConfig& path, int max_planned_edges) {
+                                 const PathConfig& path, int max_planned_edges, LegCostCache* cache) {
   if (max_planned_edges < 0) throw std::invalid_argument("refineLocalTour: max_planned_edges must be >= 0");
   // Lazy shortest path (Dellin and Srinivasa, ICAPS 2016): search the layers with each edge's
   // lower bound in place of its cost, plan the edges the shortest path takes, and repeat until
@@ -157,17 +180,36 @@ RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicl
   // its bound, so the result is layeredCosts' shortest path; most edges, those between far
   // apart viewpoints, are never planned.
   if (layers.empty()) return {};
-  LayeredCosts costs = sizedCosts(layers);
-  for (const Edge& e : allEdges(layers)) costOf(costs, e) = edgeBound(vehicle, layers, e, cost);
   std::vector<std::vector<char>> planned;  // per layer, tail-major
   for (std::size_t l = 0; l < layers.size(); ++l)
     planned.emplace_back((l == 0 ? 1 : layers[l - 1].size()) * layers[l].size(), 0);
   const auto flag = [&](const Edge& e) -> char& { return planned[e.layer][e.k * layers[e.layer].size() + e.j]; };
+  if (cache) {
+    std::vector<FlatPose> poses;
+    for (const auto& layer : layers)
+      for (const Viewpoint& v : layer) poses.push_back(poseOf(v));
+    cache->retainEndsIn(poses);
+  }
+  LayeredCosts costs = sizedCosts(layers);
+  std::size_t reused = 0;
+  for (const Edge& e : allEdges(layers)) {
+    if (cache && e.layer > 0) {  // legs from the vehicle change with it: never kept
+      const auto [tail, head] = endsOf(vehicle, layers, e);
+      if (const std::optional<double> kept = cache->find(tail, head)) {
+        costOf(costs, e) = *kept;
+        flag(e) = 1;
+        ++reused;
+        continue;
+      }
+    }
+    costOf(costs, e) = edgeBound(vehicle, layers, e, cost);
+  }
   // One evaluator per edge of a path, kept over the rounds: each round plans at most one edge per layer.
   std::vector<std::unique_ptr<CostEvaluator>> evaluators(layers.size());
   for (std::size_t planned_edges = 0;;) {
     RefinementResult shortest = shortestLayeredPath(costs);
     shortest.planned_edges = planned_edges;
+    shortest.reused_edges = reused;
     std::vector<Edge> open;
     for (std::size_t l = 0; l < layers.size(); ++l) {
       const Edge e{l, l == 0 ? 0 : shortest.choice[l - 1], shortest.choice[l]};
@@ -179,7 +221,13 @@ RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicl
       if (!evaluators[i]) evaluators[i] = std::make_unique<CostEvaluator>(map, cost, path);
       costOf(costs, open[i]) = edgeCost(*evaluators[i], vehicle, layers, open[i]);
     });
-    for (const Edge& e : open) flag(e) = 1;
+    for (const Edge& e : open) {
+      flag(e) = 1;
+      if (cache && e.layer > 0) {
+        const auto [tail, head] = endsOf(vehicle, layers, e);
+        cache->insert(tail, head, costOf(costs, e));
+      }
+    }
   }
 }
 

@@ -145,3 +145,91 @@ TEST_CASE("refineLocalTour's lazy search gives the shortest path over every plan
   INFO("planned " << planned << " of " << edges << " edges");
   CHECK(planned < edges / 2);  // the point of the lazy search: most edges are never planned
 }
+
+TEST_CASE("A refinement edge's cost depends on its two poses, not on their places in the layers",
+          "[planner][refinement]") {
+  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 1, 1), openvdb::Coord(50, 58, 28)), Occupancy::Occupied);
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 45, 1), openvdb::Coord(50, 55, 20)), Occupancy::Free);
+  VehicleState vehicle;
+  vehicle.position_W = Vec3d(1.0, 1.0, 1.0);
+  // Legs that cross the wall are OMPL searches, whose paths depend on their seeds.
+  const std::vector<std::vector<Viewpoint>> layers{{vp(8, 1, 20), vp(2, 2, 20), vp(8.5, 3, 20)},
+                                                   {vp(3, 4, 20), vp(7, 1.5, 20)}};
+  std::vector<std::vector<Viewpoint>> swapped = layers;
+  std::reverse(swapped[0].begin(), swapped[0].end());
+  std::reverse(swapped[1].begin(), swapped[1].end());
+  const LayeredCosts a = layeredCosts(map, vehicle, layers);
+  const LayeredCosts b = layeredCosts(map, vehicle, swapped);
+  for (Eigen::Index k = 0; k < 3; ++k) {
+    CHECK(a.first[std::size_t(k)] == b.first[std::size_t(2 - k)]);
+    for (Eigen::Index j = 0; j < 2; ++j) CHECK(a.between[0](k, j) == b.between[0](2 - k, 1 - j));
+  }
+}
+
+TEST_CASE("LegCostCache keeps ordered legs under their exact poses and forgets moved ends", "[planner][refinement]") {
+  const FlatPose a{Vec3d(1, 2, 1), 0.5}, b{Vec3d(3, 2, 1), -0.5}, c{Vec3d(3, 4, 1), 0.0};
+  LegCostCache cache;
+  cache.insert(a, b, 2.0);
+  cache.insert(b, c, 3.0);
+  REQUIRE(cache.find(a, b).has_value());
+  CHECK(*cache.find(a, b) == 2.0);
+  CHECK_FALSE(cache.find(b, a).has_value());  // legs are ordered
+  const FlatPose a_turned{a.position_W, 0.5000001};
+  CHECK_FALSE(cache.find(a_turned, b).has_value());  // exact poses only
+  cache.retainEndsIn({b, c});
+  CHECK(cache.size() == 1);
+  CHECK_FALSE(cache.find(a, b).has_value());
+  CHECK(*cache.find(b, c) == 3.0);
+}
+
+TEST_CASE("refineLocalTour with a cache gives the same path and plans edges between viewpoints once",
+          "[planner][refinement]") {
+  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 1, 1), openvdb::Coord(50, 58, 28)), Occupancy::Occupied);
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 45, 1), openvdb::Coord(50, 55, 20)), Occupancy::Free);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> x(0.5, 9.5), y(0.5, 5.5), z(0.6, 2.4), yaw(-M_PI, M_PI);
+  std::uniform_int_distribution<int> size(1, 5);
+  std::size_t planned_first = 0, planned_again = 0;
+  for (int trial = 0; trial < 8; ++trial) {
+    VehicleState vehicle;
+    vehicle.position_W = Vec3d(1.0, 1.0 + 0.4 * trial, 1.0);
+    vehicle.yaw_rad = yaw(rng);
+    std::vector<std::vector<Viewpoint>> layers(std::size_t(3 + trial % 3));
+    for (auto& layer : layers)
+      for (int n = size(rng); n > 0; --n) layer.push_back(Viewpoint{Vec3d(x(rng), y(rng), z(rng)), yaw(rng), 20});
+
+    LegCostCache cache;
+    const RefinementResult first = refineLocalTour(map, vehicle, layers, {}, {}, 0, &cache);
+    const RefinementResult fresh = shortestLayeredPath(layeredCosts(map, vehicle, layers));
+    CHECK(first.choice == fresh.choice);
+    CHECK(first.cost_s == fresh.cost_s);
+    CHECK(first.reused_edges == 0);
+
+    // The next replan, the vehicle a little further on: every kept edge is reused, and the
+    // answer is the one of planning every edge now.
+    vehicle.position_W.x() += 0.3;
+    const std::size_t kept = cache.size();
+    CHECK(kept + layers[0].size() >= first.planned_edges);  // every edge between viewpoints was kept
+    const RefinementResult again = refineLocalTour(map, vehicle, layers, {}, {}, 0, &cache);
+    const RefinementResult again_fresh = shortestLayeredPath(layeredCosts(map, vehicle, layers));
+    CHECK(again.choice == again_fresh.choice);
+    CHECK(again.cost_s == again_fresh.cost_s);
+    CHECK(again.reused_edges == kept);
+    planned_first += first.planned_edges;
+    planned_again += again.planned_edges;
+
+    // A viewpoint that moved: its legs are forgotten and planned anew.
+    const FlatPose old{layers[1][0].position_W, layers[1][0].yaw_rad};
+    layers[1][0].position_W.y() = std::min(5.5, layers[1][0].position_W.y() + 0.5);
+    const RefinementResult moved = refineLocalTour(map, vehicle, layers, {}, {}, 0, &cache);
+    const RefinementResult moved_fresh = shortestLayeredPath(layeredCosts(map, vehicle, layers));
+    CHECK(moved.choice == moved_fresh.choice);
+    CHECK(moved.cost_s == moved_fresh.cost_s);
+    for (const Viewpoint& v : layers[0]) CHECK_FALSE(cache.find(FlatPose{v.position_W, v.yaw_rad}, old).has_value());
+    for (const Viewpoint& v : layers[2]) CHECK_FALSE(cache.find(old, FlatPose{v.position_W, v.yaw_rad}).has_value());
+  }
+  INFO("planned " << planned_first << " edges, then " << planned_again);
+  CHECK(planned_again * 2 < planned_first);
+}

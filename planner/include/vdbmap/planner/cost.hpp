@@ -16,8 +16,10 @@
 #include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/vehicle_state.hpp"
 
+#include <array>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -109,6 +111,26 @@ class PairCostTable {
   PathConfig path_;
   std::map<ClusterId, FlatPose> poses_;
   std::map<std::pair<ClusterId, ClusterId>, Entry> pairs_;  ///< key (low id, high id)
+};
+
+/// Costs of legs between two poses at rest, kept from one replan to the next under their exact
+/// poses (local refinement's edges between viewpoints, which mostly stay where they were: a
+/// cluster's viewpoints change only when the cluster does). Like PairCostTable, a leg is planned
+/// again when one of its ends moves, not when the map grows around it; the flight itself is
+/// always planned afresh on the map of the moment.
+class LegCostCache {
+ public:
+  /// The cost stored for the leg from `from` to `to` (ordered), if any.
+  std::optional<double> find(const FlatPose& from, const FlatPose& to) const;
+  void insert(const FlatPose& from, const FlatPose& to, double cost_s);
+  /// Forgets every leg with an end that is not one of `poses`.
+  void retainEndsIn(const std::vector<FlatPose>& poses);
+  std::size_t size() const { return costs_.size(); }
+
+ private:
+  using Key = std::array<double, 8>;  ///< from's x, y, z, yaw, then to's
+  static Key key(const FlatPose& from, const FlatPose& to);
+  std::map<Key, double> costs_;
 };
 
 /// The open-tour matrix for the ATSP solver: node 0 is the vehicle, node i + 1 is targets[i].

@@ -192,7 +192,7 @@ struct ExplorationManagerConfig {
   /// The defaults of `path` and `cost_path` (0.1 s and 0.01 s OMPL budgets).
   static PathConfig flightPathDefaults();
   static PathConfig costPathDefaults();
-  /// The default of `tour`: at most 64 pairs of targets planned per replan (TourConfig::max_planned_pairs).
+  /// The default of `tour`: at most 32 pairs of targets planned per replan (TourConfig::max_planned_pairs).
   static TourConfig tourDefaults();
   /// Throws std::invalid_argument naming the field and its allowed range (including the pieces').
   void validate() const;
@@ -457,6 +457,7 @@ class ExplorationManager {
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
   std::unique_ptr<PairCostTable> table_;
+  LegCostCache refinement_legs_;            ///< refinement's edges between viewpoints, kept over replans
   TargetBook book_;                         ///< failures, blacklist, the current target
   EscapePlanner escapes_;                   ///< the way flown, and the ways out of a blocked start
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC

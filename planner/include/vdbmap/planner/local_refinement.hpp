@@ -33,7 +33,7 @@ struct RefinementConfig {
   /// after the round that reaches it, and the path is then shortest with the unplanned edges at
   /// their bound. Bounds a replan where many straight legs are blocked (each an OMPL search, up to
   /// 4 ms when it finds no path); [0, 1e6]
-  int max_planned_edges = 128;
+  int max_planned_edges = 64;
 
   void validate() const;
 };
@@ -58,13 +58,15 @@ struct RefinementResult {
   std::vector<std::size_t> choice;  ///< per layer, the index of the chosen viewpoint
   double cost_s = 0.0;              ///< sum of the chosen edges
   std::size_t planned_edges = 0;    ///< edges refineLocalTour planned (0 from shortestLayeredPath)
+  std::size_t reused_edges = 0;     ///< edges whose cost refineLocalTour took from its LegCostCache
 };
 
 /// The cheapest path through the layers (ties: the lower index). Empty when there are no layers.
 /// Throws std::invalid_argument when the sizes do not fit together.
 RefinementResult shortestLayeredPath(const LayeredCosts& costs);
 
-/// Edge costs by CostEvaluator (paths on the map), computed in parallel with per-edge seeds.
+/// Edge costs by CostEvaluator (paths on the map), computed in parallel. Each edge's search is
+/// seeded by its two poses, so its cost does not depend on where they sit in the layers.
 LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
                           const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost = {},
                           const PathConfig& path = {});
@@ -72,8 +74,14 @@ LayeredCosts layeredCosts(const MapQuery& map, const VehicleState& vehicle,
 /// The result of shortestLayeredPath(layeredCosts(...)) (ties aside), planning only the edges a
 /// lazy search needs: those of paths that are shortest when unplanned edges count at their
 /// straight leg's cost, a lower bound. With max_planned_edges > 0, see RefinementConfig.
+///
+/// With a `cache`, an edge between viewpoints that it holds is not planned again (its cost is the
+/// one planned on the map of that earlier call), the edges planned here are added, and the cache
+/// keeps only legs between this call's viewpoints. Edges from the vehicle are always planned. The
+/// manager keeps one cache over its replans: consecutive replans mostly refine the same clusters'
+/// viewpoints.
 RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicle,
                                  const std::vector<std::vector<Viewpoint>>& layers, const CostConfig& cost = {},
-                                 const PathConfig& path = {}, int max_planned_edges = 0);
+                                 const PathConfig& path = {}, int max_planned_edges = 0, LegCostCache* cache = nullptr);
 
 }  // namespace vdbmap::planner
