@@ -138,25 +138,25 @@ bool PairCostTable::reachable(ClusterId from, ClusterId to) const {
   return pairs_.at({std::min(from, to), std::max(from, to)}).reachable;
 }
 
-LegCostCache::Key LegCostCache::key(const FlatPose& from, const FlatPose& to) {
-  return {from.position_W.x(), from.position_W.y(), from.position_W.z(), from.yaw_rad,
-          to.position_W.x(),   to.position_W.y(),   to.position_W.z(),   to.yaw_rad};
+LegCostCache::PoseKey LegCostCache::poseKey(const FlatPose& pose) {
+  return {pose.position_W.x(), pose.position_W.y(), pose.position_W.z(), pose.yaw_rad};
 }
 
 std::optional<double> LegCostCache::find(const FlatPose& from, const FlatPose& to) const {
-  const auto it = costs_.find(key(from, to));
+  const auto it = costs_.find({poseKey(from), poseKey(to)});
   if (it == costs_.end()) return std::nullopt;
   return it->second;
 }
 
-void LegCostCache::insert(const FlatPose& from, const FlatPose& to, double cost_s) { costs_[key(from, to)] = cost_s; }
+void LegCostCache::insert(const FlatPose& from, const FlatPose& to, double cost_s) {
+  costs_[{poseKey(from), poseKey(to)}] = cost_s;
+}
 
 void LegCostCache::retainEndsIn(const std::vector<FlatPose>& poses) {
-  std::set<std::array<double, 4>> kept;
-  for (const FlatPose& p : poses) kept.insert({p.position_W.x(), p.position_W.y(), p.position_W.z(), p.yaw_rad});
+  std::set<PoseKey> kept;
+  for (const FlatPose& p : poses) kept.insert(poseKey(p));
   for (auto it = costs_.begin(); it != costs_.end();) {
-    const Key& k = it->first;
-    const bool keep = kept.count({k[0], k[1], k[2], k[3]}) && kept.count({k[4], k[5], k[6], k[7]});
+    const bool keep = kept.count(it->first.first) && kept.count(it->first.second);
     it = keep ? std::next(it) : costs_.erase(it);
   }
 }

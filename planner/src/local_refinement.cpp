@@ -126,10 +126,8 @@ double edgeCost(CostEvaluator& evaluator, const VehicleState& vehicle,
 /// A lower bound of the edge's cost (straightLegBound).
 double edgeBound(const VehicleState& vehicle, const std::vector<std::vector<Viewpoint>>& layers, const Edge& e,
                  const CostConfig& cost) {
-  const Viewpoint& head = layers[e.layer][e.j];
-  const Vec3d& from = e.layer == 0 ? vehicle.position_W : layers[e.layer - 1][e.k].position_W;
-  const double from_yaw = e.layer == 0 ? vehicle.yaw_rad : layers[e.layer - 1][e.k].yaw_rad;
-  return straightLegBound(from, from_yaw, head.position_W, head.yaw_rad, cost);
+  const auto [tail, head] = endsOf(vehicle, layers, e);
+  return straightLegBound(tail.position_W, tail.yaw_rad, head.position_W, head.yaw_rad, cost);
 }
 
 double& costOf(LayeredCosts& costs, const Edge& e) {

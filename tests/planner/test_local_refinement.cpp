@@ -12,6 +12,26 @@ using namespace vdbmap::planner;
 
 namespace {
 Viewpoint vp(double x, double y, int seen) { return Viewpoint{Vec3d(x, y, 1.0), 0.0, seen}; }
+
+/// A 10 x 6 x 3 m room of 0.1 m voxels split at x = 5 m by a wall with a door at its far end
+/// (y 4.5-5.5 m, up to 2 m high): legs across it are OMPL searches, far dearer than their
+/// straight-leg bound.
+DenseMap roomWithWall() {
+  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 1, 1), openvdb::Coord(50, 58, 28)), Occupancy::Occupied);
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 45, 1), openvdb::Coord(50, 55, 20)), Occupancy::Free);
+  return map;
+}
+
+/// `count` layers of 1-5 viewpoints each, anywhere in that room.
+std::vector<std::vector<Viewpoint>> randomLayers(std::mt19937& rng, std::size_t count) {
+  std::uniform_real_distribution<double> x(0.5, 9.5), y(0.5, 5.5), z(0.6, 2.4), yaw(-M_PI, M_PI);
+  std::uniform_int_distribution<int> size(1, 5);
+  std::vector<std::vector<Viewpoint>> layers(count);
+  for (auto& layer : layers)
+    for (int n = size(rng); n > 0; --n) layer.push_back(Viewpoint{Vec3d(x(rng), y(rng), z(rng)), yaw(rng), 20});
+  return layers;
+}
 }  // namespace
 
 TEST_CASE("The layered shortest path equals brute-force enumeration", "[planner][refinement]") {
@@ -104,24 +124,18 @@ TEST_CASE("refineLocalTour on a map picks the cheapest chain of viewpoints", "[p
 TEST_CASE("refineLocalTour's lazy search gives the shortest path over every planned edge", "[planner][refinement]") {
   // A room with a wall (a door at one end) and a closed box: straight legs, legs around the wall,
   // and viewpoints with no path, so that many straight-leg bounds are far below the costs.
-  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
-  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 1, 1), openvdb::Coord(50, 58, 28)), Occupancy::Occupied);
-  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 45, 1), openvdb::Coord(50, 55, 20)), Occupancy::Free);
+  DenseMap map = roomWithWall();
   map.fill(openvdb::CoordBBox(openvdb::Coord(70, 5, 1), openvdb::Coord(90, 20, 28)), Occupancy::Occupied);
   map.fill(openvdb::CoordBBox(openvdb::Coord(71, 6, 2), openvdb::Coord(89, 19, 27)), Occupancy::Free);
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> x(0.5, 9.5), y(0.5, 5.5), z(0.6, 2.4), yaw(-M_PI, M_PI);
-  std::uniform_int_distribution<int> size(1, 5);
+  std::uniform_real_distribution<double> yaw(-M_PI, M_PI);
   std::size_t planned = 0, edges = 0;
   for (int trial = 0; trial < 12; ++trial) {
     VehicleState vehicle;
     vehicle.position_W = Vec3d(1.0, 1.0 + 0.3 * trial, 1.0);
     vehicle.velocity_W = trial % 2 ? Vec3d(0.0, 1.0, 0.0) : Vec3d::Zero();  // the direction term, sometimes
     vehicle.yaw_rad = yaw(rng);
-    std::vector<std::vector<Viewpoint>> layers(std::size_t(2 + trial % 5));
-    for (auto& layer : layers) {
-      for (int n = size(rng); n > 0; --n) layer.push_back(Viewpoint{Vec3d(x(rng), y(rng), z(rng)), yaw(rng), 20});
-    }
+    const std::vector<std::vector<Viewpoint>> layers = randomLayers(rng, std::size_t(2 + trial % 5));
     const RefinementResult all = shortestLayeredPath(layeredCosts(map, vehicle, layers));
     const RefinementResult lazy = refineLocalTour(map, vehicle, layers);
     CHECK(lazy.cost_s == all.cost_s);
@@ -148,9 +162,7 @@ TEST_CASE("refineLocalTour's lazy search gives the shortest path over every plan
 
 TEST_CASE("A refinement edge's cost depends on its two poses, not on their places in the layers",
           "[planner][refinement]") {
-  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
-  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 1, 1), openvdb::Coord(50, 58, 28)), Occupancy::Occupied);
-  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 45, 1), openvdb::Coord(50, 55, 20)), Occupancy::Free);
+  const DenseMap map = roomWithWall();
   VehicleState vehicle;
   vehicle.position_W = Vec3d(1.0, 1.0, 1.0);
   // Legs that cross the wall are OMPL searches, whose paths depend on their seeds.
@@ -185,20 +197,15 @@ TEST_CASE("LegCostCache keeps ordered legs under their exact poses and forgets m
 
 TEST_CASE("refineLocalTour with a cache gives the same path and plans edges between viewpoints once",
           "[planner][refinement]") {
-  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
-  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 1, 1), openvdb::Coord(50, 58, 28)), Occupancy::Occupied);
-  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 45, 1), openvdb::Coord(50, 55, 20)), Occupancy::Free);
+  const DenseMap map = roomWithWall();
   std::mt19937 rng(23);
-  std::uniform_real_distribution<double> x(0.5, 9.5), y(0.5, 5.5), z(0.6, 2.4), yaw(-M_PI, M_PI);
-  std::uniform_int_distribution<int> size(1, 5);
+  std::uniform_real_distribution<double> yaw(-M_PI, M_PI);
   std::size_t planned_first = 0, planned_again = 0;
   for (int trial = 0; trial < 8; ++trial) {
     VehicleState vehicle;
     vehicle.position_W = Vec3d(1.0, 1.0 + 0.4 * trial, 1.0);
     vehicle.yaw_rad = yaw(rng);
-    std::vector<std::vector<Viewpoint>> layers(std::size_t(3 + trial % 3));
-    for (auto& layer : layers)
-      for (int n = size(rng); n > 0; --n) layer.push_back(Viewpoint{Vec3d(x(rng), y(rng), z(rng)), yaw(rng), 20});
+    std::vector<std::vector<Viewpoint>> layers = randomLayers(rng, std::size_t(3 + trial % 3));
 
     LegCostCache cache;
     const RefinementResult first = refineLocalTour(map, vehicle, layers, {}, {}, 0, &cache);

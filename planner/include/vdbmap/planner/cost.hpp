@@ -128,8 +128,9 @@ class LegCostCache {
   std::size_t size() const { return costs_.size(); }
 
  private:
-  using Key = std::array<double, 8>;  ///< from's x, y, z, yaw, then to's
-  static Key key(const FlatPose& from, const FlatPose& to);
+  using PoseKey = std::array<double, 4>;    ///< x, y, z, yaw
+  using Key = std::pair<PoseKey, PoseKey>;  ///< from, to
+  static PoseKey poseKey(const FlatPose& pose);
   std::map<Key, double> costs_;
 };
 
