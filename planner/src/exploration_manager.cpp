@@ -567,7 +567,7 @@ ExplorationManager::TourChoice ExplorationManager::chooseTour(const MapQuery& ma
   std::vector<TourTarget> tour_targets;
   std::vector<std::vector<Viewpoint>> target_views;
   for (const Target& t : targets) {
-    tour_targets.push_back({t.cluster, {t.views->front().position_W, t.views->front().yaw_rad}});
+    tour_targets.push_back({t.cluster, t.views->front().pose()});
     target_views.push_back(*t.views);
   }
   TourChoice choice;

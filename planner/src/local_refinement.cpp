@@ -90,14 +90,11 @@ struct Edge {
   std::size_t layer, k, j;
 };
 
-FlatPose poseOf(const Viewpoint& v) { return FlatPose{v.position_W, v.yaw_rad}; }
-FlatPose poseOf(const VehicleState& v) { return FlatPose{v.position_W, v.yaw_rad}; }
-
 /// The edge's ends (layer 0's tail is the vehicle).
 std::pair<FlatPose, FlatPose> endsOf(const VehicleState& vehicle, const std::vector<std::vector<Viewpoint>>& layers,
                                      const Edge& e) {
-  const FlatPose tail = e.layer == 0 ? poseOf(vehicle) : poseOf(layers[e.layer - 1][e.k]);
-  return {tail, poseOf(layers[e.layer][e.j])};
+  const FlatPose tail = e.layer == 0 ? vehicle.pose() : layers[e.layer - 1][e.k].pose();
+  return {tail, layers[e.layer][e.j].pose()};
 }
 
 /// A seed from the two poses' bits: a leg's search is the same wherever its ends sit in the
@@ -185,7 +182,7 @@ RefinementResult refineLocalTour(const MapQuery& map, const VehicleState& vehicl
   if (cache) {
     std::vector<FlatPose> poses;
     for (const auto& layer : layers)
-      for (const Viewpoint& v : layer) poses.push_back(poseOf(v));
+      for (const Viewpoint& v : layer) poses.push_back(v.pose());
     cache->retainEndsIn(poses);
   }
   LayeredCosts costs = sizedCosts(layers);

@@ -32,6 +32,14 @@ std::vector<std::vector<Viewpoint>> randomLayers(std::mt19937& rng, std::size_t 
     for (int n = size(rng); n > 0; --n) layer.push_back(Viewpoint{Vec3d(x(rng), y(rng), z(rng)), yaw(rng), 20});
   return layers;
 }
+
+/// A vehicle at rest at (1, y_m, 1) in that room, facing a random way.
+VehicleState vehicleAt(double y_m, std::mt19937& rng) {
+  VehicleState vehicle;
+  vehicle.position_W = Vec3d(1.0, y_m, 1.0);
+  vehicle.yaw_rad = std::uniform_real_distribution<double>(-M_PI, M_PI)(rng);
+  return vehicle;
+}
 }  // namespace
 
 TEST_CASE("The layered shortest path equals brute-force enumeration", "[planner][refinement]") {
@@ -128,13 +136,10 @@ TEST_CASE("refineLocalTour's lazy search gives the shortest path over every plan
   map.fill(openvdb::CoordBBox(openvdb::Coord(70, 5, 1), openvdb::Coord(90, 20, 28)), Occupancy::Occupied);
   map.fill(openvdb::CoordBBox(openvdb::Coord(71, 6, 2), openvdb::Coord(89, 19, 27)), Occupancy::Free);
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> yaw(-M_PI, M_PI);
   std::size_t planned = 0, edges = 0;
   for (int trial = 0; trial < 12; ++trial) {
-    VehicleState vehicle;
-    vehicle.position_W = Vec3d(1.0, 1.0 + 0.3 * trial, 1.0);
+    VehicleState vehicle = vehicleAt(1.0 + 0.3 * trial, rng);
     vehicle.velocity_W = trial % 2 ? Vec3d(0.0, 1.0, 0.0) : Vec3d::Zero();  // the direction term, sometimes
-    vehicle.yaw_rad = yaw(rng);
     const std::vector<std::vector<Viewpoint>> layers = randomLayers(rng, std::size_t(2 + trial % 5));
     const RefinementResult all = shortestLayeredPath(layeredCosts(map, vehicle, layers));
     const RefinementResult lazy = refineLocalTour(map, vehicle, layers);
@@ -199,12 +204,9 @@ TEST_CASE("refineLocalTour with a cache gives the same path and plans edges betw
           "[planner][refinement]") {
   const DenseMap map = roomWithWall();
   std::mt19937 rng(23);
-  std::uniform_real_distribution<double> yaw(-M_PI, M_PI);
   std::size_t planned_first = 0, planned_again = 0;
   for (int trial = 0; trial < 8; ++trial) {
-    VehicleState vehicle;
-    vehicle.position_W = Vec3d(1.0, 1.0 + 0.4 * trial, 1.0);
-    vehicle.yaw_rad = yaw(rng);
+    VehicleState vehicle = vehicleAt(1.0 + 0.4 * trial, rng);
     std::vector<std::vector<Viewpoint>> layers = randomLayers(rng, std::size_t(3 + trial % 3));
 
     LegCostCache cache;

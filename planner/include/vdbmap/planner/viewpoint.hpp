@@ -17,6 +17,7 @@
 
 #include "vdbmap/planner/frontier.hpp"
 #include "vdbmap/planner/map_query.hpp"
+#include "vdbmap/planner/vehicle_state.hpp"
 
 #include <Eigen/Geometry>
 
@@ -88,6 +89,8 @@ struct Viewpoint {
   Vec3d position_W = Vec3d::Zero();
   double yaw_rad = 0.0;
   int visible_samples = 0;  ///< cluster samples seen from here (the score)
+
+  FlatPose pose() const { return {position_W, yaw_rad}; }
 };
 
 /// The viewpoints of one cluster, best first (most samples seen; ties by ring order, which is
