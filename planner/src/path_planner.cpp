@@ -77,6 +77,15 @@ const char* toString(PathStatus s) {
   return "?";
 }
 
+const char* toString(PathSearch s) {
+  switch (s) {
+    case PathSearch::Sampling: return "sampling";
+    case PathSearch::Grid: return "grid";
+    case PathSearch::SamplingThenGrid: return "sampling_then_grid";
+  }
+  return "?";
+}
+
 void PathConfig::validate() const {
   const FieldCheck check("PathConfig");
   if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) check.fail("clearance_m", "[0, 5]");
@@ -86,6 +95,7 @@ void PathConfig::validate() const {
   if (!(rrt_range_m >= 0.0 && rrt_range_m <= 1e3)) check.fail("rrt_range_m", "[0, 1000]");
   if (simplify_rounds < 0 || simplify_rounds > 100) check.fail("simplify_rounds", "[0, 100]");
   if (bounds_W && bounds_W->isEmpty()) check.fail("bounds_W", "non-empty boxes");
+  grid.validate();
 }
 
 double polylineLength(const std::vector<Vec3d>& points) {
@@ -216,7 +226,31 @@ PathResult PathPlanner::plan(const Vec3d& start_W, const Vec3d& goal_W, std::uin
     result.length_m = (goal_W - start_W).norm();
     return finish(result);
   }
-  return finish(searchOmpl(start_W, goal_W, splitmix64(params_.seed ^ splitmix64(query_seed))));
+  if (params_.search == PathSearch::Grid) return finish(searchGrid(start_W, goal_W));
+  PathResult sampled = searchOmpl(start_W, goal_W, splitmix64(params_.seed ^ splitmix64(query_seed)));
+  if (sampled.ok() || params_.search != PathSearch::SamplingThenGrid) return finish(sampled);
+  PathResult gridded = searchGrid(start_W, goal_W);
+  gridded.iterations += sampled.iterations;
+  return finish(gridded);
+}
+
+PathResult PathPlanner::searchGrid(const Vec3d& start_W, const Vec3d& goal_W) {
+  if (!grid_)
+    grid_ = std::make_unique<GridSearch>(checker_->probe, params_.clearance_m, checker_->bounds_W, params_.grid);
+  const Stopwatch watch;
+  const double limit_s = params_.time_limit_s;
+  GridSearchResult found = grid_->search(start_W, goal_W, [&watch, limit_s] { return watch.s() > limit_s; });
+  PathResult result;
+  result.iterations = found.expansions;
+  result.status = PathStatus::NoPath;
+  if (!found.found) return result;
+  // Clear by construction (grid_search.hpp); checked because it is the promise.
+  for (std::size_t i = 1; i < found.waypoints.size(); ++i)
+    if (!isSegmentClear(found.waypoints[i - 1], found.waypoints[i])) return result;
+  result.status = PathStatus::Planned;
+  result.waypoints = std::move(found.waypoints);
+  result.length_m = polylineLength(result.waypoints);
+  return result;
 }
 
 PathResult PathPlanner::searchOmpl(const Vec3d& start_W, const Vec3d& goal_W, std::uint64_t seed) {

@@ -1,21 +1,23 @@
 // Collision-free paths through known-free space.
 //
-// First the straight segment, when it is clear; otherwise OMPL's RRTConnect, then OMPL's
+// First the straight segment, when it is clear; otherwise a search: OMPL's RRTConnect, then OMPL's
 // PathSimplifier (vertex reduction and shortcutting, no B-spline smoothing: the trajectory module
-// rounds corners itself). The search space is the map's known bounds (a path can only run through
-// known-free voxels) intersected with an optional box. Collision checks are MapProbe's exact
-// capsule test: every voxel whose centre lies within clearance_m of any point of the path is
-// known-free. OMPL's own validity-check resolution (used where OMPL interpolates by itself) is set
-// from metres, not from its default fraction of the space's extent. Every returned path is
-// re-checked with the capsule test before it is returned.
+// rounds corners itself), or A* on a lattice of voxel centres (grid_search.hpp: deterministic and
+// complete at its resolution, as FUEL prices its legs). The search space is the map's known bounds (a path can only run
+// through known-free voxels) intersected with an optional box. Collision checks are MapProbe's exact capsule test:
+// every voxel whose centre lies within clearance_m of any point of the path is known-free. OMPL's own validity-check
+// resolution (used where OMPL interpolates by itself) is set from metres, not from its default fraction of the space's
+// extent. Every returned path is re-checked with the capsule test before it is returned.
 //
 // Determinism: each query seeds the sampler and the simplifier from (seed, query_seed), so the
 // same map, query and seed give the same path whatever ran before, as long as the planner does
 // not hit its time limit (a timeout is a status, never an exception).
 //
-// Threads: a PathPlanner holds a map reader; use one planner per thread.
+// Threads: a PathPlanner holds a map reader; use one planner per thread. With the grid search the
+// map must not change while the planner lives (it keeps clearance answers from query to query).
 #pragma once
 
+#include "vdbmap/planner/grid_search.hpp"
 #include "vdbmap/planner/map_query.hpp"
 
 #include <Eigen/Geometry>
@@ -27,6 +29,14 @@
 #include <vector>
 
 namespace vdbmap::planner {
+
+/// How a path is searched when the straight segment is blocked.
+enum class PathSearch {
+  Sampling,          ///< OMPL's RRTConnect and simplifier
+  Grid,              ///< A* on a lattice (GridSearch)
+  SamplingThenGrid,  ///< RRTConnect; the lattice where it finds nothing
+};
+const char* toString(PathSearch s);
 
 struct PathConfig {
   /// Every voxel within this distance of the path is known-free: the vehicle's radius plus a
@@ -46,6 +56,9 @@ struct PathConfig {
   /// RRTConnect's maximum extension length in metres; 0 = OMPL's default (a fifth of the space's
   /// extent); [0, 1e3]
   double rrt_range_m = 0.0;
+  PathSearch search = PathSearch::Sampling;
+  /// The lattice search's settings (search == Grid); its clearance is clearance_m.
+  GridSearchConfig grid;
   /// Shortcutting rounds of the simplifier (each: vertex reduction, then shortcuts); [0, 100]
   int simplify_rounds = 3;
   std::uint64_t seed = 1;
@@ -61,7 +74,7 @@ enum class PathStatus {
   Planned,       ///< found by RRTConnect and simplified
   StartInvalid,  ///< the start is not clear (too near occupied or unknown space) or out of bounds
   GoalInvalid,   ///< the goal is not clear or out of bounds
-  NoPath,        ///< no path found within the time limit
+  NoPath,        ///< no path found within the time limit (or the iteration / expansion budget)
 };
 const char* toString(PathStatus s);
 
@@ -70,7 +83,7 @@ struct PathResult {
   std::vector<Vec3d> waypoints;  ///< start ... goal (empty unless ok())
   double length_m = 0.0;         ///< polyline length (0 unless ok())
   double time_s = 0.0;           ///< time spent
-  std::uint64_t iterations = 0;  ///< RRTConnect iterations (0 when no search was needed)
+  std::uint64_t iterations = 0;  ///< RRTConnect iterations or lattice expansions (0 when no search was needed)
 
   bool ok() const { return status == PathStatus::Straight || status == PathStatus::Planned; }
 };
@@ -105,10 +118,12 @@ class PathPlanner {
   struct Checker;
   struct Ompl;
   PathResult searchOmpl(const Vec3d& start_W, const Vec3d& goal_W, std::uint64_t seed);
+  PathResult searchGrid(const Vec3d& start_W, const Vec3d& goal_W);
 
   PathConfig params_;
   std::unique_ptr<Checker> checker_;
   std::unique_ptr<Ompl> ompl_;  ///< created on the first search that needs it
+  std::unique_ptr<GridSearch> grid_;  ///< likewise; keeps its clearance answers for the planner's life
 };
 
 }  // namespace vdbmap::planner
