@@ -2,6 +2,7 @@
 
 #include "vdbmap/tsdf_volume.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -147,16 +148,24 @@ class TsdfReader : public MapReader {
     });
   }
 
-  /// The hit count of every voxel of `box`, x-major.
+  /// The hit count of every voxel of `box`, x-major; rows along z copied straight through, as
+  /// readTsdf's.
   void readHits(const openvdb::CoordBBox& box, std::int64_t* out) {
+    using Leaf = openvdb::Int64Tree::LeafNodeType;
+    const openvdb::Coord dim = box.dim();
     forEachLeafPart(box, [&](const openvdb::Coord& origin, const openvdb::CoordBBox& part) {
-      const auto* leaf = hits_acc_.probeConstLeaf(origin);
+      const Leaf* leaf = hits_acc_.probeConstLeaf(origin);
       const std::int64_t tile = leaf ? 0 : hits_acc_.getValue(origin);
+      const int nz = part.max().z() - part.min().z() + 1;
       for (int x = part.min().x(); x <= part.max().x(); ++x)
-        for (int y = part.min().y(); y <= part.max().y(); ++y)
-          for (int z = part.min().z(); z <= part.max().z(); ++z)
-            out[boxIndex(box.min(), box.dim(), openvdb::Coord(x, y, z))] =
-                leaf ? leaf->getValue(openvdb::Coord(x, y, z)) : tile;
+        for (int y = part.min().y(); y <= part.max().y(); ++y) {
+          const openvdb::Coord first(x, y, part.min().z());
+          std::int64_t* row = out + boxIndex(box.min(), dim, first);
+          if (leaf)
+            std::copy_n(leaf->buffer().data() + Leaf::coordToOffset(first), nz, row);
+          else
+            std::fill_n(row, nz, tile);
+        }
     });
   }
 
