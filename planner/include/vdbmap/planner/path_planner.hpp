@@ -1,20 +1,23 @@
 // Collision-free paths through known-free space.
 //
-// First the straight segment, when it is clear; otherwise a search: OMPL's RRTConnect, then OMPL's
-// PathSimplifier (vertex reduction and shortcutting, no B-spline smoothing: the trajectory module
-// rounds corners itself), or A* on a lattice of voxel centres (grid_search.hpp: deterministic and
-// complete at its resolution, as FUEL prices its legs). The search space is the map's known bounds (a path can only run
-// through known-free voxels) intersected with an optional box. Collision checks are MapProbe's exact capsule test:
-// every voxel whose centre lies within clearance_m of any point of the path is known-free. OMPL's own validity-check
-// resolution (used where OMPL interpolates by itself) is set from metres, not from its default fraction of the space's
-// extent. Every returned path is re-checked with the capsule test before it is returned.
+// First the straight segment, when it is clear; otherwise a search (PathConfig::search): OMPL's
+// RRTConnect, then OMPL's PathSimplifier (vertex reduction and shortcutting, no B-spline
+// smoothing: the trajectory module rounds corners itself), or A* on a lattice of voxel centres
+// (grid_search.hpp: complete at its resolution, as FUEL prices its legs), or the lattice where
+// RRTConnect finds nothing. The search space is the map's known bounds (a path can only run
+// through known-free voxels) intersected with an optional box. Collision checks are MapProbe's
+// exact capsule test: every voxel whose centre lies within clearance_m of any point of the path
+// is known-free. OMPL's own validity-check resolution (used where OMPL interpolates by itself) is
+// set from metres, not from its default fraction of the space's extent. Every returned path is
+// re-checked with the capsule test before it is returned.
 //
 // Determinism: each query seeds the sampler and the simplifier from (seed, query_seed), so the
 // same map, query and seed give the same path whatever ran before, as long as the planner does
-// not hit its time limit (a timeout is a status, never an exception).
+// not hit its time limit (a timeout is a status, never an exception). The lattice search samples
+// nothing; its budget is counted in expansions.
 //
-// Threads: a PathPlanner holds a map reader; use one planner per thread. With the grid search the
-// map must not change while the planner lives (it keeps clearance answers from query to query).
+// Threads: a PathPlanner holds a map reader; use one planner per thread. With the lattice search
+// the map must not change while the planner lives (it keeps clearance answers from query to query).
 #pragma once
 
 #include "vdbmap/planner/grid_search.hpp"
@@ -57,7 +60,7 @@ struct PathConfig {
   /// extent); [0, 1e3]
   double rrt_range_m = 0.0;
   PathSearch search = PathSearch::Sampling;
-  /// The lattice search's settings (search == Grid); its clearance is clearance_m.
+  /// The lattice search's settings (search Grid or SamplingThenGrid); its clearance is clearance_m.
   GridSearchConfig grid;
   /// Shortcutting rounds of the simplifier (each: vertex reduction, then shortcuts); [0, 100]
   int simplify_rounds = 3;
@@ -71,7 +74,7 @@ using PathParams [[deprecated("renamed PathConfig")]] = PathConfig;
 
 enum class PathStatus {
   Straight,      ///< the straight segment is clear
-  Planned,       ///< found by RRTConnect and simplified
+  Planned,       ///< found by a search (RRTConnect and simplified, or the lattice and shortened)
   StartInvalid,  ///< the start is not clear (too near occupied or unknown space) or out of bounds
   GoalInvalid,   ///< the goal is not clear or out of bounds
   NoPath,        ///< no path found within the time limit (or the iteration / expansion budget)
