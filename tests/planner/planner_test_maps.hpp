@@ -6,6 +6,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -102,6 +103,26 @@ inline bool bruteVisible(const DenseMap& map, const Vec3d& a, const Vec3d& b) {
         }
         if (hit && map.get(c) != Occupancy::Free) return false;
       }
+  return true;
+}
+
+/// A 10 x 6 x 3 m room (makeRoom) split by a one-voxel wall at x = 5 m, with a door (y 2.5-3.5 m,
+/// z up to 2 m) unless `door` is false.
+inline DenseMap wallRoom(bool door = true) {
+  DenseMap map = makeRoom(Eigen::Vector3i(100, 60, 30));
+  map.fill(openvdb::CoordBBox(openvdb::Coord(50, 1, 1), openvdb::Coord(50, 58, 28)), Occupancy::Occupied);
+  if (door) map.fill(openvdb::CoordBBox(openvdb::Coord(50, 25, 1), openvdb::Coord(50, 35, 20)), Occupancy::Free);
+  return map;
+}
+
+/// Every point of the path, every 5 mm, has only free voxel centres within r (brute force).
+inline bool denselyClear(const DenseMap& map, const std::vector<Vec3d>& path, double r) {
+  for (std::size_t i = 1; i < path.size(); ++i) {
+    const double len = (path[i] - path[i - 1]).norm();
+    const int n = std::max(1, int(std::ceil(len / 0.005)));
+    for (int k = 0; k <= n; ++k)
+      if (!bruteClear(map, path[i - 1] + (path[i] - path[i - 1]) * (double(k) / n), r)) return false;
+  }
   return true;
 }
 

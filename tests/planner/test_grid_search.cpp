@@ -19,14 +19,6 @@ using openvdb::CoordBBox;
 
 namespace {
 
-/// A 10 x 6 x 3 m room split by a one-voxel wall at x = 5 m with a door (y 2.5-3.5 m, z up to 2 m).
-DenseMap doorRoom() {
-  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
-  map.fill(CoordBBox(Coord(50, 1, 1), Coord(50, 58, 28)), Occupancy::Occupied);
-  map.fill(CoordBBox(Coord(50, 25, 1), Coord(50, 35, 20)), Occupancy::Free);
-  return map;
-}
-
 /// A room of 6 x 4 x 2 m with random occupied and unknown voxels (fixed seed).
 DenseMap clutteredRoom(unsigned seed, double fraction) {
   DenseMap map = test::makeRoom(Eigen::Vector3i(60, 40, 20));
@@ -37,17 +29,6 @@ DenseMap clutteredRoom(unsigned seed, double fraction) {
   for (int i = 0; i < n; ++i)
     map.set(Coord(x(rng), y(rng), z(rng)), unknown(rng) ? Occupancy::Unknown : Occupancy::Occupied);
   return map;
-}
-
-/// Every point of the path, every 5 mm, has only free voxel centres within r (brute force).
-bool denselyClear(const DenseMap& map, const std::vector<Vec3d>& path, double r) {
-  for (std::size_t i = 1; i < path.size(); ++i) {
-    const double len = (path[i] - path[i - 1]).norm();
-    const int n = std::max(1, int(std::ceil(len / 0.005)));
-    for (int k = 0; k <= n; ++k)
-      if (!test::bruteClear(map, path[i - 1] + (path[i] - path[i - 1]) * (double(k) / n), r)) return false;
-  }
-  return true;
 }
 
 Eigen::AlignedBox3d worldBoxOf(const DenseMap& map) { return map.worldBox(map.knownBounds()); }
@@ -94,7 +75,7 @@ TEST_CASE("The lattice's clearance test agrees with brute force for radii wider 
 }
 
 TEST_CASE("Lattice paths go through the door, clear along their whole length", "[planner][grid]") {
-  const DenseMap map = doorRoom();
+  const DenseMap map = test::wallRoom();
   PathConfig config;
   config.clearance_m = 0.25;
   config.search = PathSearch::Grid;
@@ -104,7 +85,7 @@ TEST_CASE("Lattice paths go through the door, clear along their whole length", "
   REQUIRE(r.status == PathStatus::Planned);
   CHECK(r.waypoints.front() == start);
   CHECK(r.waypoints.back() == goal);
-  CHECK(denselyClear(map, r.waypoints, config.clearance_m));
+  CHECK(test::denselyClear(map, r.waypoints, config.clearance_m));
   CHECK(r.length_m == Approx(polylineLength(r.waypoints)));
   // The shortest way, through the door's lower corner at (5, 2.75, 1.x): about 7.0 m.
   CHECK(r.length_m > 6.9);
@@ -137,7 +118,7 @@ TEST_CASE("With weight 1 the lattice path is no longer than brute-force Dijkstra
     if (test::bruteSegmentClear(map, a, b, clearance)) continue;
     const GridSearchResult found = search.search(a, b);
     REQUIRE(found.found);
-    CHECK(denselyClear(map, found.waypoints, clearance));
+    CHECK(test::denselyClear(map, found.waypoints, clearance));
     const double length = polylineLength(found.waypoints);
     // Dijkstra from every node joined to a (within two cells, clear segment) to those joined to b.
     auto nodeOf = [&](const Coord& n) { return map.voxelCenter(Coord(2 * n.x(), 2 * n.y(), 2 * n.z())); };
@@ -205,7 +186,7 @@ TEST_CASE("A closed pocket is proven to hold no path after few expansions", "[pl
 }
 
 TEST_CASE("The expansion budget ends a search with NoPath", "[planner][grid]") {
-  const DenseMap map = doorRoom();
+  const DenseMap map = test::wallRoom();
   PathConfig config;
   config.search = PathSearch::Grid;
   config.grid.max_expansions = 10;
@@ -216,7 +197,7 @@ TEST_CASE("The expansion budget ends a search with NoPath", "[planner][grid]") {
 }
 
 TEST_CASE("Sampling then grid: the lattice finds the door when RRTConnect's budget does not", "[planner][grid]") {
-  const DenseMap map = doorRoom();
+  const DenseMap map = test::wallRoom();
   PathConfig config;
   config.max_iterations = 1;
   PathPlanner sampling(map, config);
@@ -226,7 +207,7 @@ TEST_CASE("Sampling then grid: the lattice finds the door when RRTConnect's budg
   PathPlanner both(map, config);
   const PathResult r = both.plan(start, goal);
   REQUIRE(r.status == PathStatus::Planned);
-  CHECK(denselyClear(map, r.waypoints, config.clearance_m));
+  CHECK(test::denselyClear(map, r.waypoints, config.clearance_m));
   CHECK(r.iterations > 1);  // RRTConnect's iteration and the lattice's expansions
 }
 

@@ -9,33 +9,9 @@
 
 using namespace vdbmap;
 using namespace vdbmap::planner;
-using openvdb::Coord;
-using openvdb::CoordBBox;
-
-namespace {
-/// A 10 x 6 x 3 m room split by a one-voxel wall at x = 5 m, with a door (y 2.5-3.5 m,
-/// z up to 2 m) unless `door` is false.
-DenseMap wallRoom(bool door) {
-  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
-  map.fill(CoordBBox(Coord(50, 1, 1), Coord(50, 58, 28)), Occupancy::Occupied);
-  if (door) map.fill(CoordBBox(Coord(50, 25, 1), Coord(50, 35, 20)), Occupancy::Free);
-  return map;
-}
-
-/// Every point of the path, every 5 mm, has only free voxel centres within r (brute force).
-bool denselyClear(const DenseMap& map, const std::vector<Vec3d>& path, double r) {
-  for (std::size_t i = 1; i < path.size(); ++i) {
-    const double len = (path[i] - path[i - 1]).norm();
-    const int n = std::max(1, int(std::ceil(len / 0.005)));
-    for (int k = 0; k <= n; ++k)
-      if (!test::bruteClear(map, path[i - 1] + (path[i] - path[i - 1]) * (double(k) / n), r)) return false;
-  }
-  return true;
-}
-}  // namespace
 
 TEST_CASE("A clear straight segment is the path", "[planner][path]") {
-  const DenseMap map = wallRoom(true);
+  const DenseMap map = test::wallRoom(true);
   PathPlanner planner(map);
   const PathResult r = planner.plan(Vec3d(1, 1, 1), Vec3d(4, 4, 1.5));
   REQUIRE(r.status == PathStatus::Straight);
@@ -44,7 +20,7 @@ TEST_CASE("A clear straight segment is the path", "[planner][path]") {
 }
 
 TEST_CASE("Through the door: RRTConnect paths are collision-free against the map", "[planner][path]") {
-  const DenseMap map = wallRoom(true);
+  const DenseMap map = test::wallRoom(true);
   PathConfig params;
   params.clearance_m = 0.25;
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
@@ -56,7 +32,7 @@ TEST_CASE("Through the door: RRTConnect paths are collision-free against the map
     REQUIRE(r.waypoints.size() >= 3);
     CHECK(r.waypoints.front() == start);
     CHECK(r.waypoints.back() == goal);
-    CHECK(denselyClear(map, r.waypoints, params.clearance_m));
+    CHECK(test::denselyClear(map, r.waypoints, params.clearance_m));
     CHECK(r.length_m == Approx(polylineLength(r.waypoints)));
     // It goes through the door: the shortest way is about 2 x hypot(3, 2) = 7.2 m.
     CHECK(r.length_m > 7.0);
@@ -74,7 +50,7 @@ TEST_CASE("Through the door: RRTConnect paths are collision-free against the map
 }
 
 TEST_CASE("A closed one-voxel wall gives the status NoPath within the time limit", "[planner][path]") {
-  const DenseMap map = wallRoom(false);
+  const DenseMap map = test::wallRoom(false);
   PathConfig params;
   params.time_limit_s = 0.05;
   PathPlanner planner(map, params);
@@ -86,7 +62,7 @@ TEST_CASE("A closed one-voxel wall gives the status NoPath within the time limit
 }
 
 TEST_CASE("An iteration cap ends a hopeless search after exactly that many iterations", "[planner][path]") {
-  const DenseMap map = wallRoom(false);
+  const DenseMap map = test::wallRoom(false);
   PathConfig params;
   params.time_limit_s = 60.0;  // the cap, not the clock, must end it
   params.max_iterations = 200;
@@ -95,7 +71,7 @@ TEST_CASE("An iteration cap ends a hopeless search after exactly that many itera
   CHECK(r.status == PathStatus::NoPath);
   CHECK(r.iterations == params.max_iterations);
   // A search that succeeds reports the iterations it used, within the cap.
-  const DenseMap open = wallRoom(true);
+  const DenseMap open = test::wallRoom(true);
   PathPlanner through(open, params);
   const PathResult found = through.plan(Vec3d(2, 1, 1), Vec3d(8, 1.2, 1.4));
   REQUIRE(found.status == PathStatus::Planned);
@@ -106,7 +82,7 @@ TEST_CASE("An iteration cap ends a hopeless search after exactly that many itera
 }
 
 TEST_CASE("Starts and goals near obstacles or in unknown space are statuses", "[planner][path]") {
-  const DenseMap map = wallRoom(true);
+  const DenseMap map = test::wallRoom(true);
   PathPlanner planner(map);
   CHECK(planner.plan(Vec3d(4.9, 1, 1), Vec3d(2, 2, 1)).status == PathStatus::StartInvalid);  // 0.1 m from the wall
   CHECK(planner.plan(Vec3d(2, 2, 1), Vec3d(20, 2, 1)).status == PathStatus::GoalInvalid);    // outside the map
@@ -114,7 +90,7 @@ TEST_CASE("Starts and goals near obstacles or in unknown space are statuses", "[
 }
 
 TEST_CASE("Paths repeat for a seed, whatever ran before", "[planner][path]") {
-  const DenseMap map = wallRoom(true);
+  const DenseMap map = test::wallRoom(true);
   PathConfig params;
   params.seed = 17;
   PathPlanner a(map, params), b(map, params);
@@ -128,7 +104,7 @@ TEST_CASE("Paths repeat for a seed, whatever ran before", "[planner][path]") {
 }
 
 TEST_CASE("The search space is the map's known bounds cut by the optional box", "[planner][path]") {
-  const DenseMap map = wallRoom(true);
+  const DenseMap map = test::wallRoom(true);
   PathConfig params;
   params.bounds_W = Eigen::AlignedBox3d(Vec3d(-1, -1, -1), Vec3d(6, 3, 4));  // cuts the door at y = 3 m
   params.time_limit_s = 1.0;  // the passage left is narrow
@@ -147,7 +123,7 @@ TEST_CASE("PathConfig::validate names the field", "[planner][path]") {
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("time_limit_s"));
   p = PathConfig{};
   p.clearance_m = -1.0;
-  const DenseMap map = wallRoom(true);
+  const DenseMap map = test::wallRoom(true);
   CHECK_THROWS_WITH(PathPlanner(map, p), Catch::Contains("clearance_m"));
   p = PathConfig{};
   p.max_iterations = 2'000'000'000u;
@@ -155,7 +131,7 @@ TEST_CASE("PathConfig::validate names the field", "[planner][path]") {
 }
 
 TEST_CASE("A path search on a CachedMap finds the same path as on its base", "[planner][path]") {
-  const DenseMap map = wallRoom(true);
+  const DenseMap map = test::wallRoom(true);
   PathConfig params;
   params.time_limit_s = 10.0;  // the iteration cap ends every search: no dependence on speed
   params.max_iterations = 5000;

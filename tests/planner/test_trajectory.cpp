@@ -14,13 +14,6 @@ using openvdb::Coord;
 using openvdb::CoordBBox;
 
 namespace {
-DenseMap wallRoom() {
-  DenseMap map = test::makeRoom(Eigen::Vector3i(100, 60, 30));
-  map.fill(CoordBBox(Coord(50, 1, 1), Coord(50, 58, 28)), Occupancy::Occupied);
-  map.fill(CoordBBox(Coord(50, 25, 1), Coord(50, 35, 20)), Occupancy::Free);
-  return map;
-}
-
 /// The first time (to 1 ms) the yaw lies within `within_rad` of `yaw_rad`.
 double firstFacing(const Trajectory& traj, double yaw_rad, double within_rad) {
   double t = 0.0;
@@ -77,7 +70,7 @@ TEST_CASE("A straight 10 m leg from rest takes exactly the bang-cruise-bang time
 
 TEST_CASE("Along a planned path: limits at every sample, clear of the map, from rest to rest at the goal yaw",
           "[planner][trajectory]") {
-  const DenseMap map = wallRoom();
+  const DenseMap map = test::wallRoom();
   PathConfig pp;
   TrajectoryConfig tp;
   tp.clearance_m = pp.clearance_m;
@@ -106,7 +99,7 @@ TEST_CASE("Along a planned path: limits at every sample, clear of the map, from 
 }
 
 TEST_CASE("A moving start keeps the vehicle's velocity through a clear lead-in", "[planner][trajectory]") {
-  const DenseMap map = wallRoom();
+  const DenseMap map = test::wallRoom();
   TrajectoryConfig tp;
   VehicleState start;
   start.position_W = Vec3d(2, 3, 1.2);
@@ -121,7 +114,7 @@ TEST_CASE("A moving start keeps the vehicle's velocity through a clear lead-in",
 }
 
 TEST_CASE("Moving straight at a wall: the start is slowed and the status says so", "[planner][trajectory]") {
-  const DenseMap map = wallRoom();
+  const DenseMap map = test::wallRoom();
   TrajectoryConfig tp;
   VehicleState start;
   start.position_W = Vec3d(4.5, 1.0, 1.2);  // 0.5 m before the wall, flying at it
@@ -133,7 +126,7 @@ TEST_CASE("Moving straight at a wall: the start is slowed and the status says so
 }
 
 TEST_CASE("A single-point path turns on the spot within the yaw-rate limit", "[planner][trajectory]") {
-  const DenseMap map = wallRoom();
+  const DenseMap map = test::wallRoom();
   TrajectoryConfig tp;
   VehicleState start;
   start.position_W = Vec3d(2, 2, 1);
@@ -178,7 +171,7 @@ TEST_CASE("A corner whose arc would clip an obstacle is tightened or stopped, ne
 }
 
 TEST_CASE("A path through an obstacle is refused", "[planner][trajectory]") {
-  const DenseMap map = wallRoom();
+  const DenseMap map = test::wallRoom();
   VehicleState start;
   start.position_W = Vec3d(2, 1, 1);
   const TrajectoryResult r = planTrajectory({start.position_W, Vec3d(8, 1, 1)}, start, 0.0, map);
