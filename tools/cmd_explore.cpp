@@ -39,6 +39,7 @@ struct ExploreOptions {
   int min_cluster_size = planner::FrontierConfig{}.min_cluster_size;
   int revisit_rounds = planner::ExplorationManagerConfig{}.revisit_rounds;
   int final_min_cluster_size = planner::ExplorationManagerConfig{}.final_min_cluster_size;
+  std::string final_sweep = planner::toString(planner::ExplorationManagerConfig{}.final_sweep);
   bool no_initial_turn = false;
   bool overwrite = false;
   bool report = false;
@@ -87,6 +88,9 @@ void runExplore(const ExploreOptions& o) {
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.final_min_cluster_size = o.final_min_cluster_size;
+  for (auto scope :
+       {planner::FinalSweepScope::All, planner::FinalSweepScope::Pockets, planner::FinalSweepScope::PocketsOnce})
+    if (o.final_sweep == planner::toString(scope)) config.planner.final_sweep = scope;
   if (!o.box.empty())
     config.planner.box_W = Eigen::AlignedBox3d(Vec3d(o.box[0], o.box[1], o.box[2]), Vec3d(o.box[3], o.box[4], o.box[5]));
   config.start.position_W = o.start.empty() ? sim::defaultStartPosition(world, config.planner.box_W)
@@ -96,8 +100,8 @@ void runExplore(const ExploreOptions& o) {
   std::string description =
       "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " + std::to_string(o.seed) +
       " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
-      std::to_string(o.final_min_cluster_size) + " --revisit-rounds " + std::to_string(o.revisit_rounds) +
-      " --budgets " + o.budgets + " --alc " + o.alc +
+      std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --revisit-rounds " +
+      std::to_string(o.revisit_rounds) + " --budgets " + o.budgets + " --alc " + o.alc +
       (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string()) + " --safety " +
       o.safety +
       (config.planner.safety.enabled
@@ -193,6 +197,12 @@ const Registration registration("explore", [](CLI::App& app) {
                   "When no cluster is left to visit, lower the min cluster size to this once and visit the small "
                   "clusters in a final sweep (0: off; only values below --min-cluster-size act)")
       ->check(CLI::Range(0, 100000000));
+  sub->add_option("--final-sweep", o->final_sweep,
+                  "Which small clusters the final sweep visits: all (every one, also those that appear during the "
+                  "sweep, e.g. where a loop correction moved a surface), pockets (those left when it began, and "
+                  "what remains of them, until covered or blacklisted), once (each such pocket until one visit of "
+                  "it is over: shorter sweeps, fewer loop closures)")
+      ->check(CLI::IsMember({"all", "pockets", "once"}));
   sub->add_option("--revisit-rounds", o->revisit_rounds,
                   "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
                   "more try each, with viewpoints computed in the map as it is then")

@@ -193,6 +193,13 @@ void bindExplorationParams(py::module_& m) {
                      "looks in a row that leave the way unseen before the target gets a failure; [1, 100]")
       .def("validate", &SafetyConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
+  py::enum_<FinalSweepScope>(m, "FinalSweepScope", "Which small clusters the final sweep visits.")
+      .value("All", FinalSweepScope::All,
+             "every small cluster, also those appearing during the sweep, until covered or blacklisted")
+      .value("Pockets", FinalSweepScope::Pockets,
+             "the pockets left when the sweep began, and what remains of them, until covered or blacklisted")
+      .value("PocketsOnce", FinalSweepScope::PocketsOnce, "each such pocket until one visit of it is over");
+
   py::class_<ExplorationManagerConfig> e(m, "ExplorationManagerConfig",
                                   "The exploration manager (FUEL-style). box_W is required; the pieces' bounds are "
                                   "set from it. Nested structs are edited in place.");
@@ -239,6 +246,8 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("final_min_cluster_size", &ExplorationManagerConfig::final_min_cluster_size,
                      "when no target is left, the frontier's min cluster size drops to this once, for a final "
                      "sweep of the small clusters (0: off); [0, 1e8]")
+      .def_readwrite("final_sweep", &ExplorationManagerConfig::final_sweep,
+                     "which small clusters the final sweep visits (FinalSweepScope)")
       .def_readwrite("max_targets_per_replan", &ExplorationManagerConfig::max_targets_per_replan,
                      "targets tried per replan")
       .def_readwrite("keep_target", &ExplorationManagerConfig::keep_target,

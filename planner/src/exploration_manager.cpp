@@ -65,6 +65,15 @@ const char* toString(ExplorationPhase p) {
   return "?";
 }
 
+const char* toString(FinalSweepScope s) {
+  switch (s) {
+    case FinalSweepScope::All: return "all";
+    case FinalSweepScope::Pockets: return "pockets";
+    case FinalSweepScope::PocketsOnce: return "once";
+  }
+  return "?";
+}
+
 const char* toString(FlightKind k) {
   switch (k) {
     case FlightKind::Hold: return "hold";
@@ -270,9 +279,33 @@ void ExplorationManager::refreshFrontiers(const MapQuery& map, const openvdb::Co
 void ExplorationManager::applyFrontierUpdate(const FrontierUpdate& u, const MapQuery& map) {
   for (ClusterId id : u.removed) views_.erase(id);
   std::vector<const FrontierCluster*> fresh;
-  for (ClusterId id : u.added)
-    if (const FrontierCluster* c = frontiers_.find(id)) fresh.push_back(c);
+  for (ClusterId id : u.added) {
+    const FrontierCluster* c = frontiers_.find(id);
+    if (!c || outsideSweep(*c)) continue;  // no viewpoints: never a target
+    if (const std::vector<std::size_t> pockets = openPockets(*c); !pockets.empty())
+      for (const openvdb::Coord& v : c->voxels) pocket_of_.emplace(v, pockets.front());  // what remains of it
+    fresh.push_back(c);
+  }
   computeViews(fresh, map);
+}
+
+std::vector<std::size_t> ExplorationManager::openPockets(const FrontierCluster& cluster) const {
+  std::vector<std::size_t> pockets;
+  if (pocket_of_.empty()) return pockets;
+  for (const openvdb::Coord& v : cluster.voxels) {
+    const auto it = pocket_of_.find(v);
+    if (it != pocket_of_.end() && !pocket_visited_[it->second]) pockets.push_back(it->second);
+  }
+  std::sort(pockets.begin(), pockets.end());
+  pockets.erase(std::unique(pockets.begin(), pockets.end()), pockets.end());
+  return pockets;
+}
+
+bool ExplorationManager::outsideSweep(const FrontierCluster& cluster) const {
+  if (phase_ != ExplorationPhase::FinalSweep || params_.final_sweep == FinalSweepScope::All ||
+      cluster.component_voxels >= std::size_t(params_.frontier.min_cluster_size))
+    return false;
+  return openPockets(cluster).empty();
 }
 
 void ExplorationManager::computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map) {
@@ -288,7 +321,7 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
   counters_.blacklisted = 0;
   for (const FrontierCluster& c : frontiers_.clusters()) {
     auto it = views_.find(c.id);
-    if (it == views_.end() || it->second.empty()) continue;
+    if (it == views_.end() || it->second.empty() || outsideSweep(c)) continue;
     if (book_.isBlacklisted(c)) {
       ++counters_.blacklisted;
       continue;
@@ -507,6 +540,10 @@ std::optional<AlcDecision> ExplorationManager::decideLoopDetour(const MapQuery& 
 ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleState& vehicle, double t_s,
                                              ExplorationStep& step) {
   // The visit is over: judged by what the target's viewpoint saw.
+  const bool visit_over = (step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour) ||
+                          step.reason == ReplanReason::TargetCovered;
+  if (visit_over && book_.target() != 0 && params_.final_sweep == FinalSweepScope::PocketsOnce)
+    for (std::size_t p : target_pockets_) pocket_visited_[p] = true;  // each pocket once
   if (step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour)
     book_.judgeVisit(frontiers_, params_.covered_fraction);
   const std::vector<Target> targets = gatherTargets(map);
@@ -529,6 +566,11 @@ std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const 
     const FrontierUpdate u = frontiers_.setMinClusterSize(map, params_.final_min_cluster_size);
     counters_.final_sweep_clusters += u.added.size();
     phase_ = ExplorationPhase::FinalSweep;
+    for (ClusterId id : u.added) {  // the sweep's pockets
+      const FrontierCluster* c = frontiers_.find(id);
+      for (const openvdb::Coord& v : c->voxels) pocket_of_.emplace(v, pocket_visited_.size());
+      pocket_visited_.push_back(false);
+    }
     applyFrontierUpdate(u, map);
     targets = liveTargets(map);
   }
@@ -539,7 +581,8 @@ std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const 
     ++counters_.revisit_rounds;
     book_.forgiveBlacklisted();
     std::vector<const FrontierCluster*> all;
-    for (const FrontierCluster& c : frontiers_.clusters()) all.push_back(&c);
+    for (const FrontierCluster& c : frontiers_.clusters())
+      if (!outsideSweep(c)) all.push_back(&c);
     computeViews(all, map);
     targets = liveTargets(map);
   }
@@ -636,6 +679,7 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
     const PlanOutcome outcome = planTo(map, vehicle, view, t_s, FlightKind::ToTarget);
     if (outcome == PlanOutcome::Ok) {
       MapProbe probe(map.sightMap());
+      target_pockets_ = openPockets(*cluster);
       book_.setTarget(*cluster,
                       visibleVoxels(probe, view.position_W, view.yaw_rad, cluster->samples, params_.viewpoint.camera));
       step.target = t.cluster;

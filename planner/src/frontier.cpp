@@ -261,6 +261,7 @@ std::vector<ClusterId> FrontierMap::makeClusters(const MapQuery& map, const std:
     c.centroid_W = centreOf(piece, map.voxelSize());
     for (const openvdb::Coord& v : piece) c.bbox.expand(v);
     c.samples = sampleVoxels(piece, params_.sample_stride_vox);
+    c.component_voxels = voxels.size();
     c.voxels = std::move(piece);
     ids.push_back(c.id);
     if (added) added->push_back(c.id);

@@ -7,6 +7,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <type_traits>
 
 using namespace vdbmap;
@@ -389,13 +390,21 @@ TEST_CASE("A revisit round computes viewpoints again for clusters that had none"
   }
 }
 
+namespace {
+/// A known 8 x 6 x 3 m room with a 3 x 3 x 3 voxel unknown pocket in mid-air: its frontier is the
+/// 54 free voxels on its faces, a component below FUEL's min cluster size of 100.
+const CoordBBox kPocket(Coord(50, 30, 14), Coord(52, 32, 16));
+DenseMap roomWithPocket() {
+  DenseMap map = test::makeRoom(Eigen::Vector3i(80, 60, 30));
+  map.fill(kPocket, Occupancy::Unknown);
+  return map;
+}
+}  // namespace
+
 TEST_CASE("The final sweep visits a pocket smaller than min_cluster_size once nothing else is left",
           "[planner][exploration]") {
-  // A known room with a 3 x 3 x 3 voxel unknown pocket in mid-air: its frontier is the 54 free
-  // voxels on its faces, a component below FUEL's min cluster size of 100.
-  DenseMap map = test::makeRoom(Eigen::Vector3i(80, 60, 30));
-  const CoordBBox pocket(Coord(50, 30, 14), Coord(52, 32, 16));
-  map.fill(pocket, Occupancy::Unknown);
+  DenseMap map = roomWithPocket();
+  const CoordBBox pocket = kPocket;
   ExplorationManagerConfig p = roomParams();
   p.final_min_cluster_size = GENERATE(0, 30, 100);
   const Vec3d start(2, 3, 1.5);
@@ -422,6 +431,66 @@ TEST_CASE("The final sweep visits a pocket smaller than min_cluster_size once no
   CHECK(step.status == ExplorationStatus::Finished);
   CHECK(step.clusters == 0);
   CHECK(m.counters().final_sweep_clusters == 1);  // once per run
+}
+
+TEST_CASE("The final sweep visits the pockets it began with and what remains of them, as its scope says",
+          "[planner][exploration]") {
+  // Pocket A (roomWithPocket's) starts the sweep. While the vehicle flies there, pocket B of the
+  // same size opens elsewhere (as where a loop correction moves a surface) and the camera sees A's
+  // first layer, leaving a 2 x 3 x 3 remnant (42 frontier voxels).
+  DenseMap map = roomWithPocket();
+  const CoordBBox pocket_a = kPocket;
+  ExplorationManagerConfig p = roomParams();
+  p.final_sweep = GENERATE(FinalSweepScope::All, FinalSweepScope::Pockets, FinalSweepScope::PocketsOnce);
+  const Vec3d start(2, 3, 1.5);
+  ExplorationManager m(p, at(start), 0.0);
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  REQUIRE(m.phase() == ExplorationPhase::FinalSweep);
+  const std::vector<Coord> a_voxels = m.frontiers().clusters().front().voxels;
+
+  const CoordBBox pocket_b(Coord(20, 40, 10), Coord(22, 42, 12));
+  map.fill(pocket_b, Occupancy::Unknown);
+  map.fill(CoordBBox(Coord(50, 30, 14), Coord(50, 32, 16)), Occupancy::Free);
+  CoordBBox dirty = pocket_b;
+  dirty.expand(pocket_a);
+  m.update(map, dirty, onTrajectory(m, 0.1), 0.1);
+  REQUIRE(m.frontiers().clusters().size() == 2);
+  ClusterId remnant = 0, b = 0;
+  for (const FrontierCluster& c : m.frontiers().clusters()) {
+    const bool of_a =
+        std::find_first_of(c.voxels.begin(), c.voxels.end(), a_voxels.begin(), a_voxels.end()) != c.voxels.end();
+    (of_a ? remnant : b) = c.id;
+    if (of_a) CHECK(c.voxels.size() == 42);
+  }
+  REQUIRE(remnant != 0);
+  REQUIRE(b != 0);
+  // What remains of A is a target (it has viewpoints); B only when the scope is All.
+  CHECK(m.viewpoints().count(remnant) == 1);
+  CHECK(m.viewpoints().count(b) == (p.final_sweep == FinalSweepScope::All ? 1u : 0u));
+
+  // At the viewpoint (the target is A's remnant since the map changed) the visit is over. Once: A
+  // was visited, and exploration finishes with both clusters left. Pockets: the remnant stays a
+  // target (until covered or blacklisted). All: both are.
+  const double t_end = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
+  step = m.update(map, CoordBBox(), onTrajectory(m, t_end), t_end);
+  CHECK(step.reason == ReplanReason::TrajectoryEnd);
+  switch (p.final_sweep) {
+    case FinalSweepScope::All:
+      CHECK(step.status == ExplorationStatus::Planned);
+      CHECK(step.targets == 2);
+      break;
+    case FinalSweepScope::Pockets:
+      CHECK(step.status == ExplorationStatus::Planned);
+      CHECK(step.targets == 1);
+      CHECK(m.target() == remnant);
+      break;
+    case FinalSweepScope::PocketsOnce:
+      CHECK(step.status == ExplorationStatus::Finished);
+      CHECK(step.targets == 0);
+      CHECK(m.frontiers().clusters().size() == 2);
+      break;
+  }
 }
 
 TEST_CASE("A start blocked by a wall within the clearance escapes straight away from it, then explores",

@@ -151,6 +151,7 @@ TEST_CASE("Wide clusters are split along their principal horizontal axis", "[pla
     CHECK(f.frontierVoxelCount() == 100);
     // 100 -> 50 + 50 (each 5.5 m long: ends 2.7 m out) -> 4 x 25 (each 2.7 m: ends 1.3 m out).
     CHECK(clusterSizes(f) == (std::vector<std::size_t>{25, 25, 25, 25}));
+    for (const FrontierCluster& c : f.clusters()) CHECK(c.component_voxels == 100);  // the whole staircase
   }
   SECTION("A vertical strip is not split: only horizontal spread counts") {
     DenseMap map = unknownMap();

@@ -194,6 +194,13 @@ class SafetyConfig:
     def __copy__(self) -> SafetyConfig: ...
     def __deepcopy__(self, memo: dict[Any, Any]) -> SafetyConfig: ...
 
+class FinalSweepScope(_Enum):
+    """Which small clusters the final sweep visits."""
+    All: ClassVar[FinalSweepScope]
+    Pockets: ClassVar[FinalSweepScope]
+    PocketsOnce: ClassVar[FinalSweepScope]
+    def __init__(self, value: int) -> None: ...
+
 class ExplorationManagerConfig:
     """The exploration manager (FUEL-style); box_W is required."""
     box_W: _BoxF
@@ -219,6 +226,7 @@ class ExplorationManagerConfig:
     max_failures: int
     revisit_rounds: int
     final_min_cluster_size: int
+    final_sweep: FinalSweepScope
     max_targets_per_replan: int
     keep_target: bool
     initial_turn_parts: int

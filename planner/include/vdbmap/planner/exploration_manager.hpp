@@ -56,6 +56,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <unordered_map>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -103,6 +104,19 @@ struct SafetyConfig {
 
   void validate() const;
 };
+
+/// Which small clusters the final sweep visits (ExplorationManagerConfig::final_sweep). A pocket
+/// is a small cluster (of a component below frontier.min_cluster_size) left when the sweep began;
+/// a cluster made since from one of its voxels (what remains of it after part of it was seen)
+/// belongs to it. Clusters of components of frontier.min_cluster_size or more are targets always.
+enum class FinalSweepScope {
+  All,          ///< every small cluster, also those that appear during the sweep (e.g. where a loop
+                ///< correction moved a surface), until covered or blacklisted
+  Pockets,      ///< the pockets, until covered or blacklisted
+  PocketsOnce,  ///< each pocket until the visit of one of its clusters is over (judged at the
+                ///< viewpoint, or covered on the way)
+};
+const char* toString(FinalSweepScope s);
 
 struct ExplorationManagerConfig {
   /// The exploration box (world frame): frontiers, viewpoints and paths stay inside. Required.
@@ -154,9 +168,11 @@ struct ExplorationManagerConfig {
   int revisit_rounds = 0;
   /// The final sweep: the first time no target is left, the frontier's min cluster size drops
   /// to this (when smaller than frontier.min_cluster_size), so that the small unknown pockets
-  /// FUEL's cluster_min ignores (between shelves, behind posts) are visited once, in one tour,
-  /// at the end. 0: off; [0, 1e8]
+  /// FUEL's cluster_min ignores (between shelves, behind posts) are visited at the end, in one
+  /// tour (final_sweep says which). 0: off; [0, 1e8]
   int final_min_cluster_size = 30;
+  /// Which small clusters the final sweep visits (docs/exploration.md, "Final sweep").
+  FinalSweepScope final_sweep = FinalSweepScope::All;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
   /// Periodic and frame-shift replans, and the replan that ends a look (SafetyConfig), keep the
@@ -387,6 +403,11 @@ class ExplorationManager {
   /// Computes the viewpoints of `clusters` in `map` (in parallel) and stores them in views_.
   void computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map);
   std::vector<Target> liveTargets(const MapQuery& map);
+  /// The final sweep's pockets not yet visited that share a voxel with `cluster` (ascending).
+  std::vector<std::size_t> openPockets(const FrontierCluster& cluster) const;
+  /// In the final sweep (final_sweep not All): a small cluster that is no part of a pocket still to
+  /// visit, so never a target.
+  bool outsideSweep(const FrontierCluster& cluster) const;
 
   // ---- decisions
   /// `recent`: the recent frames' surfaces over `map` (null without the safety layer).
@@ -456,6 +477,11 @@ class ExplorationManager {
   std::vector<Eigen::AlignedBox3d> free_boxes_;
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
+  /// The final sweep's pockets: the pocket of each voxel of the small clusters it began with and
+  /// of the clusters made from them since; whether each pocket was visited; the current target's.
+  std::unordered_map<openvdb::Coord, std::size_t, CoordHash> pocket_of_;
+  std::vector<bool> pocket_visited_;
+  std::vector<std::size_t> target_pockets_;
   std::unique_ptr<PairCostTable> table_;
   LegCostCache refinement_legs_;            ///< refinement's edges between viewpoints, kept over replans
   TargetBook book_;                         ///< failures, blacklist, the current target

@@ -60,6 +60,9 @@ struct FrontierCluster {
   /// One voxel per sample_stride_vox cube (the one nearest the cube's mean), sorted: what
   /// viewpoints are scored on (FUEL's filtered cells).
   std::vector<openvdb::Coord> samples;
+  /// Frontier voxels of the 26-connected component the cluster was split from, when the cluster
+  /// was made (a cluster kept under its id keeps this value).
+  std::size_t component_voxels = 0;
 };
 
 /// What one update changed.
