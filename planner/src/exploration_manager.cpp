@@ -544,8 +544,12 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
                           step.reason == ReplanReason::TargetCovered;
   if (visit_over && book_.target() != 0 && params_.final_sweep == FinalSweepScope::PocketsOnce)
     for (std::size_t p : target_pockets_) pocket_visited_[p] = true;  // each pocket once
-  if (step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour)
+  if (step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour) {
+    const std::size_t failures_before = book_.failuresAdded();
     book_.judgeVisit(frontiers_, params_.covered_fraction);
+    step.visit_failed = book_.failuresAdded() != failures_before;
+    counters_.visit_failures += step.visit_failed ? 1 : 0;
+  }
   const std::vector<Target> targets = gatherTargets(map);
   step.targets = targets.size();
   // A replan ends a detour's own rules: if it fails, the vehicle flies on as to any target.
@@ -695,6 +699,8 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
       return ExplorationStatus::Planned;
     }
     book_.addFailure(*cluster);
+    ++step.path_failures;
+    ++counters_.path_failures;
   }
   // Every target failed from a clear start: the vehicle may have squeezed into a place whose way
   // out is narrower, in the map as it reads now, than a path search can find (a corridor behind

@@ -203,6 +203,8 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     if (manager.alcStats().detours > detours_before) result.events.push_back({frame.t_s, "alc_detour"});
     if (step.alc_status == planner::AlcStatus::kGaveUp) result.events.push_back({frame.t_s, "alc_gave_up"});
     if (step.reason == planner::ReplanReason::EmergencyStop) result.events.push_back({frame.t_s, "emergency_stop"});
+    if (step.visit_failed) result.events.push_back({frame.t_s, "visit_failed"});
+    for (std::size_t i = 0; i < step.path_failures; ++i) result.events.push_back({frame.t_s, "path_failed"});
     map_ms.push_back(step.map_update_ms);
     const bool replanned = step.reason != planner::ReplanReason::None;
     if (replanned) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);
@@ -412,6 +414,8 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["replans_failed"] = r.planner_counters.replans_failed;
   j["collision_risk_replans"] = r.planner_counters.collision_risks;
   j["target_failures"] = r.planner_counters.target_failures;
+  j["visit_failures"] = r.planner_counters.visit_failures;
+  j["path_failures"] = r.planner_counters.path_failures;
   j["blacklisted_clusters"] = r.planner_counters.blacklisted;
   j["holds"] = r.planner_counters.holds;
   j["escapes"] = r.planner_counters.escapes;

@@ -300,6 +300,7 @@ TEST_CASE("A frontier that stays unobserved after visits is blacklisted, then ex
     t = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
     VehicleState s = onTrajectory(m, t);
     step = m.update(map, CoordBBox(), s, t);
+    CHECK(step.visit_failed);  // nothing was seen
     ++visits;
   }
   CHECK(step.status == ExplorationStatus::Finished);
@@ -349,6 +350,8 @@ TEST_CASE("A visit is judged by what its viewpoint saw: uncovering that part of 
   const ExplorationStep step = m.update(map, dirty, onTrajectory(m, t), t);
   CHECK(step.reason == ReplanReason::TrajectoryEnd);
   CHECK(m.counters().target_failures == 0);
+  CHECK_FALSE(step.visit_failed);
+  CHECK(m.counters().visit_failures == 0);
 }
 
 TEST_CASE("A revisit round computes viewpoints again for clusters that had none", "[planner][exploration]") {

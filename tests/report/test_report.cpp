@@ -140,7 +140,10 @@ fs::path writeExploreRun(const std::string& name) {
                         {"start", {0.0, 0.0, 1.0, 0.0}},
                         {"description", "vdbmap explore </script><b>"},
                         {"activity_time_s", {{"to_target", 9.0}, {"loop_detour", 1.0}}},
-                        {"events", {{{"t_s", 4.0}, {"what", "collision"}}, {{"t_s", 6.0}, {"what", "loop_closure"}}}}};
+                        {"events",
+                         {{{"t_s", 4.0}, {"what", "collision"}},
+                          {{"t_s", 6.0}, {"what", "loop_closure"}},
+                          {{"t_s", 7.0}, {"what", "visit_failed"}}}}};
   writeText(dir / "summary.json", summary.dump());
   writeText(dir / "log" / "simulation.json",
             json{{"loop_closures", {{{"new_frame", 60}, {"old_frame", 10}, {"t_s", 6.0}}}}}.dump());
@@ -210,14 +213,15 @@ TEST_CASE("an explore run's report holds its trajectories, events, time series a
   REQUIRE(xyz.size() == 101 * 3);
   CHECK(xyz[3 * 50] == Approx(5.0));
   CHECK(xyz[3 * 50 + 2] == Approx(1.0));
-  bool collision_seen = false;
+  std::size_t layers_seen = 0;
   for (const json& layer : scene.at("points"))
-    if (layer.at("name") == "collisions") {
-      REQUIRE(layer.at("points").size() == 1);
-      CHECK(layer.at("points")[0].at("xyz")[0].get<double>() == Approx(4.0));
-      collision_seen = true;
-    }
-  CHECK(collision_seen);
+    for (const auto& [name, t] : {std::pair<std::string, double>{"collisions", 4.0}, {"failed visits", 7.0}})
+      if (layer.at("name") == name) {
+        REQUIRE(layer.at("points").size() == 1);
+        CHECK(layer.at("points")[0].at("xyz")[0].get<double>() == Approx(t));  // the true path runs along x at 1 m/s
+        ++layers_seen;
+      }
+  CHECK(layers_seen == 2);
   const std::vector<float> edge = decodeFloats(scene.at("segments")[0].at("xyz"));
   REQUIRE(edge.size() == 6);
   CHECK(edge[0] == Approx(6.0));

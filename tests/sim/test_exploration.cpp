@@ -128,6 +128,14 @@ TEST_CASE("Closed-loop exploration under drift s3 finishes without collisions", 
   // Below s1's 0.95: corrections move keyframes, and pruning with 2-voxel cells releases some
   // floor and ceiling voxels that a level camera sees only at its frustum's edges.
   CHECK(observable.coverage(planner::TsdfMapQuery(r.mapper->volume())) >= 0.85);
+  // Every failed visit and every target without a path is an event; both are target failures.
+  const auto count = [&](const char* what) {
+    return std::size_t(
+        std::count_if(r.events.begin(), r.events.end(), [&](const ExplorationEvent& e) { return e.what == what; }));
+  };
+  CHECK(count("visit_failed") == r.planner_counters.visit_failures);
+  CHECK(count("path_failed") == r.planner_counters.path_failures);
+  CHECK(r.planner_counters.visit_failures + r.planner_counters.path_failures <= r.planner_counters.target_failures);
 }
 
 TEST_CASE(

@@ -395,13 +395,14 @@ json exploreRun(const fs::path& dir, const ReportConfig& config, ReportStats& st
   if (summary.contains("activity_time_s")) data["activity_time_s"] = summary["activity_time_s"];
 
   // Events.
-  std::vector<double> loop_t, collision_t, detour_t;
+  std::vector<double> loop_t, collision_t, detour_t, visit_failed_t;
   for (const json& e : summary.value("events", json::array())) {
     const std::string what = e.value("what", "");
     const double t = e.value("t_s", 0.0);
     if (what == "loop_closure") loop_t.push_back(t);
     if (what == "collision") collision_t.push_back(t);
     if (what == "alc_detour") detour_t.push_back(t);
+    if (what == "visit_failed") visit_failed_t.push_back(t);
   }
   json loop_marks = json::array();
   for (double t : loop_t) loop_marks.push_back({{"x", rounded(t)}, {"label", "loop closure"}});
@@ -421,6 +422,9 @@ json exploreRun(const fs::path& dir, const ReportConfig& config, ReportStats& st
   std::vector<Vec3d> detour_p;
   for (double t : detour_t) detour_p.push_back(truth.at(t));
   scene["points"].push_back(pointLayer("ALC detour starts", "#9467bd", 0.2, detour_p, detour_t));
+  std::vector<Vec3d> visit_failed_p;
+  for (double t : visit_failed_t) visit_failed_p.push_back(truth.at(t));
+  scene["points"].push_back(pointLayer("failed visits", "#8c564b", 0.15, visit_failed_p, visit_failed_t));
 
   const fs::path simulation = dir / "log" / "simulation.json";
   if (fs::is_regular_file(simulation)) {

@@ -288,6 +288,8 @@ struct ExplorationStep {
   std::optional<AlcStatus> alc_status;       ///< ALC's decision at this replan (when ALC is on and it was asked)
   std::size_t clusters = 0;                  ///< live clusters
   std::size_t targets = 0;                   ///< clusters with a viewpoint, not blacklisted
+  bool visit_failed = false;                 ///< the visit judged at this replan did not see its target
+  std::size_t path_failures = 0;             ///< targets whose path or trajectory failed at this replan
   std::size_t frontier_voxels = 0;
   double map_update_ms = 0.0;  ///< frontier and viewpoint refresh
   double replan_ms = 0.0;      ///< tour, refinement, path and trajectory (0 without a replan)
@@ -299,7 +301,9 @@ struct ExplorationCounters {
   std::size_t replans = 0;  ///< attempted (including the initial turn's parts)
   std::size_t replans_failed = 0;
   std::size_t collision_risks = 0;       ///< replans triggered by collision risk
-  std::size_t target_failures = 0;       ///< failures counted against targets
+  std::size_t target_failures = 0;       ///< failures counted against targets (all kinds)
+  std::size_t visit_failures = 0;        ///< visits whose viewpoint did not see the target
+  std::size_t path_failures = 0;         ///< targets without a path or trajectory at a replan
   std::size_t blacklisted = 0;           ///< clusters skipped as blacklisted at the last replan
   std::size_t holds = 0;                 ///< times the vehicle was stopped by a hold
   std::size_t escapes = 0;               ///< moves out of a start blocked by occupied voxels (retreats included)

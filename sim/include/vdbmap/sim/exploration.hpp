@@ -106,7 +106,8 @@ using ExplorationOptions [[deprecated("renamed ExplorationRecordConfig")]] = Exp
 /// Something that happened in the run, for diagnosis: "loop_closure", "alc_detour" (a detour
 /// started), "alc_gave_up" (a detour given up without a loop closure), "collision" (a collision
 /// event began in the flight up to this frame), "emergency_stop" (the safety layer found the
-/// trajectory blocked, planner::ReplanReason::EmergencyStop).
+/// trajectory blocked, planner::ReplanReason::EmergencyStop), "visit_failed" (a visit ended without
+/// seeing its target), "path_failed" (one per target without a path or trajectory at a replan).
 struct ExplorationEvent {
   double t_s = 0.0;
   std::string what;
