@@ -279,7 +279,12 @@ void bindExplorationParams(py::module_& m) {
       .def_readonly("replans", &ExplorationCounters::replans, "replans attempted (with the initial turn's parts)")
       .def_readonly("replans_failed", &ExplorationCounters::replans_failed, "replans that failed")
       .def_readonly("collision_risks", &ExplorationCounters::collision_risks, "replans triggered by collision risk")
-      .def_readonly("target_failures", &ExplorationCounters::target_failures, "failures counted against targets")
+      .def_readonly("target_failures", &ExplorationCounters::target_failures,
+                    "failures counted against targets (all kinds)")
+      .def_readonly("visit_failures", &ExplorationCounters::visit_failures,
+                    "visits whose viewpoint did not see the target")
+      .def_readonly("path_failures", &ExplorationCounters::path_failures,
+                    "targets without a path or trajectory at a replan")
       .def_readonly("blacklisted", &ExplorationCounters::blacklisted, "clusters blacklisted at the last replan")
       .def_readonly("holds", &ExplorationCounters::holds, "times the vehicle was stopped by a hold")
       .def_readonly("escapes", &ExplorationCounters::escapes,

@@ -26,7 +26,8 @@ SUMMARY_KEYS = {
     "exploration_time_s", "path_length_m", "coverage", "loop_closures", "collisions", "planner_ms_median",
     "planner_ms_max", "frames_total", "keyframes_kept", "accuracy_rmse_m", "completeness", "finished", "description",
     "mode", "voxel_size_m", "max_time_s", "start", "box", "min_clearance_m", "vehicle_radius_m", "replans",
-    "replans_failed", "collision_risk_replans", "target_failures", "blacklisted_clusters", "holds",
+    "replans_failed", "collision_risk_replans", "target_failures", "visit_failures", "path_failures",
+    "blacklisted_clusters", "holds",
     "map_update_ms_median", "frame_wall_ms_median", "reintegrated_frames", "estimate_error_rmse_m",
     "estimate_error_max_m", "odometry_error_final_m", "observable_surface", "wall_s", "budgets",
 }
@@ -82,6 +83,8 @@ def test_a_tiny_exploration_finishes_without_collisions(run):
     assert result.min_clearance_m >= tiny_config().vehicle_radius_m
     assert result.path_length_m > 0.5 and result.frames_total > 0
     assert result.planner_counters.replans == len(result.planner_ms) > 0
+    counters = result.planner_counters
+    assert counters.visit_failures + counters.path_failures <= counters.target_failures
     assert result.planner_ms_max == pytest.approx(result.planner_ms.max())
     # progress came after every frame, in order, and the last update finished the run
     assert [p.frames for p in progress] == list(range(1, result.frames_total + 1))
