@@ -539,11 +539,13 @@ std::optional<AlcDecision> ExplorationManager::decideLoopDetour(const MapQuery& 
 
 ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleState& vehicle, double t_s,
                                              ExplorationStep& step) {
-  // The visit is over: judged by what the target's viewpoint saw.
+  // A visit is over when its trajectory ended (it is judged by what the target's viewpoint saw) or
+  // its target was covered on the way; the final sweep's PocketsOnce visits the target's pockets
+  // no more.
   const bool visit_over = (step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour) ||
                           step.reason == ReplanReason::TargetCovered;
-  if (visit_over && book_.target() != 0 && params_.final_sweep == FinalSweepScope::PocketsOnce)
-    for (std::size_t p : target_pockets_) pocket_visited_[p] = true;  // each pocket once
+  if (visit_over && book_.target() != 0)
+    for (std::size_t p : target_pockets_) pocket_visited_[p] = true;
   if (step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour) {
     const std::size_t failures_before = book_.failuresAdded();
     book_.judgeVisit(frontiers_, params_.covered_fraction);
@@ -570,11 +572,12 @@ std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const 
     const FrontierUpdate u = frontiers_.setMinClusterSize(map, params_.final_min_cluster_size);
     counters_.final_sweep_clusters += u.added.size();
     phase_ = ExplorationPhase::FinalSweep;
-    for (ClusterId id : u.added) {  // the sweep's pockets
-      const FrontierCluster* c = frontiers_.find(id);
-      for (const openvdb::Coord& v : c->voxels) pocket_of_.emplace(v, pocket_visited_.size());
-      pocket_visited_.push_back(false);
-    }
+    if (params_.final_sweep != FinalSweepScope::All)
+      for (ClusterId id : u.added) {  // the sweep's pockets
+        const FrontierCluster* c = frontiers_.find(id);
+        for (const openvdb::Coord& v : c->voxels) pocket_of_.emplace(v, pocket_visited_.size());
+        pocket_visited_.push_back(false);
+      }
     applyFrontierUpdate(u, map);
     targets = liveTargets(map);
   }
@@ -683,7 +686,9 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
     const PlanOutcome outcome = planTo(map, vehicle, view, t_s, FlightKind::ToTarget);
     if (outcome == PlanOutcome::Ok) {
       MapProbe probe(map.sightMap());
-      target_pockets_ = openPockets(*cluster);
+      // Pockets are visited (marked) only with PocketsOnce.
+      target_pockets_ =
+          params_.final_sweep == FinalSweepScope::PocketsOnce ? openPockets(*cluster) : std::vector<std::size_t>{};
       book_.setTarget(*cluster,
                       visibleVoxels(probe, view.position_W, view.yaw_rad, cluster->samples, params_.viewpoint.camera));
       step.target = t.cluster;

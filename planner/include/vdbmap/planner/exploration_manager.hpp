@@ -481,8 +481,9 @@ class ExplorationManager {
   std::vector<Eigen::AlignedBox3d> free_boxes_;
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
-  /// The final sweep's pockets: the pocket of each voxel of the small clusters it began with and
-  /// of the clusters made from them since; whether each pocket was visited; the current target's.
+  /// The final sweep's pockets (final_sweep not All): the pocket of each voxel of the small
+  /// clusters it began with and of the clusters made from them since; whether each pocket was
+  /// visited; the current target's pockets (PocketsOnce only: those are marked visited).
   std::unordered_map<openvdb::Coord, std::size_t, CoordHash> pocket_of_;
   std::vector<bool> pocket_visited_;
   std::vector<std::size_t> target_pockets_;
