@@ -281,9 +281,11 @@ void ExplorationManager::applyFrontierUpdate(const FrontierUpdate& u, const MapQ
   std::vector<const FrontierCluster*> fresh;
   for (ClusterId id : u.added) {
     const FrontierCluster* c = frontiers_.find(id);
-    if (!c || outsideSweep(*c)) continue;  // no viewpoints: never a target
-    if (const std::vector<std::size_t> pockets = openPockets(*c); !pockets.empty())
-      for (const openvdb::Coord& v : c->voxels) pocket_of_.emplace(v, pockets.front());  // what remains of it
+    if (!c) continue;
+    const std::vector<std::size_t> pockets = openPockets(*c);
+    if (pockets.empty() && smallInSweep(*c)) continue;  // no viewpoints: never a target
+    if (!pockets.empty())                               // what remains of a pocket is part of it
+      for (const openvdb::Coord& v : c->voxels) pocket_of_.emplace(v, pockets.front());
     fresh.push_back(c);
   }
   computeViews(fresh, map);
@@ -301,11 +303,13 @@ std::vector<std::size_t> ExplorationManager::openPockets(const FrontierCluster& 
   return pockets;
 }
 
+bool ExplorationManager::smallInSweep(const FrontierCluster& cluster) const {
+  return phase_ == ExplorationPhase::FinalSweep && params_.final_sweep != FinalSweepScope::All &&
+         cluster.component_voxels < std::size_t(params_.frontier.min_cluster_size);
+}
+
 bool ExplorationManager::outsideSweep(const FrontierCluster& cluster) const {
-  if (phase_ != ExplorationPhase::FinalSweep || params_.final_sweep == FinalSweepScope::All ||
-      cluster.component_voxels >= std::size_t(params_.frontier.min_cluster_size))
-    return false;
-  return openPockets(cluster).empty();
+  return smallInSweep(cluster) && openPockets(cluster).empty();
 }
 
 void ExplorationManager::computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map) {
@@ -542,11 +546,10 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
   // A visit is over when its trajectory ended (it is judged by what the target's viewpoint saw) or
   // its target was covered on the way; the final sweep's PocketsOnce visits the target's pockets
   // no more.
-  const bool visit_over = (step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour) ||
-                          step.reason == ReplanReason::TargetCovered;
-  if (visit_over && book_.target() != 0)
+  const bool arrived = step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour;
+  if ((arrived || step.reason == ReplanReason::TargetCovered) && book_.target() != 0)
     for (std::size_t p : target_pockets_) pocket_visited_[p] = true;
-  if (step.reason == ReplanReason::TrajectoryEnd && flight_ != FlightKind::LoopDetour) {
+  if (arrived) {
     const std::size_t failures_before = book_.failuresAdded();
     book_.judgeVisit(frontiers_, params_.covered_fraction);
     step.visit_failed = book_.failuresAdded() != failures_before;

@@ -416,15 +416,15 @@ json exploreRun(const fs::path& dir, const ReportConfig& config, ReportStats& st
   if (summary.contains("start") && summary["start"].size() >= 3)
     scene["points"].push_back(pointLayer("start", "#2ca02c", 0.25,
                                          {Vec3d(summary["start"][0], summary["start"][1], summary["start"][2])}, {0.0}));
-  std::vector<Vec3d> collision_p;
-  for (double t : collision_t) collision_p.push_back(truth.at(t));
-  scene["points"].push_back(pointLayer("collisions", "#d62728", 0.3, collision_p, collision_t));
-  std::vector<Vec3d> detour_p;
-  for (double t : detour_t) detour_p.push_back(truth.at(t));
-  scene["points"].push_back(pointLayer("ALC detour starts", "#9467bd", 0.2, detour_p, detour_t));
-  std::vector<Vec3d> visit_failed_p;
-  for (double t : visit_failed_t) visit_failed_p.push_back(truth.at(t));
-  scene["points"].push_back(pointLayer("failed visits", "#8c564b", 0.15, visit_failed_p, visit_failed_t));
+  // Events where the true path was when they happened.
+  const auto eventLayer = [&](const char* name, const char* colour, double size, const std::vector<double>& times) {
+    std::vector<Vec3d> at;
+    for (double t : times) at.push_back(truth.at(t));
+    return pointLayer(name, colour, size, at, times);
+  };
+  scene["points"].push_back(eventLayer("collisions", "#d62728", 0.3, collision_t));
+  scene["points"].push_back(eventLayer("ALC detour starts", "#9467bd", 0.2, detour_t));
+  scene["points"].push_back(eventLayer("failed visits", "#8c564b", 0.15, visit_failed_t));
 
   const fs::path simulation = dir / "log" / "simulation.json";
   if (fs::is_regular_file(simulation)) {

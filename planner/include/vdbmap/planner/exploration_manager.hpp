@@ -409,8 +409,10 @@ class ExplorationManager {
   std::vector<Target> liveTargets(const MapQuery& map);
   /// The final sweep's pockets not yet visited that share a voxel with `cluster` (ascending).
   std::vector<std::size_t> openPockets(const FrontierCluster& cluster) const;
-  /// In the final sweep (final_sweep not All): a small cluster that is no part of a pocket still to
-  /// visit, so never a target.
+  /// In the final sweep with a scope other than All: a cluster of a component below
+  /// frontier.min_cluster_size, a target only as part of a pocket.
+  bool smallInSweep(const FrontierCluster& cluster) const;
+  /// smallInSweep, and no part of a pocket still to visit: never a target.
   bool outsideSweep(const FrontierCluster& cluster) const;
 
   // ---- decisions
