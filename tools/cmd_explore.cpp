@@ -36,6 +36,7 @@ struct ExploreOptions {
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
+  double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
   int min_cluster_size = planner::FrontierConfig{}.min_cluster_size;
   int revisit_rounds = planner::ExplorationManagerConfig{}.revisit_rounds;
   int final_min_cluster_size = planner::ExplorationManagerConfig{}.final_min_cluster_size;
@@ -82,6 +83,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.initial_turn = !o.no_initial_turn;
   config.planner.alc_enabled = o.alc == "on";
   config.planner.alc.epsilon = o.epsilon;
+  config.planner.alc.finish_loop_age_s = o.finish_loop_age_s;
   config.planner.safety.enabled = o.safety == "on";
   config.planner.safety.recent.window_s = o.safety_window_s;
   config.planner.safety.seen_free_is_free = o.safety_seen_free == "on";
@@ -102,8 +104,10 @@ void runExplore(const ExploreOptions& o) {
       " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
       std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --revisit-rounds " +
       std::to_string(o.revisit_rounds) + " --budgets " + o.budgets + " --alc " + o.alc +
-      (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) : std::string()) + " --safety " +
-      o.safety +
+      (config.planner.alc_enabled
+           ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
+           : std::string()) +
+      " --safety " + o.safety +
       (config.planner.safety.enabled
            ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-seen-free " + o.safety_seen_free
            : std::string());
@@ -176,6 +180,11 @@ const Registration registration("explore", [](CLI::App& app) {
   sub->add_option("--epsilon", o->epsilon,
                   "ALC: take the loop-closure detour when it costs at most (1 + epsilon) times the frontier tour")
       ->check(CLI::Range(0.0, 100.0));
+  sub->add_option("--finish-loop-age", o->finish_loop_age_s,
+                  "ALC: when exploration would finish and no loop has closed for this many seconds, fly back to a "
+                  "nearby place flown before to close one more, so the drift of the last stretch is corrected in "
+                  "the map (0: finish at once)")
+      ->check(CLI::Range(0.0, 1e6));
   sub->add_option("--safety", o->safety,
                   "The drift-free safety layer: the last seconds of depth frames are obstacles over the global map, "
                   "a trajectory they see blocked is replanned at once (an emergency stop), and the vehicle brakes "

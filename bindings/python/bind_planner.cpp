@@ -147,6 +147,10 @@ void bindAlcParams(py::module_& m) {
       .def_readwrite("loop_quiet_s", &AlcConfig::loop_quiet_s, "ALC is off this long after any loop closure")
       .def_readwrite("max_failures_per_cluster", &AlcConfig::max_failures_per_cluster,
                      "given up this often, a cluster is never chosen again")
+      .def_readwrite("finish_loop_age_s", &AlcConfig::finish_loop_age_s,
+                     "before finishing, a detour to close a loop when the last is this old; 0: none")
+      .def_readwrite("finish_search_radius_m", &AlcConfig::finish_search_radius_m,
+                     "the detour before finishing goes to a cluster with a viewpoint this close")
       .def_readwrite("unreachable_cost_s", &AlcConfig::unreachable_cost_s,
                      "legs at or above this are left out of both sums")
       .def_readwrite("tour", &AlcConfig::tour, "TourConfig of both tours")

@@ -21,6 +21,9 @@ void AlcConfig::validate() const {
   if (!in(suspension_s, 0.0, 1e6)) check.fail("suspension_s", "[0, 1e6]");
   if (!in(loop_quiet_s, 0.0, 1e6)) check.fail("loop_quiet_s", "[0, 1e6]");
   if (max_failures_per_cluster < 1 || max_failures_per_cluster > 1000) check.fail("max_failures_per_cluster", "[1, 1000]");
+  if (!in(finish_loop_age_s, 0.0, 1e6)) check.fail("finish_loop_age_s", "[0, 1e6]");
+  if (!(finish_search_radius_m > 0.0 && finish_search_radius_m <= 1e3))
+    check.fail("finish_search_radius_m", "(0, 1000]");
   if (!(unreachable_cost_s > 0.0 && unreachable_cost_s <= 1e9)) check.fail("unreachable_cost_s", "(0, 1e9]");
 }
 
@@ -145,12 +148,19 @@ std::optional<AlcStatus> ActiveLoopClosure::gate(double now_s, bool loop_closed)
   return std::nullopt;
 }
 
-std::vector<LoopClusterId> ActiveLoopClosure::candidates(const Vec3d& position_W) const {
+std::vector<LoopClusterId> ActiveLoopClosure::candidates(const Vec3d& position_W, double radius_m) const {
   if (detour_) return {detour_->cluster};
   std::vector<LoopClusterId> usable;
-  for (const LoopClusterId id : clusters_.near(history_, position_W, params_.search_radius_m))
+  for (const LoopClusterId id : clusters_.near(history_, position_W, radius_m))
     if (failures(id) < std::size_t(params_.max_failures_per_cluster)) usable.push_back(id);
   return usable;
+}
+
+void ActiveLoopClosure::checkTime(double now_s, const char* who) {
+  if (!std::isfinite(now_s) || (last_decision_s_ && now_s < *last_decision_s_))
+    throw std::invalid_argument(std::string("ActiveLoopClosure::") + who + ": now_s = " + std::to_string(now_s) +
+                                " s is not finite or earlier than the previous call's");
+  last_decision_s_ = now_s;
 }
 
 namespace {
@@ -164,6 +174,22 @@ std::vector<LegCost> priced(const LegCostFunction& leg_costs, const VehicleState
 }
 }  // namespace
 
+std::optional<std::pair<LoopClusterId, LegCost>> ActiveLoopClosure::cheapest(const std::vector<LoopClusterId>& ids,
+                                                                             const VehicleState& vehicle,
+                                                                             const LegCostFunction& leg_costs) const {
+  std::vector<TourTarget> centres;
+  for (const LoopClusterId id : ids) {
+    const FlownViewpoint& c = history_[clusters_[id].centre];
+    centres.push_back(TourTarget{id, FlatPose{c.position_W, c.yaw_rad}});
+  }
+  const std::vector<LegCost> to_centres = priced(leg_costs, vehicle, centres);
+  std::optional<std::size_t> best;
+  for (std::size_t k = 0; k < ids.size(); ++k)
+    if (to_centres[k].reachable && (!best || to_centres[k].cost_s < to_centres[*best].cost_s)) best = k;
+  if (!best) return std::nullopt;
+  return std::make_pair(ids[*best], to_centres[*best]);
+}
+
 AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s, bool loop_closed,
                                       const std::vector<TourTarget>& targets, const RealCostMatrix& frontier_costs,
                                       const LegCostFunction& leg_costs, const TourResult* frontier_tour) {
@@ -175,10 +201,7 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
     throw std::invalid_argument("ActiveLoopClosure::decide: the frontier tour visits " +
                                 std::to_string(frontier_tour->order.size()) + " of " + std::to_string(targets.size()) +
                                 " targets");
-  if (!std::isfinite(now_s) || (last_decision_s_ && now_s < *last_decision_s_))
-    throw std::invalid_argument("ActiveLoopClosure::decide: now_s = " + std::to_string(now_s) +
-                                " s is not finite or earlier than the previous call's");
-  last_decision_s_ = now_s;
+  checkTime(now_s, "decide");
   clusters_.update(history_, now_s);
 
   AlcDecision d;
@@ -196,22 +219,14 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
     return d;
   }
 
-  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W);
+  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, params_.search_radius_m);
   if (ids.empty()) {
     d.status = AlcStatus::kNoCluster;
     return d;
   }
 
-  // c*: the cheapest centre to reach from the vehicle's state (ties: the older cluster).
-  std::vector<TourTarget> centres;
-  for (const LoopClusterId id : ids) {
-    const FlownViewpoint& c = history_[clusters_[id].centre];
-    centres.push_back(TourTarget{id, FlatPose{c.position_W, c.yaw_rad}});
-  }
-  const std::vector<LegCost> to_centres = priced(leg_costs, vehicle, centres);
-  std::optional<std::size_t> best;
-  for (std::size_t k = 0; k < ids.size(); ++k)
-    if (to_centres[k].reachable && (!best || to_centres[k].cost_s < to_centres[*best].cost_s)) best = k;
+  // c*: the cheapest centre to reach from the vehicle's state.
+  const std::optional<std::pair<LoopClusterId, LegCost>> best = cheapest(ids, vehicle, leg_costs);
   if (!best) {
     if (detour_) giveUp(now_s);  // the detour's cluster can no longer be reached
     d.status = AlcStatus::kNoReachableCluster;
@@ -219,15 +234,16 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
   }
 
   // M_loop: M_frt with row 0 from c* (at rest); both tours from node 0.
+  const FlownViewpoint& centre = history_[clusters_[best->first].centre];
   VehicleState at_cluster;
-  at_cluster.position_W = centres[*best].pose.position_W;
-  at_cluster.yaw_rad = centres[*best].pose.yaw_rad;
+  at_cluster.position_W = centre.position_W;
+  at_cluster.yaw_rad = centre.yaw_rad;
   std::vector<double> from_cluster;
   for (const LegCost& leg : priced(leg_costs, at_cluster, targets)) from_cluster.push_back(leg.cost_s);
 
-  d.cluster = ids[*best];
+  d.cluster = best->first;
   d.cluster_viewpoints = clusters_.viewpoints(history_, *d.cluster);
-  d.to_cluster = to_centres[*best];
+  d.to_cluster = best->second;
   d.loop_costs = loopTourMatrix(frontier_costs, from_cluster);
   d.loop_tour = solveOpenTour(d.loop_costs, params_.tour);
   d.loop_cost_s = d.to_cluster.cost_s + reachableTourCost(d.loop_costs, d.loop_tour.order, params_.unreachable_cost_s);
@@ -241,6 +257,46 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
   } else {
     d.status = AlcStatus::kFrontierCheaper;
   }
+  return d;
+}
+
+AlcDecision ActiveLoopClosure::decideFinish(const VehicleState& vehicle, double now_s, bool loop_closed,
+                                            const LegCostFunction& leg_costs) {
+  checkTime(now_s, "decideFinish");
+  clusters_.update(history_, now_s);
+  AlcDecision d;
+  d.frontier_tour = solveOpenTour(RealCostMatrix(1), params_.tour);
+  d.status = gate(now_s, loop_closed).value_or(AlcStatus::kNoFrontier);
+  if (d.status != AlcStatus::kGaveUp) d.status = AlcStatus::kNoFrontier;  // the other gates guard exploring detours
+  if (detour_ && !detour_->before_finish) endDetour(now_s);               // nothing left to explore
+  if (!detour_) {
+    const double since_loop_s = now_s - last_loop_s_.value_or(flight_start_s_);
+    if (finish_tried_ || params_.finish_loop_age_s <= 0.0 || since_loop_s < params_.finish_loop_age_s) return d;
+  }
+  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, params_.finish_search_radius_m);
+  if (ids.empty()) {
+    d.status = AlcStatus::kNoCluster;
+    return d;
+  }
+  const std::optional<std::pair<LoopClusterId, LegCost>> best = cheapest(ids, vehicle, leg_costs);
+  if (!best) {
+    if (detour_) giveUp(now_s);
+    d.status = AlcStatus::kNoReachableCluster;
+    return d;
+  }
+  d.cluster = best->first;
+  d.cluster_viewpoints = clusters_.viewpoints(history_, *d.cluster);
+  d.to_cluster = best->second;
+  d.loop_costs = RealCostMatrix(1);
+  d.loop_tour = d.frontier_tour;
+  d.loop_cost_s = d.to_cluster.cost_s;
+  if (!detour_) {
+    detour_ = AlcDetour{*d.cluster, now_s, true};
+    finish_tried_ = true;
+    ++stats_.detours;
+    ++stats_.finish_detours;
+  }
+  d.status = AlcStatus::kDetour;
   return d;
 }
 

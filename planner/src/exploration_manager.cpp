@@ -601,15 +601,42 @@ std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const 
 
 ExplorationStatus ExplorationManager::finishOrWait(const MapQuery& map, const VehicleState& vehicle, double t_s,
                                                    ExplorationStep& step) {
-  if (alc_ && alc_->detour()) {  // nothing left to explore: the detour ends (decide's kNoFrontier)
-    GlobalTour nothing;
-    nothing.costs = RealCostMatrix(1);
-    step.alc_status = decideLoopDetour(map, vehicle, t_s, {}, nothing)->status;
-  }
   book_.clearTarget();
-  if (!trajectoryDone(t_s) && !blocked(step.reason)) return ExplorationStatus::NoFrontier;
+  bool over = trajectoryDone(t_s) || blocked(step.reason);
+  if (alc_ && (over || alc_->detour())) {
+    const bool finishing = alc_->detour() && alc_->detour()->before_finish;
+    const AlcDecision decision =
+        alc_->decideFinish(vehicle, t_s, std::exchange(pending_.loop_closed, false), mapLegCosts(map, *table_));
+    step.alc_status = decision.status;
+    if (decision.detour()) return flyFinishDetour(map, vehicle, t_s, decision, over, step);
+    over = over || finishing;  // the detour before finishing ended (a loop, or given up): finish now
+  }
+  if (!over) return ExplorationStatus::NoFrontier;
   if (!trajectoryDone(t_s) || trajectoryMoves()) hold(vehicle, t_s);
   return ExplorationStatus::Finished;
+}
+
+ExplorationStatus ExplorationManager::flyFinishDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
+                                                      const AlcDecision& decision, bool flight_over,
+                                                      ExplorationStep& step) {
+  const std::vector<Viewpoint>& views = decision.cluster_viewpoints;
+  for (std::size_t k = 0; k < views.size(); ++k) {
+    const PlanOutcome outcome =
+        planTo(map, vehicle, views[(finish_views_flown_ + k) % views.size()], t_s, FlightKind::LoopDetour);
+    if (outcome == PlanOutcome::Ok) {
+      finish_views_flown_ += k + 1;
+      step.loop_detour = true;
+      return ExplorationStatus::Planned;
+    }
+    if (outcome == PlanOutcome::StartBlocked) {
+      if (escape(map, vehicle, t_s)) return ExplorationStatus::Planned;
+      break;
+    }
+  }
+  // No way to the cluster now: try again at the next update, at rest, until ALC gives up.
+  if (!flight_over) return ExplorationStatus::NoFrontier;
+  if (!trajectoryDone(t_s) || trajectoryMoves()) hold(vehicle, t_s);
+  return ExplorationStatus::Failed;
 }
 
 ExplorationManager::TourChoice ExplorationManager::chooseTour(const MapQuery& map, const VehicleState& vehicle,

@@ -387,6 +387,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["alc_detours"] = s.alc_detours;
   j["alc_time_s"] = s.alc_time_s;
   j["alc_give_ups"] = s.alc_give_ups;
+  j["alc_finish_detours"] = s.alc_finish_detours;
   j["alc_detour_loops"] = s.alc_detour_loops;
   j["description"] = options.description;
   if (!options.world.empty()) j["world"] = options.world;
@@ -534,6 +535,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   s.alc_detours = r.alc.detours;
   s.alc_time_s = r.alc.detour_time_s;
   s.alc_give_ups = r.alc.give_ups;
+  s.alc_finish_detours = r.alc.finish_detours;
   s.alc_detour_loops = r.alc.loops_on_detour;
   s.estimate_error_rmse_m = estimateErrorRmse(r.trajectory_true, r.trajectory_estimate);
   s.observable = observable.stats();

@@ -2,7 +2,7 @@
 // matrices: the detour is taken at exactly (1 + epsilon) C_frt and not above, epsilon = 0 only when
 // the detour is free; c* is the cheapest cluster from the vehicle; M_loop equals a matrix built
 // from scratch on a map; a timed-out cluster is not chosen again until the suspension ends; no
-// ALC in a flight's first seconds nor right after a loop closure.
+// ALC in a flight's first seconds nor right after a loop closure; the loop before finishing.
 #include "planner/planner_test_maps.hpp"
 
 #include "vdbmap/planner/active_loop_closure.hpp"
@@ -337,6 +337,114 @@ TEST_CASE("No ALC during the first initial_period_s of a flight", "[planner][alc
   CHECK(legs.row_sizes.empty());      // and nothing was costed
   CHECK(d.frontier_cost_s == 8.0);
   CHECK(decideAt(alc, legs, 25.0).status == AlcStatus::kDetour);
+}
+
+TEST_CASE("Before finishing, ALC closes a loop once when the last one is older than finish_loop_age_s",
+          "[planner][alc]") {
+  AlcConfig p = testParams();  // a loop before finishing after 10 s without one, within 10 m
+  ActiveLoopClosure alc(p);
+  flyPlaces(alc);
+  FakeLegs legs;  // A costs 1, B 1.5
+  const auto finishAt = [&](double now_s, bool loop_closed = false) {
+    return alc.decideFinish(vehicleAt(), now_s, loop_closed, legs.function());
+  };
+  CHECK(decideAt(alc, legs, 25.0, true).status == AlcStatus::kQuietAfterLoop);  // a loop at 25 s
+  legs.row_sizes.clear();
+  CHECK(finishAt(34.9).status == AlcStatus::kNoFrontier);  // 9.9 s since the loop: finish
+  CHECK_FALSE(alc.detour());
+  CHECK(legs.row_sizes.empty());  // nothing was costed
+
+  AlcDecision d = finishAt(35.0);
+  CHECK(d.status == AlcStatus::kDetour);
+  CHECK(d.cluster == std::optional<LoopClusterId>(kA));  // the cheapest
+  CHECK(d.to_cluster.cost_s == 1.0);
+  REQUIRE_FALSE(d.cluster_viewpoints.empty());
+  CHECK(d.cluster_viewpoints.front().position_W.isApprox(Vec3d(0.125, 0, 1)));  // the centre first
+  CHECK(d.order().empty());
+  CHECK(legs.row_sizes == std::vector<std::size_t>{2});  // only the legs to the two centres
+  REQUIRE(alc.detour());
+  CHECK(alc.detour()->before_finish);
+
+  SECTION("the detour goes on until its timeout, then exploration finishes without another") {
+    legs.to_cluster[kB] = 0.5;
+    d = finishAt(45.0);
+    CHECK(d.status == AlcStatus::kDetour);
+    CHECK(d.cluster == std::optional<LoopClusterId>(kA));
+    CHECK(alc.detourTimedOut(50.0));
+    CHECK(finishAt(50.0).status == AlcStatus::kGaveUp);
+    CHECK_FALSE(alc.detour());
+    CHECK(alc.failures(kA) == 1);
+    CHECK(finishAt(70.0).status == AlcStatus::kNoFrontier);  // tried once
+    const AlcStats s = alc.stats(70.0);
+    CHECK(s.detours == 1);
+    CHECK(s.finish_detours == 1);
+    CHECK(s.give_ups == 1);
+  }
+  SECTION("a loop closure ends it: exploration finishes") {
+    CHECK(finishAt(38.0, true).status == AlcStatus::kNoFrontier);
+    CHECK_FALSE(alc.detour());
+    CHECK(alc.stats(38.0).loops_on_detour == 1);
+    CHECK(alc.failures(kA) == 0);
+  }
+  SECTION("frontiers that appear during it do not end it") {
+    d = decideAt(alc, legs, 36.0);
+    CHECK(d.status == AlcStatus::kDetour);
+    CHECK(d.cluster == std::optional<LoopClusterId>(kA));
+    CHECK(alc.detour()->before_finish);
+  }
+}
+
+TEST_CASE("ALC's loop before finishing: off, out of range, unreachable; an exploring detour ends", "[planner][alc]") {
+  FakeLegs legs;
+  SECTION("finish_loop_age_s = 0 finishes at once, ending an exploring detour") {
+    AlcConfig p = testParams();
+    p.finish_loop_age_s = 0.0;
+    ActiveLoopClosure alc(p);
+    flyPlaces(alc);
+    CHECK(decideAt(alc, legs, 30.0).status == AlcStatus::kDetour);
+    CHECK(alc.decideFinish(vehicleAt(), 31.0, false, legs.function()).status == AlcStatus::kNoFrontier);
+    CHECK_FALSE(alc.detour());
+    CHECK(alc.stats(31.0).detour_time_s == Approx(1.0));
+  }
+  SECTION("an exploring detour in progress gives way to the one before finishing") {
+    ActiveLoopClosure alc(testParams());
+    flyPlaces(alc);
+    CHECK(decideAt(alc, legs, 30.0).status == AlcStatus::kDetour);
+    CHECK_FALSE(alc.detour()->before_finish);
+    CHECK(alc.decideFinish(vehicleAt(), 31.0, false, legs.function()).status == AlcStatus::kDetour);
+    REQUIRE(alc.detour());
+    CHECK(alc.detour()->before_finish);
+    CHECK(alc.detour()->since_s == 31.0);
+    CHECK(alc.stats(31.0).detours == 2);
+  }
+  SECTION("no cluster within finish_search_radius_m") {
+    AlcConfig p = testParams();
+    p.finish_search_radius_m = 0.5;  // A's viewpoints lie 0.75 m and more from the vehicle
+    ActiveLoopClosure alc(p);
+    flyPlaces(alc);
+    CHECK(alc.decideFinish(vehicleAt(), 30.0, false, legs.function()).status == AlcStatus::kNoCluster);
+    CHECK(alc.stats(30.0).finish_detours == 0);
+  }
+  SECTION("no reachable cluster: nothing tried, nothing given up") {
+    ActiveLoopClosure alc(testParams());
+    flyPlaces(alc);
+    legs.reachable[kA] = legs.reachable[kB] = false;
+    CHECK(alc.decideFinish(vehicleAt(), 30.0, false, legs.function()).status == AlcStatus::kNoReachableCluster);
+    CHECK(alc.failures(kA) == 0);
+    legs.reachable[kB] = true;
+    CHECK(alc.decideFinish(vehicleAt(), 31.0, false, legs.function()).cluster == std::optional<LoopClusterId>(kB));
+  }
+  SECTION("misuse") {
+    ActiveLoopClosure alc(testParams());
+    alc.decideFinish(vehicleAt(), 30.0, false, legs.function());
+    CHECK_THROWS_AS(alc.decideFinish(vehicleAt(), 29.0, false, legs.function()), std::invalid_argument);
+    AlcConfig bad;
+    bad.finish_loop_age_s = -1.0;
+    CHECK_THROWS_WITH(ActiveLoopClosure(bad), Catch::Contains("finish_loop_age_s"));
+    bad = AlcConfig{};
+    bad.finish_search_radius_m = 0.0;
+    CHECK_THROWS_WITH(ActiveLoopClosure(bad), Catch::Contains("finish_search_radius_m"));
+  }
 }
 
 TEST_CASE("ALC's other outcomes and misuse", "[planner][alc]") {

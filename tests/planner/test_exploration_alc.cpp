@@ -29,6 +29,14 @@ DenseMap corridorRoom() {
   return map;
 }
 
+/// The same room with every voxel inside known free: nothing to explore.
+DenseMap closedRoom() {
+  DenseMap map(kVoxel, CoordBBox(Coord(-2), Coord(122, 62, 32)));
+  map.fill(CoordBBox(Coord(0), Coord(119, 59, 29)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(1), Coord(118, 58, 28)), Occupancy::Free);
+  return map;
+}
+
 /// ALC for hand-fed histories: on from the start, clusters once viewpoints are 1 s old, a 2 s
 /// give-up timeout and a 3 s suspension.
 ExplorationManagerConfig alcParams() {
@@ -202,4 +210,70 @@ TEST_CASE("With ALC on, exploration of a room still finishes", "[planner][explor
   CHECK_FALSE(m.alc()->detour());  // no detour left in progress
   INFO("detours " << m.alcStats().detours << ", give-ups " << m.alcStats().give_ups);
   CHECK(m.alcStats().detours >= 1);  // old places were close and cheap in this corridor
+}
+
+TEST_CASE("With nothing left to explore, the manager closes a loop before finishing", "[planner][exploration][alc]") {
+  const DenseMap map = closedRoom();
+  ExplorationManagerConfig p = alcParams();  // a loop before finishing after 10 s without one; 2 s timeout
+  const Vec3d vehicle(4.5, 3, 1.5);
+  const auto follow = [&](ExplorationManager& m, double t) {
+    const VehicleState c = m.command(t);
+    VehicleState v = at(c.position_W, c.yaw_rad);
+    v.velocity_W = c.velocity_W;
+    return m.update(map, CoordBBox(), v, t);
+  };
+
+  SECTION("not before finish_loop_age_s; then a detour to the loop cluster") {
+    ExplorationManager m(p, at(Vec3d(4.0, 3, 1.5)), 0.0);
+    double t = flyPlaceThenGo(m, map, 4.0, vehicle);
+    ExplorationStep step;
+    for (; t < p.alc.finish_loop_age_s - 0.01; t += 0.5) {
+      step = m.update(map, CoordBBox(), at(vehicle), t);
+      CHECK(step.status == ExplorationStatus::Finished);
+    }
+    step = m.update(map, CoordBBox(), at(vehicle), p.alc.finish_loop_age_s);
+    t = p.alc.finish_loop_age_s;
+    REQUIRE(step.alc_status.has_value());
+    CHECK(*step.alc_status == AlcStatus::kDetour);
+    CHECK(step.status == ExplorationStatus::Planned);
+    CHECK(step.loop_detour);
+    CHECK(endsAtLoopCluster(m));
+    CHECK(m.alcStats().finish_detours == 1);
+
+    SECTION("a loop closure ends it: finished at once, where the vehicle is") {
+      t += 0.25;
+      m.notifyLoopClosure(t);
+      step = follow(m, t);
+      CHECK(step.status == ExplorationStatus::Finished);
+      CHECK_FALSE(m.onLoopDetour());
+      CHECK(m.alcStats().loops_on_detour == 1);
+      CHECK(m.command(t + 1.0).velocity_W.norm() < 1e-9);  // holding
+    }
+    SECTION("no loop: the cluster's viewpoints in turn, finished at the timeout, not tried again") {
+      const double start = t;
+      std::vector<Vec3d> ends{m.command(m.trajectoryStartTime() + m.trajectory().duration()).position_W};
+      while (step.status != ExplorationStatus::Finished && t < start + 10.0) {
+        t += 0.05;
+        step = follow(m, t);
+        if (step.loop_detour) ends.push_back(m.command(m.trajectoryStartTime() + m.trajectory().duration()).position_W);
+      }
+      CHECK(step.status == ExplorationStatus::Finished);
+      CHECK(t >= start + p.alc.give_up_timeout_s);
+      CHECK(t < start + p.alc.give_up_timeout_s + 0.5);
+      REQUIRE(ends.size() >= 2);
+      CHECK((ends[0] - ends[1]).norm() > 1e-3);  // another viewpoint
+      const AlcStats stats = m.alcStats();
+      CHECK(stats.give_ups == 1);
+      CHECK(stats.finish_detours == 1);
+      for (int k = 0; k < 20; ++k) CHECK(follow(m, t += 0.5).status == ExplorationStatus::Finished);
+      CHECK(m.alcStats().detours == 1);
+    }
+  }
+  SECTION("finish_loop_age_s = 0: finished without a detour") {
+    p.alc.finish_loop_age_s = 0.0;
+    ExplorationManager m(p, at(Vec3d(4.0, 3, 1.5)), 0.0);
+    double t = flyPlaceThenGo(m, map, 4.0, vehicle);
+    for (; t < 30.0; t += 0.5) CHECK(m.update(map, CoordBBox(), at(vehicle), t).status == ExplorationStatus::Finished);
+    CHECK(m.alcStats().detours == 0);
+  }
 }

@@ -206,8 +206,11 @@ def test_exploration_config_defaults_and_shortcuts(room):
     # Active loop closure is off unless asked for (`vdbmap explore --alc off`), epsilon as the CLI's.
     assert config.planner.alc_enabled is False and cli_default("explore", "--alc") == "off"
     assert config.planner.alc.epsilon == float(cli_default("explore", "--epsilon")) == 0.2
+    assert config.planner.alc.finish_loop_age_s == float(cli_default("explore", "--finish-loop-age")) == 10.0
     config.planner.alc.epsilon = 0.5
     assert config.planner.alc.epsilon == 0.5
+    with pytest.raises(ValueError, match="finish_search_radius_m"):
+        vdbmap.planner.AlcConfig(finish_search_radius_m=0.0).validate()
     with pytest.raises(ValueError, match="epsilon"):
         vdbmap.planner.AlcConfig(epsilon=-1.0).validate()
 

@@ -153,6 +153,8 @@ class AlcConfig:
     suspension_s: float
     loop_quiet_s: float
     max_failures_per_cluster: int
+    finish_loop_age_s: float
+    finish_search_radius_m: float
     unreachable_cost_s: float
     tour: TourConfig
     def __init__(self, **kwargs: Any) -> None: ...

@@ -23,6 +23,12 @@
 // never chosen again. There is no ALC during the first initial_period_s of a flight, nor within
 // loop_quiet_s after any detected loop closure (drift was just corrected).
 //
+// Beyond the paper, a loop before finishing (decideFinish): when exploration would end and no loop
+// closed for finish_loop_age_s, one more detour goes to the cheapest loop cluster within
+// finish_search_radius_m, so that the drift of the last stretch is corrected before the map is
+// handed over (the frames since the last loop closure are otherwise left where drift put them).
+// It ends like any detour: a loop closure, the give-up timeout or no path; it is tried once.
+//
 // Defaults follow the authors' code and simulation launch file
 // (github.com/yzhangec/Exploration-with-Global-Consistency):
 //   give_up_timeout_s  15 s  their alc_max_duration: time in a loop cluster without a loop
@@ -45,6 +51,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -59,6 +66,10 @@ struct AlcConfig {
   double suspension_s = 10.0;        ///< ALC is off this long after giving up; [0, 1e6]
   double loop_quiet_s = 30.0;        ///< ALC is off this long after any loop closure; [0, 1e6]
   int max_failures_per_cluster = 2;  ///< given up this often, a cluster is never chosen again; [1, 1000]
+  /// A detour before finishing when the last loop closure (or the flight's start) is at least this
+  /// old; 0: finish without one; [0, 1e6]
+  double finish_loop_age_s = 10.0;
+  double finish_search_radius_m = 10.0;  ///< its candidate clusters have a viewpoint this close; (0, 1e3]
   /// Legs costing this much or more mean "no path" (keep equal to CostConfig::unreachable_cost_s);
   /// (0, 1e9]
   double unreachable_cost_s = 1000.0;
@@ -71,7 +82,7 @@ using AlcParams [[deprecated("renamed AlcConfig")]] = AlcConfig;
 enum class AlcStatus {
   kDetour,              ///< fly via the loop cluster first (a new detour, or the one in progress)
   kFrontierCheaper,     ///< compared: C_loop > (1 + epsilon) C_frt, the frontier tour is kept
-  kNoFrontier,          ///< no frontier target: nothing to compare (exploration is over)
+  kNoFrontier,          ///< no frontier target: nothing to compare (exploration is over, no loop needed before)
   kInitialPeriod,       ///< within initial_period_s of the flight's start
   kQuietAfterLoop,      ///< within loop_quiet_s of a detected loop closure (also: a detour just succeeded)
   kGaveUp,              ///< the detour in progress timed out (or its cluster became unreachable) now
@@ -125,6 +136,7 @@ struct AlcStats {
   std::size_t detours = 0;          ///< detours started
   std::size_t loops_on_detour = 0;  ///< detours ended by a loop closure
   std::size_t give_ups = 0;         ///< detours given up (timeout or unreachable)
+  std::size_t finish_detours = 0;   ///< detours before finishing (also counted in detours)
   double detour_time_s = 0.0;       ///< time spent on detours (the one in progress up to now)
 };
 
@@ -132,6 +144,7 @@ struct AlcStats {
 struct AlcDetour {
   LoopClusterId cluster = 0;
   double since_s = 0.0;
+  bool before_finish = false;  ///< started by decideFinish
 };
 
 class ActiveLoopClosure {
@@ -156,6 +169,13 @@ class ActiveLoopClosure {
                      const std::vector<TourTarget>& targets, const RealCostMatrix& frontier_costs,
                      const LegCostFunction& leg_costs, const TourResult* frontier_tour = nullptr);
 
+  /// The decision when there is no frontier target left and the flight is over (or a detour is in
+  /// progress): a detour before finishing (status kDetour; `cluster_viewpoints` to try, its centre
+  /// first), or finish (any other status). An exploring detour in progress ends here; a detour
+  /// before finishing goes on. Throws std::invalid_argument when now_s goes back in time.
+  AlcDecision decideFinish(const VehicleState& vehicle, double now_s, bool loop_closed,
+                           const LegCostFunction& leg_costs);
+
   /// True when a detour is in progress and its timeout has passed: the replanning loop should
   /// replan now (decide() will give up), rather than at its next periodic replan.
   bool detourTimedOut(double now_s) const;
@@ -176,7 +196,12 @@ class ActiveLoopClosure {
   std::optional<AlcStatus> gate(double now_s, bool loop_closed);
   void endDetour(double now_s);
   void giveUp(double now_s);
-  std::vector<LoopClusterId> candidates(const Vec3d& position_W) const;
+  void checkTime(double now_s, const char* who);
+  std::vector<LoopClusterId> candidates(const Vec3d& position_W, double radius_m) const;
+  /// The cheapest of `ids` to reach from `vehicle`, with its leg (ties: the older cluster).
+  std::optional<std::pair<LoopClusterId, LegCost>> cheapest(const std::vector<LoopClusterId>& ids,
+                                                            const VehicleState& vehicle,
+                                                            const LegCostFunction& leg_costs) const;
 
   AlcConfig params_;
   double flight_start_s_;
@@ -187,6 +212,7 @@ class ActiveLoopClosure {
   std::optional<double> last_loop_s_;
   std::optional<double> last_decision_s_;
   std::map<LoopClusterId, std::size_t> failures_;
+  bool finish_tried_ = false;
   AlcStats stats_;
 };
 

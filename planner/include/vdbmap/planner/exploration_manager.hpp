@@ -456,8 +456,13 @@ class ExplorationManager {
   /// The live targets; when none is left, the final sweep's small clusters, then (revisit_rounds)
   /// the blacklisted ones once more.
   std::vector<Target> gatherTargets(const MapQuery& map);
-  /// No target is left: finish once at rest, else let the trajectory run out (NoFrontier).
+  /// No target is left: finish once at rest, else let the trajectory run out (NoFrontier). With
+  /// ALC, a loop may be closed first (ActiveLoopClosure::decideFinish).
   ExplorationStatus finishOrWait(const MapQuery& map, const VehicleState& vehicle, double t_s, ExplorationStep& step);
+  /// Flies ALC's detour before finishing to the next of its cluster's viewpoints that can be
+  /// reached (one per flight: drift moves the true pose off each of them differently).
+  ExplorationStatus flyFinishDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
+                                    const AlcDecision& decision, bool flight_over, ExplorationStep& step);
   TourChoice chooseTour(const MapQuery& map, const VehicleState& vehicle, double t_s,
                         const std::vector<Target>& targets, ExplorationStep& step);
   std::optional<AlcDecision> decideLoopDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
@@ -494,6 +499,7 @@ class ExplorationManager {
   TargetBook book_;                         ///< failures, blacklist, the current target
   EscapePlanner escapes_;                   ///< the way flown, and the ways out of a blocked start
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
+  std::size_t finish_views_flown_ = 0;      ///< flights of the detour before finishing so far
   std::unique_ptr<RecentFrames> recent_;    ///< null without the safety layer
 
   // The state machine.

@@ -243,6 +243,7 @@ struct ExplorationSummary {
   double alc_time_s = 0.0;             ///< time spent flying loop-closure detours
   std::size_t alc_give_ups = 0;        ///< detours given up without a loop closure
   std::size_t alc_detour_loops = 0;    ///< detours that ended with a loop closure
+  std::size_t alc_finish_detours = 0;  ///< of alc_detours: to close a loop before finishing
   double estimate_error_rmse_m = 0.0;  ///< estimated vs true sensor positions over the frames
   double planner_ms_median = 0.0;
   double planner_ms_max = 0.0;
