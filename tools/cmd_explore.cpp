@@ -180,10 +180,12 @@ const Registration registration("explore", [](CLI::App& app) {
   sub->add_option("--epsilon", o->epsilon,
                   "ALC: take the loop-closure detour when it costs at most (1 + epsilon) times the frontier tour")
       ->check(CLI::Range(0.0, 100.0));
-  sub->add_option("--finish-loop-age", o->finish_loop_age_s,
-                  "ALC: when exploration would finish and no loop has closed for this many seconds, fly back to a "
-                  "nearby place flown before to close one more, so the drift of the last stretch is corrected in "
-                  "the map (0: finish at once)")
+  sub->add_option(
+         "--finish-loop-age", o->finish_loop_age_s,
+         "ALC: when exploration would finish and no loop has closed for this many seconds, fly back to a "
+         "nearby place flown before to close one more (at most " +
+             std::to_string(planner::AlcConfig{}.max_finish_detours) +
+             " times per flight), so the drift of the last stretch is corrected in the map (0: finish at once)")
       ->check(CLI::Range(0.0, 1e6));
   sub->add_option("--safety", o->safety,
                   "The drift-free safety layer: the last seconds of depth frames are obstacles over the global map, "

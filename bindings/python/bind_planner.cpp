@@ -151,6 +151,7 @@ void bindAlcParams(py::module_& m) {
                      "before finishing, a detour to close a loop when the last is this old; 0: none")
       .def_readwrite("finish_search_radius_m", &AlcConfig::finish_search_radius_m,
                      "the detour before finishing goes to a cluster with a viewpoint this close")
+      .def_readwrite("max_finish_detours", &AlcConfig::max_finish_detours, "detours before finishing per flight")
       .def_readwrite("unreachable_cost_s", &AlcConfig::unreachable_cost_s,
                      "legs at or above this are left out of both sums")
       .def_readwrite("tour", &AlcConfig::tour, "TourConfig of both tours")

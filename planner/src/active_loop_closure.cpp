@@ -24,6 +24,7 @@ void AlcConfig::validate() const {
   if (!in(finish_loop_age_s, 0.0, 1e6)) check.fail("finish_loop_age_s", "[0, 1e6]");
   if (!(finish_search_radius_m > 0.0 && finish_search_radius_m <= 1e3))
     check.fail("finish_search_radius_m", "(0, 1000]");
+  if (max_finish_detours < 1 || max_finish_detours > 100) check.fail("max_finish_detours", "[1, 100]");
   if (!(unreachable_cost_s > 0.0 && unreachable_cost_s <= 1e9)) check.fail("unreachable_cost_s", "(0, 1e9]");
 }
 
@@ -271,7 +272,9 @@ AlcDecision ActiveLoopClosure::decideFinish(const VehicleState& vehicle, double 
   if (detour_ && !detour_->before_finish) endDetour(now_s);               // nothing left to explore
   if (!detour_) {
     const double since_loop_s = now_s - last_loop_s_.value_or(flight_start_s_);
-    if (finish_tried_ || params_.finish_loop_age_s <= 0.0 || since_loop_s < params_.finish_loop_age_s) return d;
+    if (stats_.finish_detours >= std::size_t(params_.max_finish_detours) || params_.finish_loop_age_s <= 0.0 ||
+        since_loop_s < params_.finish_loop_age_s)
+      return d;
   }
   const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, params_.finish_search_radius_m);
   if (ids.empty()) {
@@ -292,7 +295,6 @@ AlcDecision ActiveLoopClosure::decideFinish(const VehicleState& vehicle, double 
   d.loop_cost_s = d.to_cluster.cost_s;
   if (!detour_) {
     detour_ = AlcDetour{*d.cluster, now_s, true};
-    finish_tried_ = true;
     ++stats_.detours;
     ++stats_.finish_detours;
   }

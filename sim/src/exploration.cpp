@@ -197,11 +197,12 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     integrate_ms_all.push_back(integrate_ms);
     mapper_ms.push_back(mapper_ms_this_frame);
     const planner::TsdfMapQuery map(mapper.volume());  // re-created every cycle: the volume changed
-    const std::size_t detours_before = manager.alcStats().detours;
+    const planner::AlcStats alc_before = manager.alcStats();
     const planner::ExplorationStep step =
         manager.update(map, mapper.takeDirtyRegion(), vehicleState(estimate, manager.command(frame.t_s)), frame.t_s);
-    if (manager.alcStats().detours > detours_before) result.events.push_back({frame.t_s, "alc_detour"});
-    if (step.alc_status == planner::AlcStatus::kGaveUp) result.events.push_back({frame.t_s, "alc_gave_up"});
+    // Counted, not read from step.alc_status: at the finish a give-up and the next detour share a decision.
+    if (manager.alcStats().give_ups > alc_before.give_ups) result.events.push_back({frame.t_s, "alc_gave_up"});
+    if (manager.alcStats().detours > alc_before.detours) result.events.push_back({frame.t_s, "alc_detour"});
     if (step.reason == planner::ReplanReason::EmergencyStop) result.events.push_back({frame.t_s, "emergency_stop"});
     if (step.visit_failed) result.events.push_back({frame.t_s, "visit_failed"});
     for (std::size_t i = 0; i < step.path_failures; ++i) result.events.push_back({frame.t_s, "path_failed"});

@@ -339,8 +339,7 @@ TEST_CASE("No ALC during the first initial_period_s of a flight", "[planner][alc
   CHECK(decideAt(alc, legs, 25.0).status == AlcStatus::kDetour);
 }
 
-TEST_CASE("Before finishing, ALC closes a loop once when the last one is older than finish_loop_age_s",
-          "[planner][alc]") {
+TEST_CASE("Before finishing, ALC closes a loop when the last one is older than finish_loop_age_s", "[planner][alc]") {
   AlcConfig p = testParams();  // a loop before finishing after 10 s without one, within 10 m
   ActiveLoopClosure alc(p);
   flyPlaces(alc);
@@ -365,20 +364,27 @@ TEST_CASE("Before finishing, ALC closes a loop once when the last one is older t
   REQUIRE(alc.detour());
   CHECK(alc.detour()->before_finish);
 
-  SECTION("the detour goes on until its timeout, then exploration finishes without another") {
+  SECTION("each detour goes on until its timeout; at most max_finish_detours, then exploration finishes") {
     legs.to_cluster[kB] = 0.5;
     d = finishAt(45.0);
     CHECK(d.status == AlcStatus::kDetour);
     CHECK(d.cluster == std::optional<LoopClusterId>(kA));
     CHECK(alc.detourTimedOut(50.0));
-    CHECK(finishAt(50.0).status == AlcStatus::kGaveUp);
-    CHECK_FALSE(alc.detour());
+    d = finishAt(50.0);  // given up, and the next one starts at once
+    CHECK(d.status == AlcStatus::kDetour);
+    CHECK(d.cluster == std::optional<LoopClusterId>(kB));  // now the cheapest
     CHECK(alc.failures(kA) == 1);
-    CHECK(finishAt(70.0).status == AlcStatus::kNoFrontier);  // tried once
-    const AlcStats s = alc.stats(70.0);
-    CHECK(s.detours == 1);
-    CHECK(s.finish_detours == 1);
-    CHECK(s.give_ups == 1);
+    CHECK(alc.stats(50.0).give_ups == 1);
+    CHECK(finishAt(65.0).cluster == std::optional<LoopClusterId>(kB));  // one failure is below the limit
+    CHECK(alc.failures(kB) == 1);
+    CHECK(p.max_finish_detours == 3);
+    CHECK(finishAt(80.0).status == AlcStatus::kGaveUp);  // the third given up: finish
+    CHECK_FALSE(alc.detour());
+    CHECK(finishAt(81.0).status == AlcStatus::kNoFrontier);
+    const AlcStats s = alc.stats(81.0);
+    CHECK(s.detours == 3);
+    CHECK(s.finish_detours == 3);
+    CHECK(s.give_ups == 3);
   }
   SECTION("a loop closure ends it: exploration finishes") {
     CHECK(finishAt(38.0, true).status == AlcStatus::kNoFrontier);
@@ -444,6 +450,9 @@ TEST_CASE("ALC's loop before finishing: off, out of range, unreachable; an explo
     bad = AlcConfig{};
     bad.finish_search_radius_m = 0.0;
     CHECK_THROWS_WITH(ActiveLoopClosure(bad), Catch::Contains("finish_search_radius_m"));
+    bad = AlcConfig{};
+    bad.max_finish_detours = 0;
+    CHECK_THROWS_WITH(ActiveLoopClosure(bad), Catch::Contains("max_finish_detours"));
   }
 }
 

@@ -232,9 +232,9 @@ def test_exploration_config_defaults_and_shortcuts(room):
     assert config.planner.revisit_rounds == int(cli_default("explore", "--revisit-rounds")) == 0
     # The final sweep over small clusters is on by default, as `vdbmap explore --final-min-cluster-size`.
     assert config.planner.final_min_cluster_size == int(cli_default("explore", "--final-min-cluster-size")) == 30
-    # ... over every small cluster, also those appearing during it, as `vdbmap explore --final-sweep all`.
-    assert config.planner.final_sweep == vdbmap.planner.FinalSweepScope.All
-    assert cli_default("explore", "--final-sweep") == "all"
+    # ... visiting each pocket left when it begins once, as `vdbmap explore --final-sweep once`.
+    assert config.planner.final_sweep == vdbmap.planner.FinalSweepScope.PocketsOnce
+    assert cli_default("explore", "--final-sweep") == "once"
     # The fallback viewpoint search is on by default and reachable as a nested struct.
     fallback = config.planner.viewpoint.fallback
     assert fallback.enabled is True and fallback.min_visible_fraction == 0.5

@@ -155,6 +155,7 @@ class AlcConfig:
     max_failures_per_cluster: int
     finish_loop_age_s: float
     finish_search_radius_m: float
+    max_finish_detours: int
     unreachable_cost_s: float
     tour: TourConfig
     def __init__(self, **kwargs: Any) -> None: ...

@@ -27,7 +27,8 @@
 // closed for finish_loop_age_s, one more detour goes to the cheapest loop cluster within
 // finish_search_radius_m, so that the drift of the last stretch is corrected before the map is
 // handed over (the frames since the last loop closure are otherwise left where drift put them).
-// It ends like any detour: a loop closure, the give-up timeout or no path; it is tried once.
+// It ends like any detour: a loop closure, the give-up timeout or no path. A loop's correction
+// can open new frontiers, and their exploration drifts again: at most max_finish_detours per flight.
 //
 // Defaults follow the authors' code and simulation launch file
 // (github.com/yzhangec/Exploration-with-Global-Consistency):
@@ -70,6 +71,7 @@ struct AlcConfig {
   /// old; 0: finish without one; [0, 1e6]
   double finish_loop_age_s = 10.0;
   double finish_search_radius_m = 10.0;  ///< its candidate clusters have a viewpoint this close; (0, 1e3]
+  int max_finish_detours = 3;            ///< detours before finishing per flight; [1, 100]
   /// Legs costing this much or more mean "no path" (keep equal to CostConfig::unreachable_cost_s);
   /// (0, 1e9]
   double unreachable_cost_s = 1000.0;
@@ -172,7 +174,8 @@ class ActiveLoopClosure {
   /// The decision when there is no frontier target left and the flight is over (or a detour is in
   /// progress): a detour before finishing (status kDetour; `cluster_viewpoints` to try, its centre
   /// first), or finish (any other status). An exploring detour in progress ends here; a detour
-  /// before finishing goes on. Throws std::invalid_argument when now_s goes back in time.
+  /// before finishing goes on; one given up now is followed by the next at once, if one is due. Throws
+  /// std::invalid_argument when now_s goes back in time.
   AlcDecision decideFinish(const VehicleState& vehicle, double now_s, bool loop_closed,
                            const LegCostFunction& leg_costs);
 
@@ -212,7 +215,6 @@ class ActiveLoopClosure {
   std::optional<double> last_loop_s_;
   std::optional<double> last_decision_s_;
   std::map<LoopClusterId, std::size_t> failures_;
-  bool finish_tried_ = false;
   AlcStats stats_;
 };
 

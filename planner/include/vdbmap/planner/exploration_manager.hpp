@@ -172,7 +172,7 @@ struct ExplorationManagerConfig {
   /// tour (final_sweep says which). 0: off; [0, 1e8]
   int final_min_cluster_size = 30;
   /// Which small clusters the final sweep visits (docs/exploration.md, "Final sweep").
-  FinalSweepScope final_sweep = FinalSweepScope::All;
+  FinalSweepScope final_sweep = FinalSweepScope::PocketsOnce;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
   int max_targets_per_replan = 3;
   /// Periodic and frame-shift replans, and the replan that ends a look (SafetyConfig), keep the
