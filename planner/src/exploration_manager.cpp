@@ -605,8 +605,12 @@ ExplorationStatus ExplorationManager::finishOrWait(const MapQuery& map, const Ve
   bool over = trajectoryDone(t_s) || blocked(step.reason);
   if (alc_ && (over || alc_->detour())) {
     const bool finishing = alc_->detour() && alc_->detour()->before_finish;
+    // Legs priced as planTo flies them: the vehicle is where it stands, so space within its
+    // clearance reads free (a sweep's visit ends beside unknown voxels, which block every start).
+    const AssumeFreeMap start_free(
+        map, {boxAround(vehicle.position_W, Vec3d::Constant(params_.path.clearance_m + map.voxelSize()))});
     const AlcDecision decision =
-        alc_->decideFinish(vehicle, t_s, std::exchange(pending_.loop_closed, false), mapLegCosts(map, *table_));
+        alc_->decideFinish(vehicle, t_s, std::exchange(pending_.loop_closed, false), mapLegCosts(start_free, *table_));
     step.alc_status = decision.status;
     if (decision.detour()) return flyFinishDetour(map, vehicle, t_s, decision, over, step);
     over = over || finishing;  // the detour before finishing ended (a loop, or given up): finish now

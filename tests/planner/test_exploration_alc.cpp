@@ -278,3 +278,23 @@ TEST_CASE("With nothing left to explore, the manager closes a loop before finish
     CHECK(m.alcStats().detours == 0);
   }
 }
+
+TEST_CASE("A loop before finishing is priced from a start beside unknown voxels, as it is flown",
+          "[planner][exploration][alc]") {
+  // A sweep's last visit ends beside the unknown voxels it looked at: a pocket of 8 unknown voxels
+  // 0.1 m from the vehicle, too small for a target, inside its clearance.
+  DenseMap map = closedRoom();
+  map.fill(CoordBBox(Coord(46, 30, 15), Coord(47, 31, 16)), Occupancy::Unknown);
+  const ExplorationManagerConfig p = alcParams();
+  const Vec3d vehicle(4.45, 3.05, 1.55);
+  REQUIRE(p.path.clearance_m > 0.15);
+  ExplorationManager m(p, at(Vec3d(1.0, 3, 1.5)), 0.0);  // the start's free box far from the pocket
+  double t = flyPlaceThenGo(m, map, 1.0, vehicle);
+  for (; t < p.alc.finish_loop_age_s - 0.01; t += 0.5)
+    REQUIRE(m.update(map, CoordBBox(), at(vehicle), t).status == ExplorationStatus::Finished);
+  const ExplorationStep step = m.update(map, CoordBBox(), at(vehicle), p.alc.finish_loop_age_s);
+  REQUIRE(step.alc_status.has_value());
+  CHECK(*step.alc_status == AlcStatus::kDetour);  // not kNoReachableCluster
+  CHECK(step.status == ExplorationStatus::Planned);
+  CHECK(endsAtLoopCluster(m));
+}
