@@ -613,11 +613,6 @@ ExplorationStatus ExplorationManager::finishOrWait(const MapQuery& map, const Ve
         alc_->decideFinish(vehicle, t_s, std::exchange(pending_.loop_closed, false), mapLegCosts(start_free, *table_));
     step.alc_status = decision.status;
     if (decision.detour()) return flyFinishDetour(map, vehicle, t_s, decision, over, step);
-    // No leg from a start that is not clear (a correction moved a surface into the clearance):
-    // out of it first, as to any target, and ask again at the escape's end.
-    if (decision.status == AlcStatus::kNoReachableCluster && over &&
-        !PathPlanner(start_free, params_.path).isClear(vehicle.position_W) && escape(map, vehicle, t_s))
-      return ExplorationStatus::Planned;
     over = over || finishing;  // the detour before finishing ended (a loop, or given up): finish now
   }
   if (!over) return ExplorationStatus::NoFrontier;

@@ -298,32 +298,3 @@ TEST_CASE("A loop before finishing is priced from a start beside unknown voxels,
   CHECK(step.status == ExplorationStatus::Planned);
   CHECK(endsAtLoopCluster(m));
 }
-
-TEST_CASE("With every leg to a loop cluster blocked at its start, the manager escapes before it finishes",
-          "[planner][exploration][alc]") {
-  // A correction moved a surface into the vehicle's clearance: 8 occupied voxels 0.2 m away.
-  DenseMap map = closedRoom();
-  map.fill(CoordBBox(Coord(46, 30, 15), Coord(47, 31, 16)), Occupancy::Occupied);
-  const ExplorationManagerConfig p = alcParams();
-  const Vec3d vehicle(4.45, 3.05, 1.55);
-  ExplorationManager m(p, at(Vec3d(1.0, 3, 1.5)), 0.0);
-  double t = flyPlaceThenGo(m, map, 1.0, vehicle);
-  for (; t < p.alc.finish_loop_age_s - 0.01; t += 0.5)
-    REQUIRE(m.update(map, CoordBBox(), at(vehicle), t).status == ExplorationStatus::Finished);
-  t = p.alc.finish_loop_age_s;
-  ExplorationStep step = m.update(map, CoordBBox(), at(vehicle), t);
-  REQUIRE(step.alc_status.has_value());
-  CHECK(*step.alc_status == AlcStatus::kNoReachableCluster);
-  CHECK(step.status == ExplorationStatus::Planned);  // not finished: out of the blocked start first
-  const ExplorationActivity out = m.activity(t);
-  CHECK((out == ExplorationActivity::Escaping || out == ExplorationActivity::Retreating));
-  // At the escape's end the loop cluster can be reached.
-  const double end = m.trajectoryStartTime() + m.trajectory().duration();
-  while (t < end + 1.0 && !step.loop_detour) {
-    t += 0.1;
-    const VehicleState c = m.command(t);
-    step = m.update(map, CoordBBox(), at(c.position_W, c.yaw_rad), t);
-  }
-  CHECK(step.loop_detour);
-  CHECK(m.alcStats().finish_detours == 1);
-}
