@@ -175,9 +175,13 @@ std::vector<LegCost> priced(const LegCostFunction& leg_costs, const VehicleState
 }
 }  // namespace
 
-std::optional<std::pair<LoopClusterId, LegCost>> ActiveLoopClosure::cheapest(const std::vector<LoopClusterId>& ids,
-                                                                             const VehicleState& vehicle,
-                                                                             const LegCostFunction& leg_costs) const {
+bool ActiveLoopClosure::chooseCluster(const VehicleState& vehicle, double now_s, double radius_m,
+                                      const LegCostFunction& leg_costs, AlcDecision& d) {
+  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, radius_m);
+  if (ids.empty()) {
+    d.status = AlcStatus::kNoCluster;
+    return false;
+  }
   std::vector<TourTarget> centres;
   for (const LoopClusterId id : ids) {
     const FlownViewpoint& c = history_[clusters_[id].centre];
@@ -187,8 +191,15 @@ std::optional<std::pair<LoopClusterId, LegCost>> ActiveLoopClosure::cheapest(con
   std::optional<std::size_t> best;
   for (std::size_t k = 0; k < ids.size(); ++k)
     if (to_centres[k].reachable && (!best || to_centres[k].cost_s < to_centres[*best].cost_s)) best = k;
-  if (!best) return std::nullopt;
-  return std::make_pair(ids[*best], to_centres[*best]);
+  if (!best) {
+    if (detour_) giveUp(now_s);  // the detour's cluster can no longer be reached
+    d.status = AlcStatus::kNoReachableCluster;
+    return false;
+  }
+  d.cluster = ids[*best];
+  d.cluster_viewpoints = clusters_.viewpoints(history_, *d.cluster);
+  d.to_cluster = to_centres[*best];
+  return true;
 }
 
 AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s, bool loop_closed,
@@ -220,31 +231,16 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
     return d;
   }
 
-  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, params_.search_radius_m);
-  if (ids.empty()) {
-    d.status = AlcStatus::kNoCluster;
-    return d;
-  }
-
-  // c*: the cheapest centre to reach from the vehicle's state.
-  const std::optional<std::pair<LoopClusterId, LegCost>> best = cheapest(ids, vehicle, leg_costs);
-  if (!best) {
-    if (detour_) giveUp(now_s);  // the detour's cluster can no longer be reached
-    d.status = AlcStatus::kNoReachableCluster;
-    return d;
-  }
+  if (!chooseCluster(vehicle, now_s, params_.search_radius_m, leg_costs, d)) return d;
 
   // M_loop: M_frt with row 0 from c* (at rest); both tours from node 0.
-  const FlownViewpoint& centre = history_[clusters_[best->first].centre];
+  const FlownViewpoint& centre = history_[clusters_[*d.cluster].centre];
   VehicleState at_cluster;
   at_cluster.position_W = centre.position_W;
   at_cluster.yaw_rad = centre.yaw_rad;
   std::vector<double> from_cluster;
   for (const LegCost& leg : priced(leg_costs, at_cluster, targets)) from_cluster.push_back(leg.cost_s);
 
-  d.cluster = best->first;
-  d.cluster_viewpoints = clusters_.viewpoints(history_, *d.cluster);
-  d.to_cluster = best->second;
   d.loop_costs = loopTourMatrix(frontier_costs, from_cluster);
   d.loop_tour = solveOpenTour(d.loop_costs, params_.tour);
   d.loop_cost_s = d.to_cluster.cost_s + reachableTourCost(d.loop_costs, d.loop_tour.order, params_.unreachable_cost_s);
@@ -276,20 +272,7 @@ AlcDecision ActiveLoopClosure::decideFinish(const VehicleState& vehicle, double 
         since_loop_s < params_.finish_loop_age_s)
       return d;
   }
-  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, params_.finish_search_radius_m);
-  if (ids.empty()) {
-    d.status = AlcStatus::kNoCluster;
-    return d;
-  }
-  const std::optional<std::pair<LoopClusterId, LegCost>> best = cheapest(ids, vehicle, leg_costs);
-  if (!best) {
-    if (detour_) giveUp(now_s);
-    d.status = AlcStatus::kNoReachableCluster;
-    return d;
-  }
-  d.cluster = best->first;
-  d.cluster_viewpoints = clusters_.viewpoints(history_, *d.cluster);
-  d.to_cluster = best->second;
+  if (!chooseCluster(vehicle, now_s, params_.finish_search_radius_m, leg_costs, d)) return d;
   d.loop_costs = RealCostMatrix(1);
   d.loop_tour = d.frontier_tour;
   d.loop_cost_s = d.to_cluster.cost_s;

@@ -52,7 +52,6 @@
 #include <map>
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -201,10 +200,13 @@ class ActiveLoopClosure {
   void giveUp(double now_s);
   void checkTime(double now_s, const char* who);
   std::vector<LoopClusterId> candidates(const Vec3d& position_W, double radius_m) const;
-  /// The cheapest of `ids` to reach from `vehicle`, with its leg (ties: the older cluster).
-  std::optional<std::pair<LoopClusterId, LegCost>> cheapest(const std::vector<LoopClusterId>& ids,
-                                                            const VehicleState& vehicle,
-                                                            const LegCostFunction& leg_costs) const;
+  /// c*: of the usable clusters with a viewpoint within radius_m (the detour's own while one is in
+  /// progress), the one whose centre is cheapest to reach from `vehicle` (ties: the older
+  /// cluster). Sets d.cluster, d.cluster_viewpoints and d.to_cluster and returns true; else sets
+  /// d.status to kNoCluster or kNoReachableCluster, giving up a detour whose cluster can no longer
+  /// be reached.
+  bool chooseCluster(const VehicleState& vehicle, double now_s, double radius_m, const LegCostFunction& leg_costs,
+                     AlcDecision& d);
 
   AlcConfig params_;
   double flight_start_s_;
