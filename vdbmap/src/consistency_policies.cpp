@@ -47,12 +47,12 @@ bool beyondGate(const ReintegrationConfig& c, const Pose3d& a, const Pose3d& b) 
 class DirectPolicy final : public ConsistencyPolicy {
  public:
   DirectPolicy(const MapperConfig& config, MapperLedger& ledger)
-      : ledger_(ledger), volume_(config.tsdf, config.integrator) {}
+      : ledger_(ledger), volume_(config.tsdf, config.integrator), depth_unit_m_(config.depth_unit_m) {}
 
-  IntegrationStats addFrame(FrameId id, double, EncodedFrame data, const Pose3d& T_W_S) override {
+  IntegrationStats addFrame(FrameId id, double, const SensorFrame& frame, const Pose3d& T_W_S) override {
     if (volume_.isIntegrated(id)) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
     ++ledger_.stats.frames_total;
-    const IntegrationStats stats = volume_.integrate(id, data.decodeFrame(), T_W_S);
+    const IntegrationStats stats = volume_.integrate(id, EncodedFrame::quantize(frame, depth_unit_m_), T_W_S);
     ledger_.markDirty(stats.touched_voxels);
     return stats;
   }
@@ -63,6 +63,7 @@ class DirectPolicy final : public ConsistencyPolicy {
  private:
   MapperLedger& ledger_;
   TsdfVolume volume_;
+  double depth_unit_m_;
 };
 
 // ---- submap --------------------------------------------------------------------------------
@@ -98,7 +99,7 @@ class SubmapPolicy final : public ConsistencyPolicy {
  public:
   SubmapPolicy(const MapperConfig& config, MapperLedger& ledger) : config_(config), ledger_(ledger) {}
 
-  IntegrationStats addFrame(FrameId id, double, EncodedFrame data, const Pose3d& T_W_S) override {
+  IntegrationStats addFrame(FrameId id, double, const SensorFrame& frame, const Pose3d& T_W_S) override {
     if (ids_.count(id)) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
     if (submaps_.empty() || submaps_.back().frames >= config_.submap_frames) {
       Submap s;
@@ -109,7 +110,8 @@ class SubmapPolicy final : public ConsistencyPolicy {
       ++ledger_.stats.submaps;
     }
     Submap& s = submaps_.back();
-    const IntegrationStats stats = s.volume->integrate(id, data.decodeFrame(), s.T_W_A_odom.inverse() * T_W_S);
+    const IntegrationStats stats =
+        s.volume->integrate(id, EncodedFrame::quantize(frame, config_.depth_unit_m), s.T_W_A_odom.inverse() * T_W_S);
     ids_.insert(id);
     ++ledger_.stats.frames_total;
     ++s.frames;
@@ -212,12 +214,14 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
       pruner_ = std::make_unique<FramePruner>(config.set_cover, config.tsdf.voxel_size_m);
   }
 
-  IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) override {
+  IntegrationStats addFrame(FrameId id, double timestamp, const SensorFrame& frame, const Pose3d& T_W_S) override {
     settleCompression();
     if (store_.contains(id)) throw FrameError("frame " + std::to_string(id) + " was already given to the mapper");
     if (pruner_) checkPackable(id, T_W_S, config_.tsdf, config_.integrator, config_.set_cover.cell_size_vox);
     ++ledger_.stats.frames_total;
-    const SensorFrame decoded = data.decodeFrame();  // once, for integration and the pruner's set
+    // Coded raw here and compressed off this thread; decoded once, for integration and the pruner.
+    SensorFrame decoded;
+    EncodedFrame data = EncodedFrame::encodeRaw(frame, config_.depth_unit_m, decoded);
     CellSet cells;
     const IntegrationStats stats = integrate(id, decoded, T_W_S, pruner_ ? &cells : nullptr);
     ledger_.markDirty(stats.touched_voxels);

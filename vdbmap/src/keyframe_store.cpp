@@ -4,6 +4,8 @@
 #include <tbb/parallel_for.h>
 #include <zlib.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -39,10 +41,31 @@ void inflateBytes(const std::vector<std::uint8_t>& in, void* out, std::size_t n,
     throw std::runtime_error("keyframe store: corrupt compressed frame");
 }
 
-}  // namespace
+/// A depth's code: metres in `unit_m` steps, 0 for an invalid depth, clamped to [1, 65535] else.
+inline std::uint16_t depthCode(float d, double unit_m) {
+  if (!(d > 0.0f && std::isfinite(d))) return 0;
+  return std::uint16_t(std::min(65535.0, std::max(1.0, double(d) / unit_m + 0.5)));
+}
+/// The depth every decode gives for a code.
+inline float codeDepth(std::uint16_t q, double unit_m) { return q == 0 ? 0.0f : float(q * unit_m); }
 
-EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
-                                     double depth_unit_m, int stride, bool compress) {
+constexpr std::int32_t kInvalidPoint = std::numeric_limits<std::int32_t>::min();
+/// A point's codes (kInvalidPoint in all three when it is not finite or too far for 32 bits).
+inline std::array<std::int32_t, 3> pointCodes(const Vec3f& p, double unit_m) {
+  const double limit = double(std::numeric_limits<std::int32_t>::max()) * unit_m;
+  if (!(p.allFinite() && p.cast<double>().cwiseAbs().maxCoeff() < limit))
+    return {kInvalidPoint, kInvalidPoint, kInvalidPoint};
+  std::array<std::int32_t, 3> q;
+  for (int a = 0; a < 3; ++a) q[std::size_t(a)] = std::int32_t(std::lround(double(p[a]) / unit_m));
+  return q;
+}
+/// The point every decode gives for codes.
+inline Vec3f codesPoint(const std::int32_t* q, double unit_m) {
+  if (q[0] == kInvalidPoint) return Vec3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  return Vec3f(float(q[0] * unit_m), float(q[1] * unit_m), float(q[2] * unit_m));
+}
+
+void checkDepthEncoding(const DepthImage& depth, const CameraIntrinsics* K, double depth_unit_m, int stride) {
   if (!K) throw std::invalid_argument("EncodedFrame::fromDepth: intrinsics are required");
   if (depth.width != K->width || depth.height != K->height)
     throw std::invalid_argument("EncodedFrame::fromDepth: image is " + std::to_string(depth.width) + "x" +
@@ -50,6 +73,31 @@ EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<co
                                 std::to_string(K->height));
   if (!(depth_unit_m > 0.0)) throw std::invalid_argument("EncodedFrame::fromDepth: depth_unit_m must be > 0");
   if (stride < 1) throw std::invalid_argument("EncodedFrame::fromDepth: stride must be >= 1");
+}
+
+/// Row-delta codes of a depth image (rows coded independently, so in parallel); also the decoded
+/// image into *decoded when given.
+std::vector<std::uint16_t> deltaCodes(const DepthImage& depth, double unit_m, DepthImage* decoded) {
+  std::vector<std::uint16_t> coded(depth.depth_m.size());
+  tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
+    for (int v = rows.begin(); v != rows.end(); ++v) {
+      std::uint16_t prev = 0;
+      for (int u = 0; u < depth.width; ++u) {
+        const std::uint16_t q = depthCode(depth.at(u, v), unit_m);
+        coded[std::size_t(v) * depth.width + u] = std::uint16_t(q - prev);
+        prev = q;
+        if (decoded) decoded->at(u, v) = codeDepth(q, unit_m);
+      }
+    }
+  });
+  return coded;
+}
+
+}  // namespace
+
+EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
+                                     double depth_unit_m, int stride, bool compress) {
+  checkDepthEncoding(depth, K.get(), depth_unit_m, stride);
   EncodedFrame f;
   f.kind_ = Kind::Depth;
   f.intrinsics_ = std::move(K);
@@ -57,21 +105,7 @@ EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<co
   f.stride_ = stride;
   f.count_ = std::uint32_t(depth.depth_m.size());
   // Row-delta coding: neighbouring depths are close, so the differences compress well.
-  // Rows are coded independently, so they are coded in parallel.
-  std::vector<std::uint16_t> coded(depth.depth_m.size());
-  tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
-    for (int v = rows.begin(); v != rows.end(); ++v) {
-      std::uint16_t prev = 0;
-      for (int u = 0; u < depth.width; ++u) {
-        const float d = depth.at(u, v);
-        std::uint16_t q = 0;
-        if (d > 0.0f && std::isfinite(d))
-          q = std::uint16_t(std::min(65535.0, std::max(1.0, double(d) / depth_unit_m + 0.5)));
-        coded[std::size_t(v) * depth.width + u] = std::uint16_t(q - prev);
-        prev = q;
-      }
-    }
-  });
+  const std::vector<std::uint16_t> coded = deltaCodes(depth, depth_unit_m, nullptr);
   f.compressed_ = compress;
   const std::size_t n = coded.size() * sizeof(std::uint16_t);
   f.payload_ = compress ? deflateBytes(coded.data(), n) : rawBytes(coded.data(), n);
@@ -84,13 +118,10 @@ EncodedFrame EncodedFrame::fromPoints(const PointCloud& points_S, double unit_m,
   f.kind_ = Kind::Points;
   f.unit_m_ = unit_m;
   f.count_ = std::uint32_t(points_S.size());
-  constexpr std::int32_t kInvalid = std::numeric_limits<std::int32_t>::min();
-  const double limit = double(std::numeric_limits<std::int32_t>::max()) * unit_m;
   std::vector<std::int32_t> q(points_S.size() * 3);
   for (std::size_t i = 0; i < points_S.size(); ++i) {
-    const Vec3f& p = points_S[i];
-    const bool ok = p.allFinite() && p.cast<double>().cwiseAbs().maxCoeff() < limit;
-    for (int a = 0; a < 3; ++a) q[3 * i + a] = ok ? std::int32_t(std::lround(double(p[a]) / unit_m)) : kInvalid;
+    const std::array<std::int32_t, 3> c = pointCodes(points_S[i], unit_m);
+    std::copy(c.begin(), c.end(), q.begin() + std::ptrdiff_t(3 * i));
   }
   f.compressed_ = compress;
   const std::size_t n = q.size() * sizeof(std::int32_t);
@@ -101,6 +132,45 @@ EncodedFrame EncodedFrame::fromPoints(const PointCloud& points_S, double unit_m,
 EncodedFrame EncodedFrame::encode(const SensorFrame& frame, double unit_m, bool compress) {
   return frame.isDepth() ? fromDepth(frame.depthImage(), frame.sharedIntrinsics(), unit_m, 1, compress)
                          : fromPoints(frame.points_S(), unit_m, compress);
+}
+
+EncodedFrame EncodedFrame::encodeRaw(const SensorFrame& frame, double unit_m, SensorFrame& decoded) {
+  if (!frame.isDepth()) {
+    EncodedFrame f = fromPoints(frame.points_S(), unit_m, false);
+    decoded = SensorFrame::points(f.decode());
+    return f;
+  }
+  const DepthImage& depth = frame.depthImage();
+  checkDepthEncoding(depth, frame.sharedIntrinsics().get(), unit_m, 1);
+  EncodedFrame f;
+  f.kind_ = Kind::Depth;
+  f.intrinsics_ = frame.sharedIntrinsics();
+  f.unit_m_ = unit_m;
+  f.count_ = std::uint32_t(depth.depth_m.size());
+  f.compressed_ = false;
+  DepthImage image(depth.width, depth.height, 0.0f);
+  const std::vector<std::uint16_t> coded = deltaCodes(depth, unit_m, &image);
+  f.payload_ = rawBytes(coded.data(), coded.size() * sizeof(std::uint16_t));
+  decoded = SensorFrame::depth(std::move(image), f.intrinsics_);
+  return f;
+}
+
+SensorFrame EncodedFrame::quantize(const SensorFrame& frame, double unit_m) {
+  if (!(unit_m > 0.0)) throw std::invalid_argument("EncodedFrame::quantize: unit_m must be > 0");
+  if (!frame.isDepth()) {
+    const PointCloud& in = frame.points_S();
+    PointCloud points(in.size());
+    for (std::size_t i = 0; i < in.size(); ++i) points[i] = codesPoint(pointCodes(in[i], unit_m).data(), unit_m);
+    return SensorFrame::points(std::move(points));
+  }
+  const DepthImage& depth = frame.depthImage();
+  checkDepthEncoding(depth, frame.sharedIntrinsics().get(), unit_m, 1);
+  DepthImage image(depth.width, depth.height, 0.0f);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, depth.depth_m.size(), 16384), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i)
+      image.depth_m[i] = codeDepth(depthCode(depth.depth_m[i], unit_m), unit_m);
+  });
+  return SensorFrame::depth(std::move(image), frame.sharedIntrinsics());
 }
 
 EncodedFrame EncodedFrame::compressed() const {
@@ -130,7 +200,7 @@ DepthImage EncodedFrame::decodeDepth() const {
       std::uint16_t q = 0;
       for (int u = 0; u < depth.width; ++u) {
         q = std::uint16_t(q + coded[std::size_t(v) * depth.width + u]);
-        depth.at(u, v) = q == 0 ? 0.0f : float(q * unit_m_);
+        depth.at(u, v) = codeDepth(q, unit_m_);
       }
     }
   });
@@ -141,15 +211,8 @@ PointCloud EncodedFrame::decode() const {
   if (kind_ == Kind::Depth) return backProject(decodeDepth(), *intrinsics_, stride_);
   std::vector<std::int32_t> q(std::size_t(count_) * 3);
   inflateBytes(payload_, q.data(), q.size() * sizeof(std::int32_t), compressed_);
-  constexpr std::int32_t kInvalid = std::numeric_limits<std::int32_t>::min();
-  const float nan = std::numeric_limits<float>::quiet_NaN();
   PointCloud points(count_);
-  for (std::size_t i = 0; i < count_; ++i) {
-    if (q[3 * i] == kInvalid)
-      points[i] = Vec3f::Constant(nan);
-    else
-      points[i] = Vec3f(float(q[3 * i] * unit_m_), float(q[3 * i + 1] * unit_m_), float(q[3 * i + 2] * unit_m_));
-  }
+  for (std::size_t i = 0; i < count_; ++i) points[i] = codesPoint(&q[3 * i], unit_m_);
   return points;
 }
 

@@ -65,11 +65,8 @@ Mapper::~Mapper() = default;
 Mapper::Mapper(Mapper&&) noexcept = default;
 
 IntegrationStats Mapper::addFrame(FrameId id, double timestamp_s, const SensorFrame& frame, const Pose3d& T_W_S) {
-  // Quantized only: the policy integrates the decoded frame, and the policies that keep frames
-  // compress them off this thread.
   const Stopwatch watch;
-  IntegrationStats stats =
-      policy_->addFrame(id, timestamp_s, EncodedFrame::encode(frame, config_.depth_unit_m, false), T_W_S);
+  IntegrationStats stats = policy_->addFrame(id, timestamp_s, frame, T_W_S);
   frame_ms_ = watch.ms();
   return stats;
 }

@@ -35,6 +35,11 @@ class EncodedFrame {
   static EncodedFrame fromPoints(const PointCloud& points_S, double unit_m = 0.001, bool compress = true);
   /// fromDepth (stride 1) or fromPoints, as the frame is.
   static EncodedFrame encode(const SensorFrame& frame, double unit_m = 0.001, bool compress = true);
+  /// encode() without zlib, and its decodeFrame() into `decoded`, in one pass.
+  static EncodedFrame encodeRaw(const SensorFrame& frame, double unit_m, SensorFrame& decoded);
+  /// What decodeFrame() of encode(frame, unit_m) gives, without the codes: the frame as a mapper
+  /// that keeps no frames integrates it.
+  static SensorFrame quantize(const SensorFrame& frame, double unit_m = 0.001);
 
   /// The frame exactly as every other decode gives it: a depth image with its camera when
   /// isDepth(), else points (those of a strided depth frame too).

@@ -33,8 +33,9 @@ class ConsistencyPolicy {
  public:
   virtual ~ConsistencyPolicy() = default;
 
-  /// Integrates a new frame seen from T_W_S (odometry); keeps it when the policy needs it later.
-  virtual IntegrationStats addFrame(FrameId id, double timestamp, EncodedFrame data, const Pose3d& T_W_S) = 0;
+  /// Integrates a new frame seen from T_W_S (odometry), quantized to MapperConfig::depth_unit_m
+  /// as its keyframe stores it (EncodedFrame::quantize); keeps it when the policy needs it later.
+  virtual IntegrationStats addFrame(FrameId id, double timestamp, const SensorFrame& frame, const Pose3d& T_W_S) = 0;
   /// New pose estimates by frame id; returns how many frames (or anchors) changed.
   virtual std::size_t updatePoses(const std::map<FrameId, Pose3d>& T_W_S_by_id) = 0;
   /// One budgeted cycle of background work, nearest to `robot_W` first; `spent_ms` of the cycle's
