@@ -70,18 +70,35 @@ struct PoseLanes {
       t[i] = _mm_set1_pd(pose.t[i]);
     }
   }
-  /// The voxel keys of the points (x, y, z) in lanes 0 and 1, summed as EndVoxels::key sums.
+  /// The voxel keys of the points (x, y, z) in lanes 0 and 1, summed, floored and packed as
+  /// EndVoxels::key does.
   void keys(__m128d x, __m128d y, __m128d z, __m128d inv_voxel, std::uint64_t out[2]) const {
     const __m128d half = _mm_set1_pd(0.5);
-    alignas(16) double e[3][2];
+    __m128i field[3];
     for (int i = 0; i < 2; ++i) {
       const __m128d s = _mm_add_pd(_mm_add_pd(_mm_mul_pd(r[i][0], x), _mm_mul_pd(r[i][1], y)), _mm_mul_pd(r[i][2], z));
-      _mm_store_pd(e[i], _mm_add_pd(_mm_mul_pd(_mm_add_pd(s, t[i]), inv_voxel), half));
+      field[i] = packField(floorLanes(_mm_add_pd(_mm_mul_pd(_mm_add_pd(s, t[i]), inv_voxel), half)));
     }
     const __m128d s = _mm_add_pd(_mm_mul_pd(r[2][0], x), _mm_add_pd(_mm_mul_pd(r[2][1], y), _mm_mul_pd(r[2][2], z)));
-    _mm_store_pd(e[2], _mm_add_pd(_mm_mul_pd(_mm_add_pd(s, t[2]), inv_voxel), half));
-    for (int l = 0; l < 2; ++l)
-      out[l] = packVoxel(openvdb::Coord(fastFloor(e[0][l]), fastFloor(e[1][l]), fastFloor(e[2][l])));
+    field[2] = packField(floorLanes(_mm_add_pd(_mm_mul_pd(_mm_add_pd(s, t[2]), inv_voxel), half)));
+    const __m128i key =
+        _mm_or_si128(_mm_or_si128(_mm_slli_epi64(field[0], 42), _mm_slli_epi64(field[1], 21)), field[2]);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out), key);
+  }
+
+ private:
+  /// fastFloor of both lanes, as 32-bit integers in lanes 0 and 1: the truncation, less one where
+  /// it lies above the value.
+  static __m128i floorLanes(__m128d e) {
+    const __m128i truncated = _mm_cvttpd_epi32(e);
+    const __m128d above = _mm_cmplt_pd(e, _mm_cvtepi32_pd(truncated));  // all ones: subtract 1
+    return _mm_add_epi32(truncated, _mm_shuffle_epi32(_mm_castpd_si128(above), _MM_SHUFFLE(3, 3, 2, 0)));
+  }
+  /// packVoxel's field of lanes 0 and 1 (biased, 21 bits), as two 64-bit lanes. The 32-bit sum
+  /// keeps the low 21 bits that the 64-bit one has.
+  static __m128i packField(__m128i c) {
+    const __m128i biased = _mm_add_epi32(c, _mm_set1_epi32(1 << 20));
+    return _mm_unpacklo_epi32(_mm_and_si128(biased, _mm_set1_epi32((1 << 21) - 1)), _mm_setzero_si128());
   }
 };
 #endif
