@@ -3,6 +3,7 @@
 #include "internal/free_list.hpp"
 #include "internal/grid_dda.hpp"
 #include "internal/hit_counter.hpp"
+#include "internal/pixel_classifier.hpp"
 #include "internal/voxel_blocks.hpp"
 
 #include <tbb/blocked_range.h>
@@ -19,26 +20,13 @@
 namespace vdbmap::internal {
 namespace {
 
-/// What each pixel contributes: the range of its surface along its ray (or max range for pixels
-/// beyond it, which only carve free space) and its fixed-point weight (0: invalid pixel). One
-/// 24-byte record per pixel (the weight needs 64 bits: it grows as 1 / z^2).
-struct PixelRay {
-  std::int64_t weight_q = 0;
-  float range_m = 0.0f;
-  /// A voxel at distance d on this ray is free space when d^2 <= free2 (sdf >= truncation), and in
-  /// the band when free2 < d^2 <= band2 (band2 = free2 for a pixel beyond max range, which adds no
-  /// surface); squared, so most voxels need no square root.
-  float free2 = -1.0f;
-  float band2 = -1.0f;
-};
-
 struct PixelTable {
   int width = 0, height = 0;
   std::vector<PixelRay> rays;
   double max_range_m = 0.0;  // largest range of a valid pixel
   /// Largest range per tile of kTile x kTile pixels (-1: no valid pixel), to cull leaves that lie
   /// entirely behind the surfaces they project onto.
-  static constexpr int kTile = 8;
+  static constexpr int kTile = kPixelTile;
   int tiles_x = 0, tiles_y = 0;
   std::vector<float> tile_max_m;
 
@@ -112,11 +100,8 @@ void classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, const Ts
   t.tile_max_m.assign(std::size_t(t.tiles_x) * std::size_t(t.tiles_y), -1.0f);
   const std::shared_ptr<const std::vector<float>> norms = rayNorms(K);
   const std::size_t chunks = std::size_t(t.tiles_y);
-  std::vector<std::size_t> invalid(chunks, 0), beyond(chunks, 0);
-  std::vector<double> chunk_max(chunks, 0.0);
-  const bool constant = tsdf.weighting == Weighting::Constant;
-  const std::int64_t scale = weightScaleFor(tsdf, in);
-  const double delta = tsdf.truncation_m();
+  std::vector<PixelClassifier::Tally> tallies(chunks);
+  const PixelClassifier classifier(tsdf, in);
 
   // Hit counting: one run list per chunk and placement.
   const EndVoxels ends(tsdf, in);
@@ -128,54 +113,23 @@ void classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, const Ts
 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t c = r.begin(); c != r.end(); ++c) {
-      std::size_t bad = 0, far = 0;
-      double far_most = 0.0;
-      float* tile_max = t.tile_max_m.data() + c * std::size_t(t.tiles_x);
       std::vector<HitRun>* chunk_runs = P ? &runs[c * P] : nullptr;
       const int v_end = std::min(depth.height, int(c + 1) * kTile);
       for (int v = int(c) * kTile; v < v_end; ++v) {
         if (P) countRowHits(depth, v, K, ends, poses, chunk_runs);
-        for (int u = 0; u < depth.width; ++u) {
-          const std::size_t i = std::size_t(v) * std::size_t(depth.width) + std::size_t(u);
-          const float z_f = depth.depth_m[i];
-          PixelRay& ray = t.rays[i];
-          ray = PixelRay{};
-          const double z = z_f;
-          const double range = z * double((*norms)[i]);
-          if (!(z > 0.0) || !std::isfinite(z) || range < in.min_range_m) {
-            ++bad;
-            continue;
-          }
-          const bool beyond_range = range > in.max_range_m;  // carve free space up to max range, add no surface
-          const double r_m = beyond_range ? in.max_range_m : range;
-          const double z_eff = beyond_range ? z * in.max_range_m / range : z;
-          const std::int64_t weight_q = constant ? scale : roundToInt64(double(scale) / (z_eff * z_eff));
-          if (weight_q == 0) {  // only with a weight scale too small for the range: counted, not lost silently
-            ++bad;
-            continue;
-          }
-          if (beyond_range) ++far;
-          ray.range_m = float(r_m);
-          ray.free2 = r_m >= delta ? float((r_m - delta) * (r_m - delta)) : -1.0f;
-          ray.band2 = beyond_range ? ray.free2 : float((r_m + delta) * (r_m + delta));
-          ray.weight_q = weight_q;
-          far_most = std::max(far_most, double(ray.range_m));
-          float& m = tile_max[u / kTile];
-          m = std::max(m, ray.range_m);
-        }
+        const std::size_t row = std::size_t(v) * std::size_t(depth.width);
+        classifier.row(depth.depth_m.data() + row, norms->data() + row, depth.width, t.rays.data() + row,
+                       t.tile_max_m.data() + c * std::size_t(t.tiles_x), tallies[c]);
       }
       for (std::size_t j = 0; j < P; ++j) compactHitRuns(chunk_runs[j]);
-      invalid[c] = bad;
-      beyond[c] = far;
-      chunk_max[c] = far_most;
     }
   });
   stats.points_total += n;
   t.max_range_m = 0.0;
-  for (std::size_t c = 0; c < chunks; ++c) {
-    stats.points_invalid += invalid[c];
-    stats.points_beyond_range += beyond[c];
-    t.max_range_m = std::max(t.max_range_m, chunk_max[c]);
+  for (const PixelClassifier::Tally& tally : tallies) {
+    stats.points_invalid += tally.invalid;
+    stats.points_beyond_range += tally.beyond;
+    t.max_range_m = std::max(t.max_range_m, tally.max_range_m);
   }
   if (hit_runs)
     for (const std::vector<HitRun>& c : runs) hit_runs->insert(hit_runs->end(), c.begin(), c.end());
