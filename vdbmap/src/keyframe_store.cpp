@@ -1,5 +1,9 @@
 #include "vdbmap/keyframe_store.hpp"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <zlib.h>
@@ -49,6 +53,28 @@ inline std::uint16_t depthCode(float d, double unit_m) {
 /// The depth every decode gives for a code.
 inline float codeDepth(std::uint16_t q, double unit_m) { return q == 0 ? 0.0f : float(q * unit_m); }
 
+/// depthCode() of depths[0, n) into codes, two at a time with SSE2 (the same operations per lane:
+/// the division, the clamps, the truncation).
+void depthCodes(const float* depths, std::size_t n, double unit_m, std::uint16_t* codes) {
+  std::size_t i = 0;
+#if defined(__SSE2__)
+  const __m128d unit = _mm_set1_pd(unit_m), half = _mm_set1_pd(0.5), one = _mm_set1_pd(1.0);
+  const __m128d top = _mm_set1_pd(65535.0), zero = _mm_setzero_pd();
+  const __m128d largest = _mm_set1_pd(double(std::numeric_limits<float>::max()));
+  for (; i + 1 < n; i += 2) {
+    const __m128d d = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(depths + i))));
+    // max(x, 1) and min(x, 65535) take the constant for NaN, as std::max(1.0, x) and std::min do.
+    const __m128d clamped = _mm_min_pd(_mm_max_pd(_mm_add_pd(_mm_div_pd(d, unit), half), one), top);
+    const int valid = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(d, zero), _mm_cmple_pd(d, largest)));
+    alignas(16) std::int32_t q[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(q), _mm_cvttpd_epi32(clamped));
+    codes[i] = (valid & 1) ? std::uint16_t(q[0]) : std::uint16_t(0);
+    codes[i + 1] = (valid & 2) ? std::uint16_t(q[1]) : std::uint16_t(0);
+  }
+#endif
+  for (; i < n; ++i) codes[i] = depthCode(depths[i], unit_m);
+}
+
 constexpr std::int32_t kInvalidPoint = std::numeric_limits<std::int32_t>::min();
 /// A point's codes (kInvalidPoint in all three when it is not finite or too far for 32 bits).
 inline std::array<std::int32_t, 3> pointCodes(const Vec3f& p, double unit_m) {
@@ -80,14 +106,17 @@ void checkDepthEncoding(const DepthImage& depth, const CameraIntrinsics* K, doub
 std::vector<std::uint16_t> deltaCodes(const DepthImage& depth, double unit_m, DepthImage* decoded) {
   std::vector<std::uint16_t> coded(depth.depth_m.size());
   tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<std::uint16_t> q(std::size_t(depth.width));
     for (int v = rows.begin(); v != rows.end(); ++v) {
+      const std::size_t row = std::size_t(v) * std::size_t(depth.width);
+      depthCodes(depth.depth_m.data() + row, q.size(), unit_m, q.data());
       std::uint16_t prev = 0;
-      for (int u = 0; u < depth.width; ++u) {
-        const std::uint16_t q = depthCode(depth.at(u, v), unit_m);
-        coded[std::size_t(v) * depth.width + u] = std::uint16_t(q - prev);
-        prev = q;
-        if (decoded) decoded->at(u, v) = codeDepth(q, unit_m);
+      for (std::size_t u = 0; u < q.size(); ++u) {
+        coded[row + u] = std::uint16_t(q[u] - prev);
+        prev = q[u];
       }
+      if (decoded)
+        for (std::size_t u = 0; u < q.size(); ++u) decoded->depth_m[row + u] = codeDepth(q[u], unit_m);
     }
   });
   return coded;
@@ -167,8 +196,13 @@ SensorFrame EncodedFrame::quantize(const SensorFrame& frame, double unit_m) {
   checkDepthEncoding(depth, frame.sharedIntrinsics().get(), unit_m, 1);
   DepthImage image(depth.width, depth.height, 0.0f);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, depth.depth_m.size(), 16384), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i)
-      image.depth_m[i] = codeDepth(depthCode(depth.depth_m[i], unit_m), unit_m);
+    constexpr std::size_t kBatch = 256;
+    std::uint16_t q[kBatch];
+    for (std::size_t i = r.begin(); i < r.end(); i += kBatch) {
+      const std::size_t n = std::min(kBatch, r.end() - i);
+      depthCodes(depth.depth_m.data() + i, n, unit_m, q);
+      for (std::size_t k = 0; k < n; ++k) image.depth_m[i + k] = codeDepth(q[k], unit_m);
+    }
   });
   return SensorFrame::depth(std::move(image), frame.sharedIntrinsics());
 }

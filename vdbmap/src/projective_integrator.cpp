@@ -110,6 +110,8 @@ void classifyPixels(const DepthImage& depth, const CameraIntrinsics& K, const Ts
     for (const ImagePlacement& p : placements) poses.push_back({p.T_W_S.linear(), p.T_W_S.translation(), p.sign});
   const std::size_t P = poses.size();
   std::vector<std::vector<HitRun>> runs(chunks * P);
+  for (std::vector<HitRun>& r : runs)
+    r.reserve(std::size_t(depth.width) * std::size_t(kTile) / 8);  // ~the runs of a chunk
 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t c = r.begin(); c != r.end(); ++c) {
@@ -161,11 +163,15 @@ void candidateLeaves(const PixelTable& px, const CameraIntrinsics& K, const Pose
     for (int u0 = 0; u0 < px.width; u0 += tile) {
       const int u1 = std::min(px.width, u0 + tile), v1 = std::min(px.height, v0 + tile);
       double reach = -1.0;
-      for (int v = v0; v < v1; ++v)
-        for (int u = u0; u < u1; ++u) {
-          const PixelRay& ray = px.rays[std::size_t(v) * std::size_t(px.width) + std::size_t(u)];
-          if (ray.weight_q > 0) reach = std::max(reach, double(ray.range_m));
-        }
+      if (tile % PixelTable::kTile == 0) {  // whole classification tiles: their maxima are the pixels'
+        reach = px.maxRange(u0, u1 - 1, v0, v1 - 1);
+      } else {
+        for (int v = v0; v < v1; ++v)
+          for (int u = u0; u < u1; ++u) {
+            const PixelRay& ray = px.rays[std::size_t(v) * std::size_t(px.width) + std::size_t(u)];
+            if (ray.weight_q > 0) reach = std::max(reach, double(ray.range_m));
+          }
+      }
       if (reach < 0.0) continue;
       reach += delta;
       const double uc = 0.5 * (u0 + u1 - 1), vc = 0.5 * (v0 + v1 - 1);
