@@ -6,6 +6,10 @@
 #include "internal/pixel_classifier.hpp"
 #include "internal/voxel_blocks.hpp"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -263,6 +267,49 @@ class FrustumCull {
   double vs_, delta_, reach_;
 };
 
+/// The eight voxels of a leaf column at sensor-frame positions (xs, ys, zs): their pixel
+/// coordinates + 0.5 into (us, vs) and, as bit k of the result, whether voxel k is in front of the
+/// camera and inside the image. Four at a time with SSE2, each lane doing the one-voxel arithmetic.
+struct ColumnProjector {
+  float fx, fy, cx, cy, u_end, v_end;
+
+  ColumnProjector(const CameraIntrinsics& K, const PixelTable& px)
+      : fx(float(K.fx)),
+        fy(float(K.fy)),
+        cx(float(K.cx) + 0.5f),
+        cy(float(K.cy) + 0.5f),
+        u_end(float(px.width)),
+        v_end(float(px.height)) {}
+
+  int project(const float* xs, const float* ys, const float* zs, float* us, float* vs) const {
+    int inside = 0;
+#if defined(__SSE2__)
+    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    for (int h = 0; h < 8; h += 4) {
+      const __m128 x = _mm_load_ps(xs + h), y = _mm_load_ps(ys + h), z = _mm_load_ps(zs + h);
+      const __m128 inv_z = _mm_div_ps(one, z);  // lanes behind the camera are masked out below
+      const __m128 u = _mm_add_ps(_mm_mul_ps(_mm_mul_ps(_mm_set1_ps(fx), x), inv_z), _mm_set1_ps(cx));
+      const __m128 v = _mm_add_ps(_mm_mul_ps(_mm_mul_ps(_mm_set1_ps(fy), y), inv_z), _mm_set1_ps(cy));
+      __m128 in =
+          _mm_and_ps(_mm_cmpgt_ps(z, zero), _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmplt_ps(u, _mm_set1_ps(u_end))));
+      in = _mm_and_ps(in, _mm_and_ps(_mm_cmpge_ps(v, zero), _mm_cmplt_ps(v, _mm_set1_ps(v_end))));
+      _mm_store_ps(us + h, u);
+      _mm_store_ps(vs + h, v);
+      inside |= _mm_movemask_ps(in) << h;
+    }
+#else
+    for (int k = 0; k < 8; ++k) {
+      if (!(zs[k] > 0.0f)) continue;
+      const float inv_z = 1.0f / zs[k];
+      us[k] = fx * xs[k] * inv_z + cx;
+      vs[k] = fy * ys[k] * inv_z + cy;
+      if (us[k] >= 0.0f && us[k] < u_end && vs[k] >= 0.0f && vs[k] < v_end) inside |= 1 << k;
+    }
+#endif
+    return inside;
+  }
+};
+
 /// Projects the 512 voxels of one leaf into the image and calls visit(n, ray, d2) for each voxel
 /// within its pixel's reach (free space or band): n its offset in the leaf, ray its pixel, d2 its
 /// squared distance from the camera. Single precision: positions are relative to the camera
@@ -271,23 +318,25 @@ class FrustumCull {
 template <typename Visit>
 void visitLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3f& A, const Eigen::Vector3f& b,
                Visit&& visit) {
-  const float fx = float(K.fx), fy = float(K.fy), cx = float(K.cx) + 0.5f, cy = float(K.cy) + 0.5f;
-  const float u_end = float(px.width), v_end = float(px.height);
+  const ColumnProjector projector(K, px);
   const Eigen::Vector3f step = A.col(2);
+  alignas(16) float xs[8], ys[8], zs[8], us[8], vs[8];
   for (int i = 0; i < 8; ++i) {
     for (int j = 0; j < 8; ++j) {
       Eigen::Vector3f p = A.col(0) * float(i) + A.col(1) * float(j) + b;  // voxel (i, j, 0) in the sensor frame
-      openvdb::Index n = openvdb::Index(i * 64 + j * 8);
-      for (int k = 0; k < 8; ++k, ++n, p += step) {
-        if (!(p.z() > 0.0f)) continue;
-        const float inv_z = 1.0f / p.z();
-        // Pixel coordinates + 0.5: the nearest pixel centre is their floor.
-        const float u = fx * p.x() * inv_z + cx, v = fy * p.y() * inv_z + cy;
-        if (!(u >= 0.0f && u < u_end && v >= 0.0f && v < v_end)) continue;
-        const PixelRay& ray = px.rays[std::size_t(v) * std::size_t(px.width) + std::size_t(u)];
+      for (int k = 0; k < 8; ++k, p += step) {
+        xs[k] = p.x();
+        ys[k] = p.y();
+        zs[k] = p.z();
+      }
+      const openvdb::Index n0 = openvdb::Index(i * 64 + j * 8);
+      // Pixel coordinates + 0.5: the nearest pixel centre is their floor.
+      for (int inside = projector.project(xs, ys, zs, us, vs); inside != 0; inside &= inside - 1) {
+        const int k = __builtin_ctz(unsigned(inside));
+        const PixelRay& ray = px.rays[std::size_t(vs[k]) * std::size_t(px.width) + std::size_t(us[k])];
         if (ray.weight_q == 0) continue;
-        const float d2 = p.squaredNorm();
-        if (d2 <= ray.band2) visit(n, ray, d2);
+        const float d2 = Eigen::Vector3f(xs[k], ys[k], zs[k]).squaredNorm();
+        if (d2 <= ray.band2) visit(n0 + openvdb::Index(k), ray, d2);
       }
     }
   }
