@@ -550,10 +550,12 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
   if ((arrived || step.reason == ReplanReason::TargetCovered) && book_.target() != 0)
     for (std::size_t p : target_pockets_) pocket_visited_[p] = true;
   if (arrived) {
-    const std::size_t failures_before = book_.failuresAdded();
-    book_.judgeVisit(frontiers_, params_.covered_fraction);
-    step.visit_failed = book_.failuresAdded() != failures_before;
-    counters_.visit_failures += step.visit_failed ? 1 : 0;
+    const VisitJudgement visit = book_.judgeVisit(frontiers_, params_.covered_fraction);
+    step.visit_failed = visit.failed;
+    if (visit.failed) {
+      step.failed_visit = {book_.target(), target_view_W_, visit.judged_voxels, visit.gone_fraction};
+      ++counters_.visit_failures;
+    }
   }
   const std::vector<Target> targets = gatherTargets(map);
   step.targets = targets.size();
@@ -725,6 +727,7 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
           params_.final_sweep == FinalSweepScope::PocketsOnce ? openPockets(*cluster) : std::vector<std::size_t>{};
       book_.setTarget(*cluster,
                       visibleVoxels(probe, view.position_W, view.yaw_rad, cluster->samples, params_.viewpoint.camera));
+      target_view_W_ = view.position_W;
       step.target = t.cluster;
       return ExplorationStatus::Planned;
     }

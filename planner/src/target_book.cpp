@@ -71,12 +71,15 @@ void TargetBook::addTargetFailure() {
   addFailure(target_voxels_);
 }
 
-void TargetBook::judgeVisit(const FrontierMap& frontiers, double covered_fraction) {
-  if (target_ == 0 || target_voxels_.empty()) return;
-  const double seen_gone =
-      target_promised_.empty() ? coveredFraction(frontiers) : noLongerFrontierFraction(frontiers, target_promised_);
-  if (seen_gone > covered_fraction) return;
-  addTargetFailure();
+VisitJudgement TargetBook::judgeVisit(const FrontierMap& frontiers, double covered_fraction) {
+  VisitJudgement v;
+  if (target_ == 0 || target_voxels_.empty()) return v;
+  const std::vector<openvdb::Coord>& judged = target_promised_.empty() ? target_voxels_ : target_promised_;
+  v.judged_voxels = judged.size();
+  v.gone_fraction = noLongerFrontierFraction(frontiers, judged);
+  v.failed = v.gone_fraction <= covered_fraction;
+  if (v.failed) addTargetFailure();
+  return v;
 }
 
 std::size_t TargetBook::findTarget(const std::vector<ClusterId>& clusters, const FrontierMap& frontiers) const {

@@ -204,7 +204,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     if (manager.alcStats().give_ups > alc_before.give_ups) result.events.push_back({frame.t_s, "alc_gave_up"});
     if (manager.alcStats().detours > alc_before.detours) result.events.push_back({frame.t_s, "alc_detour"});
     if (step.reason == planner::ReplanReason::EmergencyStop) result.events.push_back({frame.t_s, "emergency_stop"});
-    if (step.visit_failed) result.events.push_back({frame.t_s, "visit_failed"});
+    if (step.visit_failed) result.events.push_back({frame.t_s, "visit_failed", step.failed_visit});
     for (std::size_t i = 0; i < step.path_failures; ++i) result.events.push_back({frame.t_s, "path_failed"});
     map_ms.push_back(step.map_update_ms);
     const bool replanned = step.reason != planner::ReplanReason::None;
@@ -461,7 +461,16 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["longest_hold_s"] = r.longest_hold_s;
   j["wall_s"] = s.wall_s;
   nlohmann::json events = nlohmann::json::array();
-  for (const ExplorationEvent& e : r.events) events.push_back({{"t_s", e.t_s}, {"what", e.what}});
+  for (const ExplorationEvent& e : r.events) {
+    nlohmann::json event = {{"t_s", e.t_s}, {"what", e.what}};
+    if (e.visit) {
+      event["cluster"] = e.visit->cluster;
+      event["view_W"] = {e.visit->view_W.x(), e.visit->view_W.y(), e.visit->view_W.z()};
+      event["judged_voxels"] = e.visit->judged_voxels;
+      event["gone_fraction"] = e.visit->gone_fraction;
+    }
+    events.push_back(std::move(event));
+  }
   j["events"] = events;
   return j;
 }

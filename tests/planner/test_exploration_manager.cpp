@@ -296,11 +296,17 @@ TEST_CASE("A frontier that stays unobserved after visits is blacklisted, then ex
   while (step.status != ExplorationStatus::Finished && visits < 100) {
     REQUIRE(step.status == ExplorationStatus::Planned);
     CHECK(trajectoryClear(m, map, m.params().path.clearance_m - 1e-9));
+    const ClusterId target = step.target;
     // Arrive: the next update comes when the trajectory is done.
     t = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
     VehicleState s = onTrajectory(m, t);
     step = m.update(map, CoordBBox(), s, t);
     CHECK(step.visit_failed);  // nothing was seen
+    // ... and the step says which visit: its target, the viewpoint it arrived at, nothing gone.
+    CHECK(step.failed_visit.cluster == target);
+    CHECK((step.failed_visit.view_W - s.position_W).norm() < 1e-3);
+    CHECK(step.failed_visit.judged_voxels > 0);
+    CHECK(step.failed_visit.gone_fraction == 0.0);
     ++visits;
   }
   CHECK(step.status == ExplorationStatus::Finished);

@@ -70,16 +70,27 @@ TEST_CASE("TargetBook judges a visit by what its viewpoint saw, and finds its ta
 
   SECTION("a visit that saw none of its promised frontier go is a failure against the target") {
     book.setTarget(left, {left.voxels.front()});
-    book.judgeVisit(frontiers, 0.5);
+    const VisitJudgement v = book.judgeVisit(frontiers, 0.5);
+    CHECK(v.failed);
+    CHECK(v.judged_voxels == 1);  // judged by what the viewpoint saw
+    CHECK(v.gone_fraction == 0.0);
     CHECK(book.failures(left) == 1);
   }
   SECTION("a visit after which the promised frontier is gone is not") {
     book.setTarget(left, {Coord(0, 3, 3)});  // no longer frontier (never was)
-    book.judgeVisit(frontiers, 0.5);
+    const VisitJudgement v = book.judgeVisit(frontiers, 0.5);
+    CHECK_FALSE(v.failed);
+    CHECK(v.gone_fraction == 1.0);
     CHECK(book.failures(left) == 0);
   }
+  SECTION("a visit whose viewpoint saw none of its samples is judged by the whole target") {
+    book.setTarget(left, {});
+    const VisitJudgement v = book.judgeVisit(frontiers, 0.5);
+    CHECK(v.failed);
+    CHECK(v.judged_voxels == left.voxels.size());
+  }
   SECTION("no target: nothing is judged") {
-    book.judgeVisit(frontiers, 0.5);
+    CHECK_FALSE(book.judgeVisit(frontiers, 0.5).failed);
     book.addTargetFailure();
     CHECK(book.failuresAdded() == 0);
   }

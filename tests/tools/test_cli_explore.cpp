@@ -47,6 +47,19 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
                           "planner_ms_median", "planner_ms_max", "frames_total", "keyframes_kept", "accuracy_rmse_m",
                           "completeness", "finished", "alc_enabled", "epsilon", "alc_detours", "alc_time_s"})
     CHECK(s.contains(key));
+  {
+    // Each failed visit is an event that says which: its target, its viewpoint, how it was judged.
+    std::size_t failed = 0;
+    for (const auto& e : s.at("events")) {
+      if (e.at("what") != "visit_failed") continue;
+      ++failed;
+      CHECK(e.at("cluster").get<std::uint64_t>() != 0);
+      CHECK(e.at("view_W").size() == 3);
+      CHECK(e.at("judged_voxels").get<std::size_t>() > 0);
+      CHECK(e.at("gone_fraction").get<double>() <= 0.5);
+    }
+    CHECK(failed == s.at("visit_failures").get<std::size_t>());  // 2 in this run
+  }
   CHECK(s.at("alc_enabled") == false);  // ALC is off unless asked for
   CHECK(s.at("alc_detours") == 0);
   CHECK(s.at("finished") == true);

@@ -279,6 +279,14 @@ enum class ExplorationActivity {
 inline constexpr int kExplorationActivities = 9;
 const char* toString(ExplorationActivity a);
 
+/// A visit that did not see its target, for diagnosis.
+struct FailedVisit {
+  ClusterId cluster = 0;          ///< the target, as planned
+  Vec3d view_W = Vec3d::Zero();   ///< the viewpoint flown to (the estimate's world frame)
+  std::size_t judged_voxels = 0;  ///< frontier voxels the visit was judged by (VisitJudgement)
+  double gone_fraction = 0.0;     ///< of them, no longer frontier (at most covered_fraction)
+};
+
 /// What one update() did.
 struct ExplorationStep {
   ExplorationStatus status = ExplorationStatus::Continue;
@@ -289,6 +297,7 @@ struct ExplorationStep {
   std::size_t clusters = 0;                  ///< live clusters
   std::size_t targets = 0;                   ///< clusters with a viewpoint, not blacklisted
   bool visit_failed = false;                 ///< the visit judged at this replan did not see its target
+  FailedVisit failed_visit;                  ///< which visit, when visit_failed
   std::size_t path_failures = 0;             ///< targets whose path or trajectory failed at this replan
   std::size_t frontier_voxels = 0;
   double map_update_ms = 0.0;  ///< frontier and viewpoint refresh
@@ -497,6 +506,7 @@ class ExplorationManager {
   std::unique_ptr<PairCostTable> table_;
   LegCostCache refinement_legs_;            ///< refinement's edges between viewpoints, kept over replans
   TargetBook book_;                         ///< failures, blacklist, the current target
+  Vec3d target_view_W_ = Vec3d::Zero();     ///< the viewpoint of book_'s target (FailedVisit)
   EscapePlanner escapes_;                   ///< the way flown, and the ways out of a blocked start
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
   std::size_t finish_views_flown_ = 0;      ///< flights of the detour before finishing so far

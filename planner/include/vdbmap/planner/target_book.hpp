@@ -16,6 +16,13 @@
 
 namespace vdbmap::planner {
 
+/// How the end of a visit was judged.
+struct VisitJudgement {
+  bool failed = false;
+  std::size_t judged_voxels = 0;  ///< frontier voxels judged: what the viewpoint saw, else the target's
+  double gone_fraction = 1.0;     ///< of them, no longer frontier
+};
+
 class TargetBook {
  public:
   /// Throws std::invalid_argument unless 1 <= max_failures <= 100.
@@ -44,8 +51,8 @@ class TargetBook {
   void addTargetFailure();
   /// The visit is over (the trajectory to the target ended): a failure when no more than
   /// `covered_fraction` of what its viewpoint saw (of its voxels, when it saw none) is no longer
-  /// frontier: the target cannot be observed from there.
-  void judgeVisit(const FrontierMap& frontiers, double covered_fraction);
+  /// frontier: the target cannot be observed from there. Without a target, nothing is judged.
+  VisitJudgement judgeVisit(const FrontierMap& frontiers, double covered_fraction);
   /// The index in `clusters` of the target: its cluster, or, when that was made anew (the map
   /// changed around it), the cluster holding most of its frontier voxels; clusters.size() when
   /// none holds any.

@@ -47,6 +47,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -107,10 +108,12 @@ using ExplorationOptions [[deprecated("renamed ExplorationRecordConfig")]] = Exp
 /// started), "alc_gave_up" (a detour given up without a loop closure), "collision" (a collision
 /// event began in the flight up to this frame), "emergency_stop" (the safety layer found the
 /// trajectory blocked, planner::ReplanReason::EmergencyStop), "visit_failed" (a visit ended without
-/// seeing its target), "path_failed" (one per target without a path or trajectory at a replan).
+/// seeing its target, with which visit), "path_failed" (one per target without a path or
+/// trajectory at a replan).
 struct ExplorationEvent {
   double t_s = 0.0;
   std::string what;
+  std::optional<planner::FailedVisit> visit = std::nullopt;  ///< visit_failed: the target, its viewpoint, the judgement
 };
 
 /// The run at one moment (coverage.csv).
