@@ -91,14 +91,15 @@ inline Vec3f codesPoint(const std::int32_t* q, double unit_m) {
   return Vec3f(float(q[0] * unit_m), float(q[1] * unit_m), float(q[2] * unit_m));
 }
 
-void checkDepthEncoding(const DepthImage& depth, const CameraIntrinsics* K, double depth_unit_m, int stride) {
-  if (!K) throw std::invalid_argument("EncodedFrame::fromDepth: intrinsics are required");
+void checkDepthEncoding(const char* who, const DepthImage& depth, const CameraIntrinsics* K, double depth_unit_m,
+                        int stride) {
+  const auto fail = [who](const std::string& what) { throw std::invalid_argument(std::string(who) + ": " + what); };
+  if (!K) fail("intrinsics are required");
   if (depth.width != K->width || depth.height != K->height)
-    throw std::invalid_argument("EncodedFrame::fromDepth: image is " + std::to_string(depth.width) + "x" +
-                                std::to_string(depth.height) + " but the camera is " + std::to_string(K->width) + "x" +
-                                std::to_string(K->height));
-  if (!(depth_unit_m > 0.0)) throw std::invalid_argument("EncodedFrame::fromDepth: depth_unit_m must be > 0");
-  if (stride < 1) throw std::invalid_argument("EncodedFrame::fromDepth: stride must be >= 1");
+    fail("image is " + std::to_string(depth.width) + "x" + std::to_string(depth.height) + " but the camera is " +
+         std::to_string(K->width) + "x" + std::to_string(K->height));
+  if (!(depth_unit_m > 0.0)) fail("depth_unit_m must be > 0");
+  if (stride < 1) fail("stride must be >= 1");
 }
 
 /// Row-delta codes of a depth image (rows coded independently, so in parallel); also the decoded
@@ -126,7 +127,12 @@ std::vector<std::uint16_t> deltaCodes(const DepthImage& depth, double unit_m, De
 
 EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
                                      double depth_unit_m, int stride, bool compress) {
-  checkDepthEncoding(depth, K.get(), depth_unit_m, stride);
+  return depthFrame(depth, std::move(K), depth_unit_m, stride, compress, nullptr);
+}
+
+EncodedFrame EncodedFrame::depthFrame(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
+                                      double depth_unit_m, int stride, bool compress, DepthImage* decoded) {
+  checkDepthEncoding("EncodedFrame::fromDepth", depth, K.get(), depth_unit_m, stride);
   EncodedFrame f;
   f.kind_ = Kind::Depth;
   f.intrinsics_ = std::move(K);
@@ -134,7 +140,7 @@ EncodedFrame EncodedFrame::fromDepth(const DepthImage& depth, std::shared_ptr<co
   f.stride_ = stride;
   f.count_ = std::uint32_t(depth.depth_m.size());
   // Row-delta coding: neighbouring depths are close, so the differences compress well.
-  const std::vector<std::uint16_t> coded = deltaCodes(depth, depth_unit_m, nullptr);
+  const std::vector<std::uint16_t> coded = deltaCodes(depth, depth_unit_m, decoded);
   f.compressed_ = compress;
   const std::size_t n = coded.size() * sizeof(std::uint16_t);
   f.payload_ = compress ? deflateBytes(coded.data(), n) : rawBytes(coded.data(), n);
@@ -170,16 +176,8 @@ EncodedFrame EncodedFrame::encodeRaw(const SensorFrame& frame, double unit_m, Se
     return f;
   }
   const DepthImage& depth = frame.depthImage();
-  checkDepthEncoding(depth, frame.sharedIntrinsics().get(), unit_m, 1);
-  EncodedFrame f;
-  f.kind_ = Kind::Depth;
-  f.intrinsics_ = frame.sharedIntrinsics();
-  f.unit_m_ = unit_m;
-  f.count_ = std::uint32_t(depth.depth_m.size());
-  f.compressed_ = false;
   DepthImage image(depth.width, depth.height, 0.0f);
-  const std::vector<std::uint16_t> coded = deltaCodes(depth, unit_m, &image);
-  f.payload_ = rawBytes(coded.data(), coded.size() * sizeof(std::uint16_t));
+  EncodedFrame f = depthFrame(depth, frame.sharedIntrinsics(), unit_m, 1, false, &image);
   decoded = SensorFrame::depth(std::move(image), f.intrinsics_);
   return f;
 }
@@ -193,7 +191,7 @@ SensorFrame EncodedFrame::quantize(const SensorFrame& frame, double unit_m) {
     return SensorFrame::points(std::move(points));
   }
   const DepthImage& depth = frame.depthImage();
-  checkDepthEncoding(depth, frame.sharedIntrinsics().get(), unit_m, 1);
+  checkDepthEncoding("EncodedFrame::quantize", depth, frame.sharedIntrinsics().get(), unit_m, 1);
   DepthImage image(depth.width, depth.height, 0.0f);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, depth.depth_m.size(), 16384), [&](const auto& r) {
     constexpr std::size_t kBatch = 256;

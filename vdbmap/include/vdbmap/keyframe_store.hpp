@@ -66,6 +66,9 @@ class EncodedFrame {
 
  private:
   friend struct KeyframeStoreFile;  // keyframe_store_io.cpp reads and writes the fields
+  /// fromDepth, also writing decodeDepth() of the result into *decoded when given (same size).
+  static EncodedFrame depthFrame(const DepthImage& depth, std::shared_ptr<const CameraIntrinsics> K,
+                                 double depth_unit_m, int stride, bool compress, DepthImage* decoded);
   enum class Kind : std::uint8_t { Depth, Points };
   Kind kind_ = Kind::Points;
   std::shared_ptr<const CameraIntrinsics> intrinsics_;
