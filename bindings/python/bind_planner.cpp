@@ -60,6 +60,14 @@ void bindFrontierAndViewpoints(py::module_& m) {
                      "every voxel within this distance of a viewpoint is known-free; [0, 10]")
       .def_readwrite("min_visible_samples", &ViewpointConfig::min_visible_samples,
                      "FUEL min_visib_num: a viewpoint must see more cluster samples than this; [0, 1e6]")
+      .def_readwrite("look_into_unknown", &ViewpointConfig::look_into_unknown,
+                     "a sample counts as seen when the camera looks into an unknown neighbour of it (True), "
+                     "or, as FUEL, when it sees the sample's free voxel (False)")
+      .def_readwrite("unknown_entry_reach_vox", &ViewpointConfig::unknown_entry_reach_vox,
+                     "with look_into_unknown: how far (voxels) from the neighbour the ray may enter unknown space; "
+                     "[0, 100]")
+      .def_readwrite("voxel_rule_fallback", &ViewpointConfig::voxel_rule_fallback,
+                     "with look_into_unknown: a cluster no candidate observes that way gets viewpoints by FUEL's rule")
       .def_readwrite("camera", &ViewpointConfig::camera, "CameraFrustum")
       .def_readwrite("fallback", &ViewpointConfig::fallback, "ViewpointFallback")
       .def("validate", &ViewpointConfig::validate, "Raises ValueError naming the field and its allowed range.");

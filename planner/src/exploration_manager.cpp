@@ -29,6 +29,7 @@ ExplorationManagerConfig derivedParams(ExplorationManagerConfig p) {
   const Vec3d margin(clearance, clearance, std::max(clearance, p.viewpoint_margin_z_m));
   Eigen::AlignedBox3d view_box(p.box_W.min() + margin, p.box_W.max() - margin);
   p.viewpoint.bounds_W = view_box.isEmpty() ? p.box_W : view_box;
+  p.viewpoint.frontier_bounds_W = p.box_W;
   p.path.bounds_W = p.box_W;
   p.cost_path.bounds_W = p.box_W;
   p.trajectory.clearance_m = p.path.clearance_m;
@@ -725,8 +726,10 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
       // Pockets are visited (marked) only with PocketsOnce.
       target_pockets_ =
           params_.final_sweep == FinalSweepScope::PocketsOnce ? openPockets(*cluster) : std::vector<std::size_t>{};
-      book_.setTarget(*cluster,
-                      visibleVoxels(probe, view.position_W, view.yaw_rad, cluster->samples, params_.viewpoint.camera));
+      // The visit is judged by what the viewpoint was scored by.
+      ViewpointConfig rule = params_.viewpoint;
+      rule.look_into_unknown = view.looks_into_unknown;
+      book_.setTarget(*cluster, observedSamples(probe, view.position_W, view.yaw_rad, cluster->samples, rule));
       target_view_W_ = view.position_W;
       step.target = t.cluster;
       return ExplorationStatus::Planned;

@@ -135,7 +135,8 @@ double MapProbe::clearance(const Vec3d& p_W, double max_m) {
   return best_vox * voxel_size_m_;
 }
 
-bool MapProbe::isVisible(const Vec3d& a_W, const Vec3d& b_W) {
+template <typename OnVoxel>
+bool MapProbe::traverse(const Vec3d& a_W, const Vec3d& b_W, OnVoxel&& on_voxel) const {
   // Amanatides-Woo traversal in the index space shifted by +0.5, where voxel (i, j, k) is the
   // unit cell [i, i+1) x [j, j+1) x [k, k+1).
   const Vec3d a = a_W / voxel_size_m_ + Vec3d::Constant(0.5);
@@ -162,14 +163,28 @@ bool MapProbe::isVisible(const Vec3d& a_W, const Vec3d& b_W) {
   // At most one voxel per crossed boundary plus the first: a hard bound against rounding.
   const int max_steps = std::abs(last[0] - ijk[0]) + std::abs(last[1] - ijk[1]) + std::abs(last[2] - ijk[2]) + 1;
   for (int n = 0; n < max_steps; ++n) {
-    if (at(openvdb::Coord(ijk[0], ijk[1], ijk[2])) != Occupancy::Free) return false;
-    if (ijk[0] == last[0] && ijk[1] == last[1] && ijk[2] == last[2]) break;
+    if (!on_voxel(openvdb::Coord(ijk[0], ijk[1], ijk[2]))) return false;
+    if (ijk[0] == last[0] && ijk[1] == last[1] && ijk[2] == last[2]) return true;
     const int k = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
     if (t_max[k] > 1.0) break;  // rounding: the end voxel is reached
     ijk[k] += step[k];
     t_max[k] += t_delta[k];
   }
-  return at(openvdb::Coord(last[0], last[1], last[2])) == Occupancy::Free;
+  return on_voxel(openvdb::Coord(last[0], last[1], last[2]));
+}
+
+bool MapProbe::isVisible(const Vec3d& a_W, const Vec3d& b_W) {
+  return traverse(a_W, b_W, [this](const openvdb::Coord& ijk) { return at(ijk) == Occupancy::Free; });
+}
+
+std::optional<openvdb::Coord> MapProbe::firstNotFree(const Vec3d& a_W, const Vec3d& b_W) {
+  std::optional<openvdb::Coord> first;
+  traverse(a_W, b_W, [&](const openvdb::Coord& ijk) {
+    if (at(ijk) == Occupancy::Free) return true;
+    first = ijk;
+    return false;
+  });
+  return first;
 }
 
 bool MapProbe::isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_m) {

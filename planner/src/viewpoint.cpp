@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -70,7 +71,11 @@ void ViewpointConfig::validate() const {
   if (!(min_clearance_m >= 0.0 && min_clearance_m <= 10.0)) fail("ViewpointConfig", "min_clearance_m", "[0, 10]");
   if (min_visible_samples < 0 || min_visible_samples > 1000000)
     fail("ViewpointConfig", "min_visible_samples", "[0, 1e6]");
+  if (unknown_entry_reach_vox < 0 || unknown_entry_reach_vox > 100)
+    fail("ViewpointConfig", "unknown_entry_reach_vox", "[0, 100]");
   if (bounds_W && bounds_W->isEmpty()) fail("ViewpointConfig", "bounds_W", "non-empty boxes");
+  if (frontier_bounds_W && frontier_bounds_W->isEmpty())
+    fail("ViewpointConfig", "frontier_bounds_W", "non-empty boxes");
 }
 
 double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, const MapQuery& map) {
@@ -110,6 +115,50 @@ std::vector<openvdb::Coord> visibleVoxels(MapProbe& probe, const Vec3d& eye_W, d
                                           const std::vector<openvdb::Coord>& voxels, const CameraFrustum& camera) {
   std::vector<openvdb::Coord> seen;
   forEachSeen(probe, eye_W, yaw_rad, voxels, camera, [&](const openvdb::Coord& v) { seen.push_back(v); });
+  return seen;
+}
+
+namespace {
+int maxNorm(const openvdb::Coord& d) { return std::max({std::abs(d.x()), std::abs(d.y()), std::abs(d.z())}); }
+
+/// Calls on_observed(sample) for each sample observedSamples() returns.
+template <typename OnObserved>
+void forEachObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
+                     const ViewpointConfig& params, OnObserved&& on_observed) {
+  if (!params.look_into_unknown) return forEachSeen(probe, eye_W, yaw_rad, samples, params.camera, on_observed);
+  static const openvdb::Coord kFaces[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  const double voxel_size_m = probe.voxelSize();
+  const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
+  const Eigen::AlignedBox3d* bounds = params.frontier_bounds_W ? &*params.frontier_bounds_W : nullptr;
+  for (const openvdb::Coord& v : samples) {
+    for (const openvdb::Coord& d : kFaces) {
+      const openvdb::Coord n = v + d;
+      if (probe.at(n) != Occupancy::Unknown) continue;
+      const Vec3d p = voxelCenterOf(n, voxel_size_m);
+      if ((bounds && !bounds->contains(p)) || !frustumContains(params.camera, eye_W, c, s, p)) continue;
+      // The ray toward n enters unknown space at n or near it; one entering it farther off runs
+      // along the unknown's edge, as toward the top of a board seen edge-on.
+      const std::optional<openvdb::Coord> entry = probe.firstNotFree(eye_W, p);
+      if (entry && probe.at(*entry) == Occupancy::Unknown && maxNorm(*entry - n) <= params.unknown_entry_reach_vox) {
+        on_observed(v);
+        break;
+      }
+    }
+  }
+}
+}  // namespace
+
+std::vector<openvdb::Coord> observedSamples(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
+                                            const std::vector<openvdb::Coord>& samples, const ViewpointConfig& params) {
+  std::vector<openvdb::Coord> seen;
+  forEachObserved(probe, eye_W, yaw_rad, samples, params, [&](const openvdb::Coord& v) { seen.push_back(v); });
+  return seen;
+}
+
+int countObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
+                  const ViewpointConfig& params) {
+  int seen = 0;
+  forEachObserved(probe, eye_W, yaw_rad, samples, params, [&](const openvdb::Coord&) { ++seen; });
   return seen;
 }
 
@@ -162,8 +211,8 @@ void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sigh
         if (params.bounds_W && !params.bounds_W->contains(p)) continue;
         if (!probe.isClear(p, rings.min_clearance_m)) continue;
         const double yaw = yawToward(p, cluster.samples, map);
-        const int seen = countVisible(sight, p, yaw, cluster.samples, params.camera);
-        if (seen > rings.min_visible_samples) out.push_back({p, yaw, seen});
+        const int seen = countObserved(sight, p, yaw, cluster.samples, params);
+        if (seen > rings.min_visible_samples) out.push_back({p, yaw, seen, params.look_into_unknown});
       }
     }
   }
@@ -179,19 +228,28 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
   MapProbe probe(map);
   std::optional<MapProbe> own_sight;
   MapProbe& sight = &map.sightMap() == &map ? probe : own_sight.emplace(map.sightMap());
-  searchRings(cluster, probe, sight, params,
-              {params.ring_radius_min_m, params.ring_radius_max_m, params.ring_count, params.height_offsets_m,
-               params.min_clearance_m, params.min_visible_samples},
-              viewpoints);
-  const ViewpointFallback& fb = params.fallback;
-  if (viewpoints.empty() && fb.enabled) {
-    // A candidate passes (seen > threshold) with ceil(fraction x samples) samples, or with more
-    // than min_visible_samples, and never with none.
-    const int fraction_of_samples = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size()))) - 1;
-    const int threshold = std::max(0, std::min(params.min_visible_samples, fraction_of_samples));
-    searchRings(cluster, probe, sight, params,
-                {fb.ring_radius_min_m, fb.ring_radius_max_m, fb.ring_count, fb.height_offsets_m, fb.min_clearance_m,
-                 threshold}, viewpoints);
+  const auto search = [&](const ViewpointConfig& p) {
+    searchRings(cluster, probe, sight, p,
+                {p.ring_radius_min_m, p.ring_radius_max_m, p.ring_count, p.height_offsets_m, p.min_clearance_m,
+                 p.min_visible_samples},
+                viewpoints);
+    const ViewpointFallback& fb = p.fallback;
+    if (viewpoints.empty() && fb.enabled) {
+      // A candidate passes (seen > threshold) with ceil(fraction x samples) samples, or with more
+      // than min_visible_samples, and never with none.
+      const int fraction_of_samples = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size()))) - 1;
+      const int threshold = std::max(0, std::min(p.min_visible_samples, fraction_of_samples));
+      searchRings(cluster, probe, sight, p,
+                  {fb.ring_radius_min_m, fb.ring_radius_max_m, fb.ring_count, fb.height_offsets_m, fb.min_clearance_m,
+                   threshold},
+                  viewpoints);
+    }
+  };
+  search(params);
+  if (viewpoints.empty() && params.look_into_unknown && params.voxel_rule_fallback) {
+    ViewpointConfig fuel = params;
+    fuel.look_into_unknown = false;
+    search(fuel);
   }
   std::stable_sort(viewpoints.begin(), viewpoints.end(),
                    [](const Viewpoint& a, const Viewpoint& b) { return a.visible_samples > b.visible_samples; });

@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <vector>
 
 namespace vdbmap::planner::test {
@@ -76,6 +78,33 @@ inline bool bruteSegmentClear(const DenseMap& map, const Vec3d& a, const Vec3d& 
         if (pointSegmentDistance(map.voxelCenter(c), a, b) <= r && map.get(c) != Occupancy::Free) return false;
       }
   return true;
+}
+
+/// Brute force: of the voxels the segment a-b intersects (slab test against each voxel's cube),
+/// the one not known-free that the segment enters first (none when all are free).
+inline std::optional<openvdb::Coord> bruteFirstNotFree(const DenseMap& map, const Vec3d& a, const Vec3d& b) {
+  const double s = map.voxelSize();
+  std::optional<openvdb::Coord> first;
+  double first_t = std::numeric_limits<double>::infinity();
+  const openvdb::Coord l = map.worldToVoxel(a.cwiseMin(b)), h = map.worldToVoxel(a.cwiseMax(b));
+  const Vec3d d = b - a;
+  for (auto it = openvdb::CoordBBox(l, h).begin(); it; ++it) {
+    if (map.get(*it) == Occupancy::Free) continue;
+    const Vec3d lo = map.voxelCenter(*it) - Vec3d::Constant(0.5 * s), hi = lo + Vec3d::Constant(s);
+    double t0 = 0.0, t1 = 1.0;
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(d[k]) < 1e-15) {
+        if (!(a[k] >= lo[k] && a[k] < hi[k])) t0 = 2.0;
+        continue;
+      }
+      double ta = (lo[k] - a[k]) / d[k], tb = (hi[k] - a[k]) / d[k];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+    }
+    if (t0 <= t1 && t0 < first_t) first_t = t0, first = *it;
+  }
+  return first;
 }
 
 /// Brute force: every voxel the segment a-b intersects (slab test against each voxel's cube) is free.

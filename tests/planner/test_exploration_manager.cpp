@@ -328,6 +328,10 @@ TEST_CASE("A visit is judged by what its viewpoint saw: uncovering that part of 
   map.fill(CoordBBox(Coord(40, 1, 1), Coord(78, 58, 78)), Occupancy::Unknown);
   ExplorationManagerConfig p = roomParams();
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(8, 6, 8));
+  // Either rule of what a viewpoint sees: FUEL's (the free voxel in sight) or looking into the
+  // unknown beside it.
+  p.viewpoint.look_into_unknown = GENERATE(false, true);
+  CAPTURE(p.viewpoint.look_into_unknown);
   const Vec3d start(1.5, 3.0, 4.0);
   ExplorationManager m(p, at(start), 0.0);
   REQUIRE(m.update(map, CoordBBox(), at(start), 0.0).status == ExplorationStatus::Planned);
@@ -339,7 +343,9 @@ TEST_CASE("A visit is judged by what its viewpoint saw: uncovering that part of 
   const double t_end = m.trajectoryStartTime() + m.trajectory().duration();
   const VehicleState eye = m.command(t_end);
   MapProbe probe(map);
-  const std::vector<Coord> seen = visibleVoxels(probe, eye.position_W, eye.yaw_rad, target->voxels, p.viewpoint.camera);
+  ViewpointConfig rule = p.viewpoint;
+  rule.frontier_bounds_W = p.box_W;
+  const std::vector<Coord> seen = observedSamples(probe, eye.position_W, eye.yaw_rad, target->voxels, rule);
   const double seen_fraction = double(seen.size()) / double(target->voxels.size());
   INFO("the viewpoint sees " << seen.size() << " of the cluster's " << target->voxels.size() << " voxels");
   // The scenario discriminates: judged by the whole cluster, this visit would be a failure.

@@ -18,6 +18,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 
 using namespace vdbmap;
@@ -99,6 +100,29 @@ TEST_CASE("MapProbe::isVisible equals a brute-force slab test of every voxel the
     visible += v;
   }
   CHECK(visible > 200);
+}
+
+TEST_CASE("MapProbe::firstNotFree is the blocked voxel the segment enters first, by brute force", "[planner][map]") {
+  const DenseMap map = randomMap(4, 0.05, 0.05);
+  MapProbe probe(map);
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<double> pos(0.05, 2.85), posz(0.05, 1.35), len(0.0, 1.0);
+  int blocked = 0, unknown_first = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3d a(pos(rng), pos(rng), posz(rng));
+    const Vec3d b = a + (Vec3d(pos(rng), pos(rng), posz(rng)) - a) * len(rng);
+    const std::optional<Coord> expected = test::bruteFirstNotFree(map, a, b);
+    const std::optional<Coord> got = probe.firstNotFree(a, b);
+    REQUIRE(got.has_value() == expected.has_value());
+    REQUIRE(got.has_value() == !probe.isVisible(a, b));
+    if (!got) continue;
+    REQUIRE(*got == *expected);
+    ++blocked;
+    unknown_first += map.get(*got) == Occupancy::Unknown;
+  }
+  CHECK(blocked > 500);
+  CHECK(unknown_first > 100);  // both kinds of blocking voxel occur
+  CHECK(unknown_first < blocked - 100);
 }
 
 TEST_CASE("MapProbe::isSegmentClear is the exact capsule test", "[planner][map]") {

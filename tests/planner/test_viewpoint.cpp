@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <random>
 
 using namespace vdbmap;
 using namespace vdbmap::planner;
@@ -27,7 +29,8 @@ DenseMap halfKnownRoom() {
   return map;
 }
 
-/// The cluster samples a camera at the viewpoint sees, recounted with the brute-force ray test.
+/// The cluster samples a camera at the viewpoint sees (FUEL's rule, look_into_unknown off),
+/// recounted with the brute-force ray test.
 int bruteSeen(const DenseMap& map, const FrontierCluster& cluster, const CameraFrustum& camera, const Viewpoint& v) {
   int seen = 0;
   for (const Coord& s : cluster.samples) {
@@ -35,6 +38,42 @@ int bruteSeen(const DenseMap& map, const FrontierCluster& cluster, const CameraF
     seen += camera.contains(v.position_W, v.yaw_rad, p) && test::bruteVisible(map, p, v.position_W);
   }
   return seen;
+}
+
+/// The cluster samples a camera at the viewpoint observes (look_into_unknown, the default),
+/// recounted by brute force: an unknown face neighbour inside the frustum whose ray from the eye
+/// first leaves free space within unknown_entry_reach_vox of it, into unknown space.
+int bruteObserved(const DenseMap& map, const std::vector<Coord>& samples, const ViewpointConfig& params,
+                  const Vec3d& eye, double yaw) {
+  int seen = 0;
+  for (const Coord& s : samples) {
+    bool observed = false;
+    for (const Coord& d :
+         {Coord(1, 0, 0), Coord(-1, 0, 0), Coord(0, 1, 0), Coord(0, -1, 0), Coord(0, 0, 1), Coord(0, 0, -1)}) {
+      const Coord n = s + d;
+      const Vec3d p = map.voxelCenter(n);
+      if (map.get(n) != Occupancy::Unknown || !params.camera.contains(eye, yaw, p)) continue;
+      if (params.frontier_bounds_W && !params.frontier_bounds_W->contains(p)) continue;
+      const std::optional<Coord> entry = test::bruteFirstNotFree(map, eye, p);
+      REQUIRE(entry);  // n itself is not free
+      const Coord off = *entry - n;
+      observed |= map.get(*entry) == Occupancy::Unknown &&
+                  std::max({std::abs(off.x()), std::abs(off.y()), std::abs(off.z())}) <= params.unknown_entry_reach_vox;
+    }
+    seen += observed;
+  }
+  return seen;
+}
+int bruteObserved(const DenseMap& map, const FrontierCluster& cluster, const ViewpointConfig& params,
+                  const Viewpoint& v) {
+  return bruteObserved(map, cluster.samples, params, v.position_W, v.yaw_rad);
+}
+
+/// The defaults with look_into_unknown on.
+ViewpointConfig intoUnknown() {
+  ViewpointConfig p;
+  p.look_into_unknown = true;
+  return p;
 }
 }  // namespace
 
@@ -111,6 +150,125 @@ TEST_CASE("Every viewpoint is clear, sees its cluster, and looks at it", "[plann
     for (std::size_t k = 0; k < single.size(); ++k) {
       CHECK(parallel[i][k].position_W == single[k].position_W);
       CHECK(parallel[i][k].visible_samples == single[k].visible_samples);
+    }
+  }
+}
+
+TEST_CASE("Looking into the unknown, every viewpoint observes its cluster as the brute-force rule counts",
+          "[planner][viewpoint]") {
+  const DenseMap map = halfKnownRoom();
+  FrontierMap frontiers;
+  frontiers.rebuild(map);
+  const ViewpointConfig params = intoUnknown();
+  std::size_t total = 0;
+  for (const FrontierCluster& cluster : frontiers.clusters())
+    for (const Viewpoint& v : computeViewpoints(cluster, map, params)) {
+      REQUIRE(test::bruteClear(map, v.position_W, params.min_clearance_m));
+      REQUIRE(v.looks_into_unknown);
+      REQUIRE(bruteObserved(map, cluster, params, v) == v.visible_samples);
+      REQUIRE(v.visible_samples > params.min_visible_samples);
+      ++total;
+    }
+  CHECK(total > 20);
+  // FUEL's rule, the default, marks its viewpoints so.
+  for (const Viewpoint& v : computeViewpoints(frontiers.clusters()[0], map, ViewpointConfig{}))
+    REQUIRE_FALSE(v.looks_into_unknown);
+}
+
+TEST_CASE("observedSamples equals the brute-force rule for every entry reach, in and out of the frontier box",
+          "[planner][viewpoint]") {
+  // The half-known room with clutter: occupied and unknown voxels scattered in its known half.
+  DenseMap map = halfKnownRoom();
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (auto it = CoordBBox(Coord(1), Coord(38, 58, 28)).begin(); it; ++it) {
+    const double x = u(rng);
+    if (x < 0.01)
+      map.set(*it, Occupancy::Occupied);
+    else if (x < 0.02)
+      map.set(*it, Occupancy::Unknown);
+  }
+  std::vector<Coord> samples;  // every free voxel beside unknown space
+  const std::unique_ptr<MapReader> reader = map.reader();
+  for (auto it = CoordBBox(Coord(1), Coord(39, 58, 28)).begin(); it; ++it)
+    if (isFrontierVoxel(*reader, *it)) samples.push_back(*it);
+  REQUIRE(samples.size() > 1000);
+  std::uniform_real_distribution<double> px(0.3, 3.6), py(0.3, 5.6), pz(0.3, 2.6), yaw(-M_PI, M_PI);
+  MapProbe probe(map);
+  std::size_t observed_total = 0, visible_total = 0;
+  for (int i = 0; i < 40; ++i) {
+    ViewpointConfig params = intoUnknown();
+    params.unknown_entry_reach_vox = i % 3;
+    if (i % 4 == 3) params.frontier_bounds_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(3.8, 6, 3));
+    const Vec3d eye(px(rng), py(rng), pz(rng));
+    const double y = yaw(rng);
+    const std::vector<Coord> got = observedSamples(probe, eye, y, samples, params);
+    REQUIRE(int(got.size()) == bruteObserved(map, samples, params, eye, y));
+    REQUIRE(countObserved(probe, eye, y, samples, params) == int(got.size()));
+    REQUIRE(std::is_sorted(got.begin(), got.end(), [&](const Coord& a, const Coord& b) {
+      return std::find(samples.begin(), samples.end(), a) < std::find(samples.begin(), samples.end(), b);
+    }));
+    observed_total += got.size();
+    params.look_into_unknown = false;
+    const std::vector<Coord> fuel = observedSamples(probe, eye, y, samples, params);
+    REQUIRE(fuel == visibleVoxels(probe, eye, y, samples, params.camera));
+    visible_total += fuel.size();
+  }
+  CHECK(observed_total > 500);
+  CHECK(visible_total > 500);
+}
+
+TEST_CASE("A free layer under unknown space seen edge-on is visible but not observed", "[planner][viewpoint]") {
+  // A known-free room 4 m wide whose voxels from z = 1.7 m up are unknown over x >= 1 m, as the top
+  // of a shelf board the camera has only seen from below: the free voxels at z = 1.6 m under it
+  // are frontier with the unknown above them.
+  DenseMap map(0.1, CoordBBox(Coord(-2), Coord(42, 22, 32)));
+  map.fill(CoordBBox(Coord(0), Coord(40, 20, 30)), Occupancy::Free);
+  map.fill(CoordBBox(Coord(10, 0, 17), Coord(40, 20, 30)), Occupancy::Unknown);
+  std::vector<Coord> layer;
+  for (int x = 20; x <= 30; ++x)
+    for (int y = 5; y <= 15; ++y) layer.emplace_back(x, y, 16);
+  MapProbe probe(map);
+  const ViewpointConfig params = intoUnknown();
+  // At the layer's height, 2 m off, looking along it: FUEL's rule sees every voxel of it, but the
+  // rays toward the unknown above enter the unknown layer about a metre before it.
+  const Vec3d level(0.5, 1.0, 1.6);
+  const double yaw = 0.0;
+  CHECK(countVisible(probe, level, yaw, layer, params.camera) > 100);
+  CHECK(countObserved(probe, level, yaw, layer, params) == 0);
+  CHECK(bruteObserved(map, layer, params, level, yaw) == 0);
+  // From 1 m below, the camera looks up into the unknown above the layer's far part.
+  const Vec3d below(0.5, 1.0, 0.6);
+  CHECK(countObserved(probe, below, yaw, layer, params) > 20);
+  // With unknown_entry_reach_vox 0 a ray must enter the neighbour itself, which slanted rays do
+  // not: fewer samples count.
+  ViewpointConfig strict = params;
+  strict.unknown_entry_reach_vox = 0;
+  CHECK(countObserved(probe, below, yaw, layer, strict) < countObserved(probe, below, yaw, layer, params));
+
+  SECTION("A cluster of it that no candidate observes gets viewpoints by FUEL's rule, marked so") {
+    FrontierCluster cluster;
+    cluster.id = 1;
+    cluster.voxels = cluster.samples = layer;
+    for (const Coord& c : layer) cluster.centroid_W += map.voxelCenter(c) / double(layer.size());
+    ViewpointConfig rings_only = intoUnknown();  // rings at the layer's height only: none looks up into the unknown
+    rings_only.fallback.enabled = false;
+    const std::vector<Viewpoint> views = computeViewpoints(cluster, map, rings_only);
+    REQUIRE_FALSE(views.empty());
+    for (const Viewpoint& v : views) {
+      CHECK_FALSE(v.looks_into_unknown);
+      CHECK(v.visible_samples == bruteSeen(map, cluster, rings_only.camera, v));
+      CHECK(bruteObserved(map, cluster, rings_only, v) == 0);
+    }
+    rings_only.voxel_rule_fallback = false;
+    CHECK(computeViewpoints(cluster, map, rings_only).empty());
+    // The fallback's rings, 0.5 and 1 m lower, look up into the unknown: the first rule's viewpoints.
+    const std::vector<Viewpoint> low = computeViewpoints(cluster, map, params);
+    REQUIRE_FALSE(low.empty());
+    for (const Viewpoint& v : low) {
+      CHECK(v.looks_into_unknown);
+      CHECK(v.position_W.z() < 1.6 - 0.4);
+      CHECK(v.visible_samples == bruteObserved(map, cluster, params, v));
     }
   }
 }

@@ -147,6 +147,9 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --alc maybe -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --budgets sometimes -o " + (dir / "x").string(), out) != 0);
   CHECK(slurp(out).find("--budgets") != std::string::npos);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --view-score sideways -o " + (dir / "x").string(),
+            out) != 0);
+  CHECK(slurp(out).find("--view-score") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --epsilon -1 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 2.0,1.0 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --start 9,9,1 -o " + (dir / "x").string(), out) != 0);

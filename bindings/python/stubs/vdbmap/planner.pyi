@@ -66,6 +66,9 @@ class ViewpointConfig:
     height_offsets_m: list[float]
     min_clearance_m: float
     min_visible_samples: int
+    look_into_unknown: bool
+    unknown_entry_reach_vox: int
+    voxel_rule_fallback: bool
     camera: CameraFrustum
     fallback: ViewpointFallback
     def __init__(self, **kwargs: Any) -> None: ...

@@ -24,6 +24,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -116,6 +117,10 @@ class MapProbe {
   /// voxels included) is known-free: the ray a-b is not blocked by occupied or unknown space.
   bool isVisible(const Vec3d& a_W, const Vec3d& b_W);
 
+  /// The first voxel along the segment a-b (from a's, as isVisible traverses) that is not
+  /// known-free; none when isVisible(a_W, b_W).
+  std::optional<openvdb::Coord> firstNotFree(const Vec3d& a_W, const Vec3d& b_W);
+
   /// True when every voxel whose centre lies within radius_m of any point of the segment a-b (the
   /// capsule around it), and every voxel the segment passes through, is known-free. Exact: the
   /// capsule's voxels are enumerated layer by layer along the segment's main axis, each once.
@@ -123,6 +128,11 @@ class MapProbe {
   bool isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_m);
 
  private:
+  /// Calls on_voxel(ijk) for the voxels the segment a-b passes through, in order from a's (exact
+  /// 3D DDA), until it returns false; returns false then, true when b's voxel was accepted.
+  template <typename OnVoxel>
+  bool traverse(const Vec3d& a_W, const Vec3d& b_W, OnVoxel&& on_voxel) const;
+
   struct Offset {
     openvdb::Coord d;
     double dist_vox;  ///< |d| in voxels, for ordering

@@ -75,6 +75,23 @@ struct ViewpointConfig {
   double min_clearance_m = 0.3;
   /// FUEL min_visib_num: a viewpoint must see more than this many cluster samples; [0, 1e6]
   int min_visible_samples = 15;
+  /// What seeing a frontier sample means (observedSamples): looking into one of its unknown
+  /// neighbours (true), which makes the unknown known, or, as FUEL, seeing the free voxel itself
+  /// (false), which a camera can do with the unknown beside it out of sight, e.g. a shelf board's
+  /// top seen from its own height: such visits fail again and again. Off by default until its
+  /// runs hold up (docs/exploration.md, "Stop 51").
+  bool look_into_unknown = false;
+  /// With look_into_unknown: the ray toward an unknown neighbour may enter unknown space this many
+  /// voxels (max norm) off it and still observe it (0: only by entering the neighbour itself,
+  /// which rays that cross a frontier at a slant seldom do); [0, 100]
+  int unknown_entry_reach_vox = 1;
+  /// With look_into_unknown: a cluster that no candidate observes that way gets viewpoints by
+  /// FUEL's rule (Viewpoint::looks_into_unknown false), e.g. the top of a board the camera will see
+  /// once it flies closer; off: such a cluster has none until its viewpoints are computed again.
+  bool voxel_rule_fallback = true;
+  /// Where unknown voxels make frontiers (FrontierConfig::bounds_W): one outside it is no reason
+  /// to fly anywhere. Unset: no limit.
+  std::optional<Eigen::AlignedBox3d> frontier_bounds_W;
   CameraFrustum camera;
   ViewpointFallback fallback;
   /// The exploration box: candidates are moved to its height range (so clusters at the floor or
@@ -89,6 +106,9 @@ struct Viewpoint {
   Vec3d position_W = Vec3d::Zero();
   double yaw_rad = 0.0;
   int visible_samples = 0;  ///< cluster samples seen from here (the score)
+  /// The rule visible_samples counts by: ViewpointConfig::look_into_unknown, or false when the
+  /// viewpoint is FUEL's rule's fallback.
+  bool looks_into_unknown = false;
 
   FlatPose pose() const { return {position_W, yaw_rad}; }
 };
@@ -115,5 +135,15 @@ int countVisible(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std:
 /// The voxels that countVisible counts, in the order of `voxels`.
 std::vector<openvdb::Coord> visibleVoxels(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
                                           const std::vector<openvdb::Coord>& voxels, const CameraFrustum& camera);
+
+/// The frontier samples a camera at eye_W with yaw observes, in the order of `samples`: with
+/// params.look_into_unknown, those with an unknown face neighbour (inside frontier_bounds_W) whose
+/// centre is in the frustum and that the camera looks into (MapProbe::seesInto); else
+/// visibleVoxels. What viewpoints are scored by and what a visit is judged by.
+std::vector<openvdb::Coord> observedSamples(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
+                                            const std::vector<openvdb::Coord>& samples, const ViewpointConfig& params);
+/// observedSamples(...).size().
+int countObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
+                  const ViewpointConfig& params);
 
 }  // namespace vdbmap::planner
