@@ -323,6 +323,8 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
   std::vector<Target> targets;
   std::vector<const FrontierCluster*> stale;
   MapProbe probe(map);
+  std::optional<MapProbe> own_sight;
+  MapProbe& sight = &map.sightMap() == &map ? probe : own_sight.emplace(map.sightMap());
   counters_.blacklisted = 0;
   for (const FrontierCluster& c : frontiers_.clusters()) {
     auto it = views_.find(c.id);
@@ -331,8 +333,12 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
       ++counters_.blacklisted;
       continue;
     }
-    // Viewpoints were computed when the cluster appeared; the map may have changed around them.
-    if (!probe.isClear(it->second.front().position_W, params_.viewpoint.min_clearance_m)) stale.push_back(&c);
+    // Viewpoints were computed when the cluster appeared; the map may have changed around them:
+    // the best one may no longer be clear, or no longer see the cluster (a wall found since
+    // between them: its visit would promise nothing, and be judged by the whole cluster).
+    const Viewpoint& best = it->second.front();
+    if (!probe.isClear(best.position_W, params_.viewpoint.min_clearance_m) || !seesAny(sight, best, c))
+      stale.push_back(&c);
     targets.push_back({c.id, &it->second});
   }
   if (stale.empty()) return targets;
@@ -340,6 +346,14 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
   targets.erase(std::remove_if(targets.begin(), targets.end(), [](const Target& t) { return t.views->empty(); }),
                 targets.end());
   return targets;
+}
+
+bool ExplorationManager::seesAny(MapProbe& sight, const Viewpoint& view, const FrontierCluster& cluster) const {
+  // By the rule the viewpoint was scored by (params_.viewpoint has look_into_unknown on when a
+  // viewpoint does).
+  return view.looks_into_unknown
+             ? countObserved(sight, view.position_W, view.yaw_rad, cluster.samples, params_.viewpoint) > 0
+             : countVisible(sight, view.position_W, view.yaw_rad, cluster.samples, params_.viewpoint.camera) > 0;
 }
 
 // ---- decisions ---------------------------------------------------------------------------------
@@ -727,9 +741,10 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
       target_pockets_ =
           params_.final_sweep == FinalSweepScope::PocketsOnce ? openPockets(*cluster) : std::vector<std::size_t>{};
       // The visit is judged by what the viewpoint was scored by.
-      ViewpointConfig rule = params_.viewpoint;
-      rule.look_into_unknown = view.looks_into_unknown;
-      book_.setTarget(*cluster, observedSamples(probe, view.position_W, view.yaw_rad, cluster->samples, rule));
+      book_.setTarget(*cluster, view.looks_into_unknown ? observedSamples(probe, view.position_W, view.yaw_rad,
+                                                                          cluster->samples, params_.viewpoint)
+                                                        : visibleVoxels(probe, view.position_W, view.yaw_rad,
+                                                                        cluster->samples, params_.viewpoint.camera));
       target_view_W_ = view.position_W;
       step.target = t.cluster;
       return ExplorationStatus::Planned;

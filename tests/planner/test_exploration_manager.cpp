@@ -684,3 +684,34 @@ TEST_CASE("Straight escapes are bounded: a start that stays blocked fails after 
   CHECK(m.counters().retreats == 0);
   CHECK(step.status == ExplorationStatus::Failed);
 }
+
+TEST_CASE("Viewpoints that a wall found since hides their cluster from are computed again", "[planner][exploration]") {
+  // The frontier plane at x = 4 m is seen from the known half of the room; then a wall shows up
+  // at x = 3.6 m, between every viewpoint and the plane, without touching a frontier voxel: the
+  // clusters keep their voxels and ids, and their viewpoints, computed before, see nothing now.
+  DenseMap map = halfKnownRoom();
+  const ExplorationManagerConfig p = roomParams();
+  const Vec3d start(1.5, 3.0, 1.5);
+  ExplorationManager m(p, at(start), 0.0);
+  REQUIRE(m.update(map, CoordBBox(), at(start), 0.0).status == ExplorationStatus::Planned);
+  std::vector<ClusterId> ids;
+  for (const FrontierCluster& c : m.frontiers().clusters()) {
+    REQUIRE_FALSE(m.viewpoints().at(c.id).empty());
+    ids.push_back(c.id);
+  }
+  REQUIRE_FALSE(ids.empty());
+
+  const CoordBBox wall(Coord(36, 1, 1), Coord(36, 58, 28));
+  map.fill(wall, Occupancy::Occupied);
+  const double t = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
+  const ExplorationStep step = m.update(map, wall, onTrajectory(m, t), t);
+  REQUIRE(step.reason == ReplanReason::TrajectoryEnd);
+  std::vector<ClusterId> after;
+  for (const FrontierCluster& c : m.frontiers().clusters()) after.push_back(c.id);
+  REQUIRE(after == ids);  // the same clusters
+  // No viewpoint can see them through the wall (and none fits between it and the plane), so none
+  // is left, and nothing is flown to.
+  for (const ClusterId id : ids) CHECK(m.viewpoints().at(id).empty());
+  CHECK(step.targets == 0);
+  CHECK(m.target() == 0);
+}

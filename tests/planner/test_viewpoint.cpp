@@ -385,4 +385,10 @@ TEST_CASE("ViewpointConfig::validate names the field", "[planner][viewpoint]") {
   p = ViewpointConfig{};
   p.fallback.ring_radius_min_m = 3.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.ring_radius_max_m"));
+  p = ViewpointConfig{};
+  p.unknown_entry_reach_vox = -1;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("unknown_entry_reach_vox"));
+  p = ViewpointConfig{};
+  p.frontier_bounds_W = Eigen::AlignedBox3d();  // empty
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("frontier_bounds_W"));
 }

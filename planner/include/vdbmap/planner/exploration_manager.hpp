@@ -416,6 +416,9 @@ class ExplorationManager {
   /// Computes the viewpoints of `clusters` in `map` (in parallel) and stores them in views_.
   void computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map);
   std::vector<Target> liveTargets(const MapQuery& map);
+  /// True when `view`, in the map `sight` reads, still sees a sample of `cluster` by the rule it
+  /// was scored by.
+  bool seesAny(MapProbe& sight, const Viewpoint& view, const FrontierCluster& cluster) const;
   /// The final sweep's pockets not yet visited that share a voxel with `cluster` (ascending).
   std::vector<std::size_t> openPockets(const FrontierCluster& cluster) const;
   /// In the final sweep with a scope other than All: a cluster of a component below
