@@ -349,11 +349,11 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
 }
 
 bool ExplorationManager::seesAny(MapProbe& sight, const Viewpoint& view, const FrontierCluster& cluster) const {
-  // By the rule the viewpoint was scored by (params_.viewpoint has look_into_unknown on when a
-  // viewpoint does).
-  return view.looks_into_unknown
-             ? countObserved(sight, view.position_W, view.yaw_rad, cluster.samples, params_.viewpoint) > 0
-             : countVisible(sight, view.position_W, view.yaw_rad, cluster.samples, params_.viewpoint.camera) > 0;
+  if (view.looks_into_unknown == params_.viewpoint.look_into_unknown)
+    return observesAny(sight, view.position_W, view.yaw_rad, cluster.samples, params_.viewpoint);
+  ViewpointConfig rule = params_.viewpoint;  // FUEL's rule's fallback viewpoint
+  rule.look_into_unknown = view.looks_into_unknown;
+  return observesAny(sight, view.position_W, view.yaw_rad, cluster.samples, rule);
 }
 
 // ---- decisions ---------------------------------------------------------------------------------

@@ -90,7 +90,7 @@ double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, 
 }
 
 namespace {
-/// Calls on_seen(voxel) for each voxel whose centre the camera sees: inside the frustum and
+/// Calls on_seen(voxel) for each voxel whose centre the camera sees (until it returns false): inside the frustum and
 /// range, nothing but known-free voxels on the ray.
 template <typename OnSeen>
 void forEachSeen(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
@@ -99,7 +99,7 @@ void forEachSeen(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std:
   const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
   for (const openvdb::Coord& v : voxels) {
     const Vec3d p = voxelCenterOf(v, voxel_size_m);
-    if (frustumContains(camera, eye_W, c, s, p) && probe.isVisible(p, eye_W)) on_seen(v);
+    if (frustumContains(camera, eye_W, c, s, p) && probe.isVisible(p, eye_W) && !on_seen(v)) return;
   }
 }
 }  // namespace
@@ -107,21 +107,24 @@ void forEachSeen(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std:
 int countVisible(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
                  const CameraFrustum& camera) {
   int seen = 0;
-  forEachSeen(probe, eye_W, yaw_rad, voxels, camera, [&](const openvdb::Coord&) { ++seen; });
+  forEachSeen(probe, eye_W, yaw_rad, voxels, camera, [&](const openvdb::Coord&) { return ++seen > 0; });
   return seen;
 }
 
 std::vector<openvdb::Coord> visibleVoxels(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
                                           const std::vector<openvdb::Coord>& voxels, const CameraFrustum& camera) {
   std::vector<openvdb::Coord> seen;
-  forEachSeen(probe, eye_W, yaw_rad, voxels, camera, [&](const openvdb::Coord& v) { seen.push_back(v); });
+  forEachSeen(probe, eye_W, yaw_rad, voxels, camera, [&](const openvdb::Coord& v) {
+    seen.push_back(v);
+    return true;
+  });
   return seen;
 }
 
 namespace {
 int maxNorm(const openvdb::Coord& d) { return std::max({std::abs(d.x()), std::abs(d.y()), std::abs(d.z())}); }
 
-/// Calls on_observed(sample) for each sample observedSamples() returns.
+/// Calls on_observed(sample) for each sample observedSamples() returns (until it returns false).
 template <typename OnObserved>
 void forEachObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
                      const ViewpointConfig& params, OnObserved&& on_observed) {
@@ -140,7 +143,7 @@ void forEachObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const 
       // along the unknown's edge, as toward the top of a board seen edge-on.
       const std::optional<openvdb::Coord> entry = probe.firstNotFree(eye_W, p);
       if (entry && probe.at(*entry) == Occupancy::Unknown && maxNorm(*entry - n) <= params.unknown_entry_reach_vox) {
-        on_observed(v);
+        if (!on_observed(v)) return;
         break;
       }
     }
@@ -151,15 +154,25 @@ void forEachObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const 
 std::vector<openvdb::Coord> observedSamples(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
                                             const std::vector<openvdb::Coord>& samples, const ViewpointConfig& params) {
   std::vector<openvdb::Coord> seen;
-  forEachObserved(probe, eye_W, yaw_rad, samples, params, [&](const openvdb::Coord& v) { seen.push_back(v); });
+  forEachObserved(probe, eye_W, yaw_rad, samples, params, [&](const openvdb::Coord& v) {
+    seen.push_back(v);
+    return true;
+  });
   return seen;
 }
 
 int countObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
                   const ViewpointConfig& params) {
   int seen = 0;
-  forEachObserved(probe, eye_W, yaw_rad, samples, params, [&](const openvdb::Coord&) { ++seen; });
+  forEachObserved(probe, eye_W, yaw_rad, samples, params, [&](const openvdb::Coord&) { return ++seen > 0; });
   return seen;
+}
+
+bool observesAny(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
+                 const ViewpointConfig& params) {
+  bool any = false;
+  forEachObserved(probe, eye_W, yaw_rad, samples, params, [&](const openvdb::Coord&) { return !(any = true); });
+  return any;
 }
 
 namespace {

@@ -205,6 +205,7 @@ TEST_CASE("observedSamples equals the brute-force rule for every entry reach, in
     const std::vector<Coord> got = observedSamples(probe, eye, y, samples, params);
     REQUIRE(int(got.size()) == bruteObserved(map, samples, params, eye, y));
     REQUIRE(countObserved(probe, eye, y, samples, params) == int(got.size()));
+    REQUIRE(observesAny(probe, eye, y, samples, params) == !got.empty());
     REQUIRE(std::is_sorted(got.begin(), got.end(), [&](const Coord& a, const Coord& b) {
       return std::find(samples.begin(), samples.end(), a) < std::find(samples.begin(), samples.end(), b);
     }));
@@ -212,6 +213,8 @@ TEST_CASE("observedSamples equals the brute-force rule for every entry reach, in
     params.look_into_unknown = false;
     const std::vector<Coord> fuel = observedSamples(probe, eye, y, samples, params);
     REQUIRE(fuel == visibleVoxels(probe, eye, y, samples, params.camera));
+    REQUIRE(observesAny(probe, eye, y, samples, params) == !fuel.empty());
+    REQUIRE(observesAny(probe, eye, y, {}, params) == false);
     visible_total += fuel.size();
   }
   CHECK(observed_total > 500);

@@ -145,5 +145,8 @@ std::vector<openvdb::Coord> observedSamples(MapProbe& probe, const Vec3d& eye_W,
 /// observedSamples(...).size().
 int countObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
                   const ViewpointConfig& params);
+/// !observedSamples(...).empty(), stopping at the first sample observed.
+bool observesAny(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
+                 const ViewpointConfig& params);
 
 }  // namespace vdbmap::planner
