@@ -90,8 +90,8 @@ double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, 
 }
 
 namespace {
-/// Calls on_seen(voxel) for each voxel whose centre the camera sees (until it returns false): inside the frustum and
-/// range, nothing but known-free voxels on the ray.
+/// Calls on_seen(voxel), until it returns false, for each voxel whose centre the camera sees:
+/// inside the frustum and range, nothing but known-free voxels on the ray.
 template <typename OnSeen>
 void forEachSeen(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
                  const CameraFrustum& camera, OnSeen&& on_seen) {

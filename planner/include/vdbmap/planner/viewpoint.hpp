@@ -138,7 +138,8 @@ std::vector<openvdb::Coord> visibleVoxels(MapProbe& probe, const Vec3d& eye_W, d
 
 /// The frontier samples a camera at eye_W with yaw observes, in the order of `samples`: with
 /// params.look_into_unknown, those with an unknown face neighbour (inside frontier_bounds_W) whose
-/// centre is in the frustum and that the camera looks into (MapProbe::seesInto); else
+/// centre is in the frustum and whose ray from the eye leaves known-free space within
+/// unknown_entry_reach_vox of it, into unknown space (MapProbe::firstNotFree); else
 /// visibleVoxels. What viewpoints are scored by and what a visit is judged by.
 std::vector<openvdb::Coord> observedSamples(MapProbe& probe, const Vec3d& eye_W, double yaw_rad,
                                             const std::vector<openvdb::Coord>& samples, const ViewpointConfig& params);
