@@ -13,8 +13,6 @@ namespace vdbmap::planner {
 
 namespace {
 
-const openvdb::Coord kFaceNeighbours[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-
 /// The 26 neighbours of a voxel (faces, edges, corners).
 std::vector<openvdb::Coord> allNeighbours() {
   std::vector<openvdb::Coord> n;

@@ -129,12 +129,11 @@ template <typename OnObserved>
 void forEachObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
                      const ViewpointConfig& params, OnObserved&& on_observed) {
   if (!params.look_into_unknown) return forEachSeen(probe, eye_W, yaw_rad, samples, params.camera, on_observed);
-  static const openvdb::Coord kFaces[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   const double voxel_size_m = probe.voxelSize();
   const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
   const Eigen::AlignedBox3d* bounds = params.frontier_bounds_W ? &*params.frontier_bounds_W : nullptr;
   for (const openvdb::Coord& v : samples) {
-    for (const openvdb::Coord& d : kFaces) {
+    for (const openvdb::Coord& d : kFaceNeighbours) {
       const openvdb::Coord n = v + d;
       if (probe.at(n) != Occupancy::Unknown) continue;
       const Vec3d p = voxelCenterOf(n, voxel_size_m);

@@ -48,8 +48,7 @@ int bruteObserved(const DenseMap& map, const std::vector<Coord>& samples, const 
   int seen = 0;
   for (const Coord& s : samples) {
     bool observed = false;
-    for (const Coord& d :
-         {Coord(1, 0, 0), Coord(-1, 0, 0), Coord(0, 1, 0), Coord(0, -1, 0), Coord(0, 0, 1), Coord(0, 0, -1)}) {
+    for (const Coord& d : kFaceNeighbours) {
       const Coord n = s + d;
       const Vec3d p = map.voxelCenter(n);
       if (map.get(n) != Occupancy::Unknown || !params.camera.contains(eye, yaw, p)) continue;

@@ -74,6 +74,9 @@ struct FrontierUpdate {
   std::size_t frontier_voxels = 0;     ///< frontier voxels in the map after the update
 };
 
+/// The offsets of a voxel's 6 face neighbours: the unknown ones make it a frontier voxel.
+inline const openvdb::Coord kFaceNeighbours[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+
 /// The frontier test of one voxel: free, with a face neighbour that is unknown. With a
 /// non-empty `bounds`, the voxel and that neighbour must both lie inside it.
 bool isFrontierVoxel(MapReader& reader, const openvdb::Coord& ijk, const openvdb::CoordBBox* bounds = nullptr);
