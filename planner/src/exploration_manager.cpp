@@ -195,6 +195,8 @@ ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, c
     throw std::invalid_argument("ExplorationManager: the start position lies outside the exploration box");
   free_boxes_.push_back(boxAround(start.position_W, params_.start_free_half_size_m));
   frontiers_ = FrontierMap(params_.frontier);
+  voxel_rule_ = params_.viewpoint;
+  voxel_rule_.look_into_unknown = false;
   table_ = std::make_unique<PairCostTable>(params_.cost, params_.cost_path);
   turns_left_ = params_.initial_turn ? params_.initial_turn_parts : 0;
   phase_ = params_.initial_turn ? ExplorationPhase::InitialTurn : ExplorationPhase::Exploring;
@@ -348,12 +350,12 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
   return targets;
 }
 
+const ViewpointConfig& ExplorationManager::ruleOf(const Viewpoint& view) const {
+  return view.looks_into_unknown == params_.viewpoint.look_into_unknown ? params_.viewpoint : voxel_rule_;
+}
+
 bool ExplorationManager::seesAny(MapProbe& sight, const Viewpoint& view, const FrontierCluster& cluster) const {
-  if (view.looks_into_unknown == params_.viewpoint.look_into_unknown)
-    return observesAny(sight, view.position_W, view.yaw_rad, cluster.samples, params_.viewpoint);
-  ViewpointConfig rule = params_.viewpoint;  // FUEL's rule's fallback viewpoint
-  rule.look_into_unknown = view.looks_into_unknown;
-  return observesAny(sight, view.position_W, view.yaw_rad, cluster.samples, rule);
+  return observesAny(sight, view.position_W, view.yaw_rad, cluster.samples, ruleOf(view));
 }
 
 // ---- decisions ---------------------------------------------------------------------------------
@@ -741,10 +743,7 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
       target_pockets_ =
           params_.final_sweep == FinalSweepScope::PocketsOnce ? openPockets(*cluster) : std::vector<std::size_t>{};
       // The visit is judged by what the viewpoint was scored by.
-      book_.setTarget(*cluster, view.looks_into_unknown ? observedSamples(probe, view.position_W, view.yaw_rad,
-                                                                          cluster->samples, params_.viewpoint)
-                                                        : visibleVoxels(probe, view.position_W, view.yaw_rad,
-                                                                        cluster->samples, params_.viewpoint.camera));
+      book_.setTarget(*cluster, observedSamples(probe, view.position_W, view.yaw_rad, cluster->samples, ruleOf(view)));
       target_view_W_ = view.position_W;
       step.target = t.cluster;
       return ExplorationStatus::Planned;

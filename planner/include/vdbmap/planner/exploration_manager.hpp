@@ -416,6 +416,8 @@ class ExplorationManager {
   /// Computes the viewpoints of `clusters` in `map` (in parallel) and stores them in views_.
   void computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map);
   std::vector<Target> liveTargets(const MapQuery& map);
+  /// The rule `view` was scored by: params_.viewpoint, or voxel_rule_ for FUEL's rule's fallback.
+  const ViewpointConfig& ruleOf(const Viewpoint& view) const;
   /// True when `view`, in the map `sight` reads, still sees a sample of `cluster` by the rule it
   /// was scored by.
   bool seesAny(MapProbe& sight, const Viewpoint& view, const FrontierCluster& cluster) const;
@@ -497,6 +499,7 @@ class ExplorationManager {
   void hold(const VehicleState& vehicle, double t_s);
 
   ExplorationManagerConfig params_;
+  ViewpointConfig voxel_rule_;  ///< params_.viewpoint with FUEL's rule (look_into_unknown off)
   std::vector<Eigen::AlignedBox3d> free_boxes_;
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
