@@ -109,30 +109,7 @@ inline std::optional<openvdb::Coord> bruteFirstNotFree(const DenseMap& map, cons
 
 /// Brute force: every voxel the segment a-b intersects (slab test against each voxel's cube) is free.
 inline bool bruteVisible(const DenseMap& map, const Vec3d& a, const Vec3d& b) {
-  const double s = map.voxelSize();
-  const openvdb::Coord l = map.worldToVoxel(a.cwiseMin(b)), h = map.worldToVoxel(a.cwiseMax(b));
-  const Vec3d d = b - a;
-  for (int x = l.x(); x <= h.x(); ++x)
-    for (int y = l.y(); y <= h.y(); ++y)
-      for (int z = l.z(); z <= h.z(); ++z) {
-        const openvdb::Coord c(x, y, z);
-        const Vec3d lo = map.voxelCenter(c) - Vec3d::Constant(0.5 * s), hi = lo + Vec3d::Constant(s);
-        double t0 = 0.0, t1 = 1.0;
-        bool hit = true;
-        for (int k = 0; k < 3 && hit; ++k) {
-          if (std::abs(d[k]) < 1e-15) {
-            hit = a[k] >= lo[k] && a[k] < hi[k];
-            continue;
-          }
-          double ta = (lo[k] - a[k]) / d[k], tb = (hi[k] - a[k]) / d[k];
-          if (ta > tb) std::swap(ta, tb);
-          t0 = std::max(t0, ta);
-          t1 = std::min(t1, tb);
-          hit = t0 <= t1;
-        }
-        if (hit && map.get(c) != Occupancy::Free) return false;
-      }
-  return true;
+  return !bruteFirstNotFree(map, a, b).has_value();
 }
 
 /// A 10 x 6 x 3 m room (makeRoom) split by a one-voxel wall at x = 5 m, with a door (y 2.5-3.5 m,
