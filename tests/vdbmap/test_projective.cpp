@@ -206,7 +206,7 @@ TEST_CASE("reintegrate moves a frame exactly as de-integrating and integrating i
 
 TEST_CASE("hits counted from a depth image's pixels equal those of its back-projected cloud, at range limits",
           "[tsdf][hits]") {
-  // The pixel path counts two pixels at a time; the cloud path one point at a time. A narrow
+  // The pixel path counts several pixels at a time; the cloud path one point at a time. A narrow
   // camera of many pixels puts 3 million end points into a small frustum, enough that some lie
   // within a float rounding of a voxel face (a point that missed the rounding would count in the
   // neighbouring voxel there). An odd width leaves each row a last pixel of its own, and min/max

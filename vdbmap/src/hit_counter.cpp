@@ -5,6 +5,9 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if VDBMAP_AVX2_KERNELS
+#include <immintrin.h>
+#endif
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -12,6 +15,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -60,6 +64,34 @@ inline void countPoint(const Vec3d& p_S, const EndVoxels& ends, const std::vecto
     appendHit(runs[j], ends.key(p_S, poses[j].R, poses[j].t), poses[j].sign);
 }
 
+/// One image row to count, and where: what every pixel kernel of countRowHits reads.
+struct RowPixels {
+  const float* z;  // the row's depths
+  int width, v;
+  const CameraIntrinsics& K;
+  double inv_fx, inv_fy;
+  const EndVoxels& ends;
+  const std::vector<HitPose>& poses;  // one or two
+  bool move;                          // two poses of opposite signs: skip points that stay in their voxel
+  std::vector<HitRun>* runs;          // one list per pose
+};
+
+/// Appends the lanes in `surface` (bit l for lane l) of keys[j][l], the key of lane l's point at
+/// pose j, exactly as countPoint() does for each point in lane order.
+template <int N>
+inline void appendLanes(const RowPixels& row, int surface, const std::uint64_t (&keys)[2][N]) {
+  for (int l = 0; l < N; ++l) {
+    if (!(surface & (1 << l))) continue;
+    if (row.move) {
+      if (keys[0][l] == keys[1][l]) continue;
+      appendHit(row.runs[0], keys[0][l], row.poses[0].sign);
+      appendHit(row.runs[1], keys[1][l], row.poses[1].sign);
+    } else {
+      for (std::size_t j = 0; j < row.poses.size(); ++j) appendHit(row.runs[j], keys[j][l], row.poses[j].sign);
+    }
+  }
+}
+
 #if defined(__SSE2__)
 /// A pose's rotation and translation, each coefficient in both lanes.
 struct PoseLanes {
@@ -101,55 +133,135 @@ struct PoseLanes {
     return _mm_unpacklo_epi32(_mm_and_si128(biased, _mm_set1_epi32((1 << 21) - 1)), _mm_setzero_si128());
   }
 };
+
+/// Counts pixels u, u + 1 in lanes 0 and 1 from `u` on while two remain; returns the first pixel
+/// left. Each operation is the scalar path's, lane by lane: backProjectPixel's products rounded to
+/// float, isSurface's (x^2 + y^2) + z^2 and key's sums. Valid pixels have finite points (max range
+/// is finite, so an overflow to infinity fails the range test as allFinite would) and
+/// r^2 >= z^2 > 0.
+int countPixelsSse2(const RowPixels& row, int u) {
+  const std::array<PoseLanes, 2> lanes{PoseLanes(row.poses[0]), PoseLanes(row.poses.back())};
+  const __m128d cx = _mm_set1_pd(row.K.cx), ifx = _mm_set1_pd(row.inv_fx);
+  const __m128d by = _mm_set1_pd((row.v - row.K.cy) * row.inv_fy);
+  const __m128d min2 = _mm_set1_pd(row.ends.minRange2()), max2 = _mm_set1_pd(row.ends.maxRange2());
+  const __m128d inv_voxel = _mm_set1_pd(row.ends.inverseVoxelSize());
+  const auto roundToFloat = [](__m128d a) { return _mm_cvtps_pd(_mm_cvtpd_ps(a)); };
+  const auto valid = [](float z) { return z > 0.0f && std::isfinite(z); };
+  for (; u + 1 < row.width; u += 2) {
+    const int ok = int(valid(row.z[u])) | int(valid(row.z[u + 1])) << 1;
+    if (ok == 0) continue;
+    const __m128d z = _mm_set_pd(double(row.z[u + 1]), double(row.z[u]));
+    const __m128d a = _mm_mul_pd(_mm_sub_pd(_mm_set_pd(double(u + 1), double(u)), cx), ifx);
+    const __m128d x = roundToFloat(_mm_mul_pd(a, z)), y = roundToFloat(_mm_mul_pd(by, z));
+    const __m128d r2 = _mm_add_pd(_mm_add_pd(_mm_mul_pd(x, x), _mm_mul_pd(y, y)), _mm_mul_pd(z, z));
+    const int surface = ok & _mm_movemask_pd(_mm_and_pd(_mm_cmpge_pd(r2, min2), _mm_cmple_pd(r2, max2)));
+    if (surface == 0) continue;
+    std::uint64_t keys[2][2];
+    for (std::size_t j = 0; j < row.poses.size(); ++j) lanes[j].keys(x, y, z, inv_voxel, keys[j]);
+    appendLanes<2>(row, surface, keys);
+  }
+  return u;
+}
+#endif
+
+#if VDBMAP_AVX2_KERNELS
+// The four-pixel kernel (internal/simd.hpp says why only these functions target AVX2).
+
+/// PoseLanes::keys for lanes 0-3.
+struct PoseLanes4 {
+  __m256d r[3][3], t[3];
+};
+
+VDBMAP_TARGET_AVX2 inline __m256i packField4(__m256d e) {
+  const __m128i truncated = _mm256_cvttpd_epi32(e);
+  const __m256d above = _mm256_cmp_pd(e, _mm256_cvtepi32_pd(truncated), _CMP_LT_OS);  // all ones: subtract 1
+  // The low 32 bits of each 64-bit mask lane, as four 32-bit lanes.
+  const __m128i above32 = _mm256_castsi256_si128(
+      _mm256_permutevar8x32_epi32(_mm256_castpd_si256(above), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
+  const __m128i biased = _mm_add_epi32(_mm_add_epi32(truncated, above32), _mm_set1_epi32(1 << 20));
+  return _mm256_cvtepu32_epi64(_mm_and_si128(biased, _mm_set1_epi32((1 << 21) - 1)));
+}
+
+VDBMAP_TARGET_AVX2 inline void keys4(const PoseLanes4& p, __m256d x, __m256d y, __m256d z, __m256d inv_voxel,
+                                     std::uint64_t out[4]) {
+  const __m256d half = _mm256_set1_pd(0.5);
+  __m256i field[3];
+  for (int i = 0; i < 2; ++i) {
+    const __m256d s = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(p.r[i][0], x), _mm256_mul_pd(p.r[i][1], y)),
+                                    _mm256_mul_pd(p.r[i][2], z));
+    field[i] = packField4(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(s, p.t[i]), inv_voxel), half));
+  }
+  const __m256d s = _mm256_add_pd(_mm256_mul_pd(p.r[2][0], x),
+                                  _mm256_add_pd(_mm256_mul_pd(p.r[2][1], y), _mm256_mul_pd(p.r[2][2], z)));
+  field[2] = packField4(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(s, p.t[2]), inv_voxel), half));
+  const __m256i key =
+      _mm256_or_si256(_mm256_or_si256(_mm256_slli_epi64(field[0], 42), _mm256_slli_epi64(field[1], 21)), field[2]);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), key);
+}
+
+/// countPixelsSse2 four pixels at a time, lane for lane the same operations.
+VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
+  PoseLanes4 lanes[2];
+  for (std::size_t j = 0; j < row.poses.size(); ++j)
+    for (int i = 0; i < 3; ++i) {
+      for (int k = 0; k < 3; ++k) lanes[j].r[i][k] = _mm256_set1_pd(row.poses[j].R(i, k));
+      lanes[j].t[i] = _mm256_set1_pd(row.poses[j].t[i]);
+    }
+  const __m256d cx = _mm256_set1_pd(row.K.cx), ifx = _mm256_set1_pd(row.inv_fx);
+  const __m256d by = _mm256_set1_pd((row.v - row.K.cy) * row.inv_fy);
+  const __m256d min2 = _mm256_set1_pd(row.ends.minRange2()), max2 = _mm256_set1_pd(row.ends.maxRange2());
+  const __m256d inv_voxel = _mm256_set1_pd(row.ends.inverseVoxelSize());
+  const __m256d lane_u = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0);
+  const __m128 zero = _mm_setzero_ps(), inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
+  for (; u + 3 < row.width; u += 4) {
+    // Valid: above 0 and below infinity, which is finite and positive (NaN fails both).
+    const __m128 zf = _mm_loadu_ps(row.z + u);
+    const int ok = _mm_movemask_ps(_mm_and_ps(_mm_cmpgt_ps(zf, zero), _mm_cmplt_ps(zf, inf)));
+    if (ok == 0) continue;
+    const __m256d z = _mm256_cvtps_pd(zf);
+    const __m256d a = _mm256_mul_pd(_mm256_sub_pd(_mm256_add_pd(_mm256_set1_pd(double(u)), lane_u), cx), ifx);
+    const __m256d x = _mm256_cvtps_pd(_mm256_cvtpd_ps(_mm256_mul_pd(a, z)));
+    const __m256d y = _mm256_cvtps_pd(_mm256_cvtpd_ps(_mm256_mul_pd(by, z)));
+    const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(x, x), _mm256_mul_pd(y, y)), _mm256_mul_pd(z, z));
+    const int surface = ok & _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(r2, min2, _CMP_GE_OS),
+                                                              _mm256_cmp_pd(r2, max2, _CMP_LE_OS)));
+    if (surface == 0) continue;
+    std::uint64_t keys[2][4];
+    for (std::size_t j = 0; j < row.poses.size(); ++j) keys4(lanes[j], x, y, z, inv_voxel, keys[j]);
+    appendLanes<4>(row, surface, keys);
+  }
+  return u;
+}
 #endif
 
 }  // namespace
 
 void countRowHits(const DepthImage& depth_m, int v, const CameraIntrinsics& K, const EndVoxels& ends,
-                  const std::vector<HitPose>& poses, std::vector<HitRun>* runs) {
-  const double inv_fx = 1.0 / K.fx, inv_fy = 1.0 / K.fy;
-  const bool move = poses.size() == 2 && poses[0].sign == -poses[1].sign;
-  const float* z_row = depth_m.depth_m.data() + std::size_t(v) * std::size_t(depth_m.width);
-  const auto valid = [](float z) { return z > 0.0f && std::isfinite(z); };
+                  const std::vector<HitPose>& poses, std::vector<HitRun>* runs, SimdLevel level) {
+  RowPixels row{depth_m.depth_m.data() + std::size_t(v) * std::size_t(depth_m.width),
+                depth_m.width,
+                v,
+                K,
+                1.0 / K.fx,
+                1.0 / K.fy,
+                ends,
+                poses,
+                poses.size() == 2 && poses[0].sign == -poses[1].sign,
+                runs};
   int u = 0;
-#if defined(__SSE2__)
   if (!poses.empty() && poses.size() <= 2) {
-    // Pixels u and u + 1 in lanes 0 and 1. Each operation is the scalar path's, lane by lane:
-    // backProjectPixel's products rounded to float, isSurface's (x^2 + y^2) + z^2 and key's sums.
-    // Valid pixels have finite points (max range is finite, so an overflow to infinity fails the
-    // range test as allFinite would) and r^2 >= z^2 > 0.
-    const std::array<PoseLanes, 2> lanes{PoseLanes(poses[0]), PoseLanes(poses.back())};
-    const __m128d cx = _mm_set1_pd(K.cx), ifx = _mm_set1_pd(inv_fx), by = _mm_set1_pd((v - K.cy) * inv_fy);
-    const __m128d min2 = _mm_set1_pd(ends.minRange2()), max2 = _mm_set1_pd(ends.maxRange2());
-    const __m128d inv_voxel = _mm_set1_pd(ends.inverseVoxelSize());
-    const auto roundToFloat = [](__m128d a) { return _mm_cvtps_pd(_mm_cvtpd_ps(a)); };
-    for (; u + 1 < depth_m.width; u += 2) {
-      const int ok = int(valid(z_row[u])) | int(valid(z_row[u + 1])) << 1;
-      if (ok == 0) continue;
-      const __m128d z = _mm_set_pd(double(z_row[u + 1]), double(z_row[u]));
-      const __m128d a = _mm_mul_pd(_mm_sub_pd(_mm_set_pd(double(u + 1), double(u)), cx), ifx);
-      const __m128d x = roundToFloat(_mm_mul_pd(a, z)), y = roundToFloat(_mm_mul_pd(by, z));
-      const __m128d r2 = _mm_add_pd(_mm_add_pd(_mm_mul_pd(x, x), _mm_mul_pd(y, y)), _mm_mul_pd(z, z));
-      const int surface = ok & _mm_movemask_pd(_mm_and_pd(_mm_cmpge_pd(r2, min2), _mm_cmple_pd(r2, max2)));
-      if (surface == 0) continue;
-      std::uint64_t keys[2][2];
-      for (std::size_t j = 0; j < poses.size(); ++j) lanes[j].keys(x, y, z, inv_voxel, keys[j]);
-      for (int l = 0; l < 2; ++l) {
-        if (!(surface & (1 << l))) continue;
-        if (move) {
-          if (keys[0][l] == keys[1][l]) continue;
-          appendHit(runs[0], keys[0][l], poses[0].sign);
-          appendHit(runs[1], keys[1][l], poses[1].sign);
-        } else {
-          for (std::size_t j = 0; j < poses.size(); ++j) appendHit(runs[j], keys[j][l], poses[j].sign);
-        }
-      }
-    }
-  }
+#if VDBMAP_AVX2_KERNELS
+    if (level == SimdLevel::Avx2) u = countPixelsAvx2(row, u);
 #endif
-  for (; u < depth_m.width; ++u)
-    if (valid(z_row[u]))
-      countPoint(backProjectPixel(u, v, z_row[u], K, inv_fx, inv_fy).cast<double>(), ends, poses, move, runs);
+#if defined(__SSE2__)
+    if (level != SimdLevel::Scalar) u = countPixelsSse2(row, u);
+#endif
+  }
+  const auto valid = [](float z) { return z > 0.0f && std::isfinite(z); };
+  for (; u < row.width; ++u)
+    if (valid(row.z[u]))
+      countPoint(backProjectPixel(u, v, row.z[u], K, row.inv_fx, row.inv_fy).cast<double>(), ends, poses, row.move,
+                 runs);
 }
 
 void compactHitRuns(std::vector<HitRun>& runs) {

@@ -4,10 +4,14 @@
 #include "internal/grid_dda.hpp"
 #include "internal/hit_counter.hpp"
 #include "internal/pixel_classifier.hpp"
+#include "internal/simd.hpp"
 #include "internal/voxel_blocks.hpp"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#endif
+#if VDBMAP_AVX2_KERNELS
+#include <immintrin.h>
 #endif
 
 #include <tbb/blocked_range.h>
@@ -15,6 +19,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstddef>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -335,7 +340,7 @@ void visitLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Mat
         const int k = __builtin_ctz(unsigned(inside));
         const PixelRay& ray = px.rays[std::size_t(vs[k]) * std::size_t(px.width) + std::size_t(us[k])];
         if (ray.weight_q == 0) continue;
-        const float d2 = Eigen::Vector3f(xs[k], ys[k], zs[k]).squaredNorm();
+        const float d2 = xs[k] * xs[k] + (ys[k] * ys[k] + zs[k] * zs[k]);  // integrateLeafAvx2 sums so too
         if (d2 <= ray.band2) visit(n0 + openvdb::Index(k), ray, d2);
       }
     }
@@ -359,6 +364,100 @@ std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const
   });
   return updates;
 }
+
+#if VDBMAP_AVX2_KERNELS
+/// Whether integrateLeafAvx2 can take this table and sign: its gathers address records with
+/// 32-bit byte offsets, and it negates weights rather than multiplying them.
+bool avx2LeavesFit(const PixelTable& px, std::int64_t sign) {
+  return px.rays.size() <= std::size_t(std::numeric_limits<std::int32_t>::max()) / sizeof(PixelRay) &&
+         (sign == 1 || sign == -1);
+}
+
+/// integrateLeaf a leaf column (eight voxels) at a time, with the same result: the projection and
+/// the squared distances are the same single-precision operations lane by lane (internal/simd.hpp),
+/// the pixel records' limits are gathered, and the free-space voxels of a column are summed in
+/// one vector add (their updates are the pixel weights, integers). Band voxels go through
+/// SdfUpdate::apply one at a time as in integrateLeaf. Invalid pixels need no test of their own:
+/// their band2 of -1 rejects every voxel.
+VDBMAP_TARGET_AVX2 std::size_t integrateLeafAvx2(const PixelTable& px, const CameraIntrinsics& K,
+                                                 const Eigen::Matrix3f& A, const Eigen::Vector3f& b,
+                                                 const SdfUpdate& update, std::int64_t sign, Block& block,
+                                                 std::uint64_t* mask) {
+  const __m256 fx = _mm256_set1_ps(float(K.fx)), fy = _mm256_set1_ps(float(K.fy));
+  const __m256 cx = _mm256_set1_ps(float(K.cx) + 0.5f), cy = _mm256_set1_ps(float(K.cy) + 0.5f);
+  const __m256 u_end = _mm256_set1_ps(float(px.width)), v_end = _mm256_set1_ps(float(px.height));
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const __m256i width = _mm256_set1_epi32(px.width), record = _mm256_set1_epi32(int(sizeof(PixelRay)));
+  const char* records = reinterpret_cast<const char*>(px.rays.data());
+  const Eigen::Vector3f step = A.col(2);
+  alignas(32) float xs[8], ys[8], zs[8], d2s[8];
+  alignas(32) std::int32_t offsets[8];
+  std::size_t updates = 0;
+  for (int i = 0; i < 8; ++i) {
+    for (int j = 0; j < 8; ++j) {
+      Eigen::Vector3f p = A.col(0) * float(i) + A.col(1) * float(j) + b;  // as visitLeaf
+      for (int k = 0; k < 8; ++k, p += step) {
+        xs[k] = p.x();
+        ys[k] = p.y();
+        zs[k] = p.z();
+      }
+      const __m256 x = _mm256_load_ps(xs), y = _mm256_load_ps(ys), z = _mm256_load_ps(zs);
+      const __m256 inv_z = _mm256_div_ps(one, z);
+      const __m256 u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fx, x), inv_z), cx);
+      const __m256 v = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fy, y), inv_z), cy);
+      const __m256 in = _mm256_and_ps(
+          _mm256_and_ps(_mm256_cmp_ps(z, zero, _CMP_GT_OQ),
+                        _mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(u, u_end, _CMP_LT_OQ))),
+          _mm256_and_ps(_mm256_cmp_ps(v, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, v_end, _CMP_LT_OQ)));
+      if (_mm256_movemask_ps(in) == 0) continue;
+      // Byte offsets of the voxels' pixel records (lanes outside the image are never read).
+      const __m256i pixel = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(v), width), _mm256_cvttps_epi32(u));
+      const __m256i offset = _mm256_and_si256(_mm256_mullo_epi32(pixel, record), _mm256_castps_si256(in));
+      const __m256 band2 = _mm256_mask_i32gather_ps(
+          zero, reinterpret_cast<const float*>(records + offsetof(PixelRay, band2)), offset, in, 1);
+      // Summed as Eigen's squaredNorm() of a Vector3f sums: x^2 + (y^2 + z^2).
+      const __m256 d2 = _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_add_ps(_mm256_mul_ps(y, y), _mm256_mul_ps(z, z)));
+      const __m256 visit = _mm256_and_ps(in, _mm256_cmp_ps(d2, band2, _CMP_LE_OQ));
+      const unsigned visited = unsigned(_mm256_movemask_ps(visit));
+      if (visited == 0) continue;
+      const __m256 free2 = _mm256_mask_i32gather_ps(
+          zero, reinterpret_cast<const float*>(records + offsetof(PixelRay, free2)), offset, visit, 1);
+      const __m256 free = _mm256_and_ps(visit, _mm256_cmp_ps(d2, free2, _CMP_LE_OQ));
+      const unsigned freed = unsigned(_mm256_movemask_ps(free));
+      const int shift = 8 * j;  // voxel (i, j, k) is bit 8 j + k of word i
+      if (mask) mask[i] |= std::uint64_t(visited) << shift;
+      const openvdb::Index n0 = openvdb::Index(i * 64 + j * 8);
+      if (freed != 0) {
+        // The free voxels' weights, 0 in the other lanes, added to the column's eight sums.
+        const __m256i free_i = _mm256_castps_si256(free);
+        const __m128i lane_offsets[2] = {_mm256_castsi256_si128(offset), _mm256_extracti128_si256(offset, 1)};
+        const __m128i lane_free[2] = {_mm256_castsi256_si128(free_i), _mm256_extracti128_si256(free_i, 1)};
+        for (int half = 0; half < 2; ++half) {  // lanes 0-3, then 4-7: 64-bit weights, four at a time
+          __m256i w = _mm256_mask_i64gather_epi64(_mm256_setzero_si256(), reinterpret_cast<const long long*>(records),
+                                                  _mm256_cvtepi32_epi64(lane_offsets[half]),
+                                                  _mm256_cvtepi32_epi64(lane_free[half]), 1);
+          if (sign < 0) w = _mm256_sub_epi64(_mm256_setzero_si256(), w);
+          __m256i* sums = reinterpret_cast<__m256i*>(block.free_w.data() + n0 + 4 * half);
+          _mm256_storeu_si256(sums, _mm256_add_epi64(_mm256_loadu_si256(sums), w));
+        }
+        block.touched[std::size_t(i)] |= std::uint64_t(freed) << shift;
+        updates += std::size_t(__builtin_popcount(freed));
+      }
+      if (const unsigned band = visited & ~freed) {
+        _mm256_store_ps(d2s, d2);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(offsets), offset);
+        for (unsigned left = band; left != 0; left &= left - 1) {
+          const int k = __builtin_ctz(left);
+          const PixelRay& ray = *reinterpret_cast<const PixelRay*>(records + offsets[k]);
+          const double sdf = double(ray.range_m) - std::sqrt(double(d2s[k]));
+          updates += update.apply(block, n0 + openvdb::Index(k), sdf, ray.weight_q, sign) ? 1 : 0;
+        }
+      }
+    }
+  }
+  return updates;
+}
+#endif
 
 /// A placement's frustum cull and its leaf-to-sensor mapping.
 struct View {
@@ -415,6 +514,7 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
 
   std::vector<std::unique_ptr<Block>> blocks(leaves.size());
   std::vector<std::size_t> updates(leaves.size(), 0);
+  [[maybe_unused]] const bool avx2 = simdLevel() == SimdLevel::Avx2;
   VoxelFootprint masks(footprint ? leaves.size() : 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 4), [&](const auto& r) {
     for (std::size_t l = r.begin(); l != r.end(); ++l) {
@@ -423,7 +523,14 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
         if (view.cull.outside(origin)) continue;
         if (!blocks[l]) blocks[l] = acquireBlock(origin);
         std::uint64_t* mask = footprint && view.sign > 0 ? masks[l].voxels.data() : nullptr;
-        updates[l] += integrateLeaf(px, K, view.A, view.leafOrigin(origin, vs), update, view.sign, *blocks[l], mask);
+        const Eigen::Vector3f b = view.leafOrigin(origin, vs);
+#if VDBMAP_AVX2_KERNELS
+        if (avx2 && avx2LeavesFit(px, view.sign)) {
+          updates[l] += integrateLeafAvx2(px, K, view.A, b, update, view.sign, *blocks[l], mask);
+          continue;
+        }
+#endif
+        updates[l] += integrateLeaf(px, K, view.A, b, update, view.sign, *blocks[l], mask);
       }
     }
   });

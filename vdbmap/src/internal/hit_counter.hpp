@@ -9,6 +9,7 @@
 // the pixels, with the same EndVoxels, so both give every point the same voxel.
 #pragma once
 
+#include "internal/simd.hpp"
 #include "internal/voxel_blocks.hpp"
 
 #include "vdbmap/camera.hpp"
@@ -92,10 +93,11 @@ struct HitPose {
 
 /// Counts the surface end points of row v of a depth image (the points backProject() makes of its
 /// pixels, left to right) from every pose into runs[j], with the same result as countHits() on
-/// them; two pixels at a time where SSE2 is there. With two poses of opposite signs (a move), the
-/// points that end in the same voxel at both are skipped. depth_m must match K's size.
+/// them, one, two or four pixels at a time as `level` says (every level gives the same runs).
+/// With two poses of opposite signs (a move), the points that end in the same voxel at both are
+/// skipped. depth_m must match K's size.
 void countRowHits(const DepthImage& depth_m, int v, const CameraIntrinsics& K, const EndVoxels& ends,
-                  const std::vector<HitPose>& poses, std::vector<HitRun>* runs);
+                  const std::vector<HitPose>& poses, std::vector<HitRun>* runs, SimdLevel level = simdLevel());
 
 /// Adds each voxel's summed count to the grid (compacting `runs` first); voxels whose count
 /// returns to 0 are removed. The result depends only on the sums, not on the order of the runs.

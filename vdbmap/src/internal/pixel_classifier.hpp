@@ -1,8 +1,10 @@
 // Classifying a depth image's pixels for projective integration (private to the library):
-// what each pixel's depth makes of its ray, two pixels at a time where x86-64 is. The pair path
-// does exactly the one-pixel path's arithmetic lane by lane, so the map does not depend on it.
+// what each pixel's depth makes of its ray, two pixels at a time on x86-64 and four with AVX2
+// (internal/simd.hpp). The wider paths do exactly the one-pixel path's arithmetic lane by lane, so
+// the map does not depend on them.
 #pragma once
 
+#include "internal/simd.hpp"
 #include "internal/voxel_blocks.hpp"
 
 #include "vdbmap/config.hpp"
@@ -17,6 +19,9 @@
 #if defined(__SSE2__) && defined(__x86_64__)
 #define VDBMAP_PIXEL_PAIRS 1
 #include <emmintrin.h>
+#if VDBMAP_AVX2_KERNELS
+#include <immintrin.h>
+#endif
 #else
 #define VDBMAP_PIXEL_PAIRS 0
 #endif
@@ -56,11 +61,21 @@ class PixelClassifier {
   };
 
   /// Classifies pixels [0, width) of one row: depths z_row, ray norms norm_row (|ray| per unit
-  /// depth), records into rays; each valid range raises tile_max[u / kPixelTile].
-  void row(const float* z_row, const float* norm_row, int width, PixelRay* rays, float* tile_max, Tally& tally) const {
+  /// depth), records into rays; each valid range raises tile_max[u / kPixelTile]. `level` says how
+  /// many pixels at a time; every level gives the same records.
+  void row(const float* z_row, const float* norm_row, int width, PixelRay* rays, float* tile_max, Tally& tally,
+           SimdLevel level = simdLevel()) const {
     int u = 0;
 #if VDBMAP_PIXEL_PAIRS
-    for (; u + 1 < width; u += 2) pair(z_row + u, norm_row + u, rays + u, tile_max[u / kPixelTile], tally);
+#if VDBMAP_AVX2_KERNELS
+    static_assert(kPixelTile % 4 == 0, "four pixels at a time stay in one tile");
+    if (level == SimdLevel::Avx2)
+      for (; u + 3 < width; u += 4) quad(z_row + u, norm_row + u, rays + u, tile_max[u / kPixelTile], tally);
+#endif
+    if (level != SimdLevel::Scalar)
+      for (; u + 1 < width; u += 2) pair(z_row + u, norm_row + u, rays + u, tile_max[u / kPixelTile], tally);
+#else
+    (void)level;
 #endif
     for (; u < width; ++u) {
       rays[u] = pixel(z_row[u], norm_row[u], tally);
@@ -137,8 +152,52 @@ class PixelClassifier {
     _mm_store_ps(f_range, range_f);
     _mm_store_ps(f_free2, free2_f);
     _mm_store_ps(f_band2, band2_f);
-    const int far = _mm_movemask_pd(beyond);
-    for (int l = 0; l < 2; ++l) {
+    finish<2>(valid, _mm_movemask_pd(beyond), weight, f_range, f_free2, f_band2, rays, tile_max, tally);
+  }
+
+#if VDBMAP_AVX2_KERNELS
+  /// Pixels u to u + 3 in lanes 0 to 3: pair() four wide, the same operations lane by lane.
+  VDBMAP_TARGET_AVX2 void quad(const float* z_f, const float* norm, PixelRay* rays, float& tile_max,
+                               Tally& tally) const {
+    const __m256d z = _mm256_cvtps_pd(_mm_loadu_ps(z_f)), range = _mm256_mul_pd(z, _mm256_cvtps_pd(_mm_loadu_ps(norm)));
+    const __m256d min_r = _mm256_set1_pd(min_r_), max_r = _mm256_set1_pd(max_r_), delta = _mm256_set1_pd(delta_);
+    const __m256d finite =
+        _mm256_and_pd(_mm256_cmp_pd(z, _mm256_setzero_pd(), _CMP_GT_OQ),
+                      _mm256_cmp_pd(z, _mm256_set1_pd(std::numeric_limits<double>::infinity()), _CMP_LT_OQ));
+    const int valid = _mm256_movemask_pd(_mm256_and_pd(finite, _mm256_cmp_pd(range, min_r, _CMP_GE_OQ)));
+    if (valid == 0) {
+      rays[0] = rays[1] = rays[2] = rays[3] = PixelRay{};
+      tally.invalid += 4;
+      return;
+    }
+    const __m256d beyond = _mm256_cmp_pd(range, max_r, _CMP_GT_OQ);
+    const __m256d r_m = _mm256_blendv_pd(range, max_r, beyond);
+    std::int64_t weight[4] = {scale_, scale_, scale_, scale_};
+    if (!constant_) {
+      const __m256d z_eff = _mm256_blendv_pd(z, _mm256_div_pd(_mm256_mul_pd(z, max_r), range), beyond);
+      const __m256d w = _mm256_add_pd(_mm256_div_pd(_mm256_set1_pd(double(scale_)), _mm256_mul_pd(z_eff, z_eff)),
+                                      _mm256_set1_pd(0.5));
+      alignas(32) double w_lanes[4];
+      _mm256_store_pd(w_lanes, w);
+      for (int l = 0; l < 4; ++l) weight[l] = _mm_cvttsd_si64(_mm_set_sd(w_lanes[l]));  // as pair()
+    }
+    const __m256d below = _mm256_sub_pd(r_m, delta), above = _mm256_add_pd(r_m, delta);
+    const __m256d free2 =
+        _mm256_blendv_pd(_mm256_set1_pd(-1.0), _mm256_mul_pd(below, below), _mm256_cmp_pd(r_m, delta, _CMP_GE_OQ));
+    alignas(16) float f_range[4], f_free2[4], f_band2[4];
+    _mm_store_ps(f_range, _mm256_cvtpd_ps(r_m));
+    _mm_store_ps(f_free2, _mm256_cvtpd_ps(free2));
+    _mm_store_ps(f_band2, _mm256_cvtpd_ps(_mm256_blendv_pd(_mm256_mul_pd(above, above), free2, beyond)));
+    finish<4>(valid, _mm256_movemask_pd(beyond), weight, f_range, f_free2, f_band2, rays, tile_max, tally);
+  }
+#endif
+
+  /// Writes lanes 0 to N - 1 as pixel() would: invalid where `valid` lacks the lane's bit or the
+  /// weight rounded to 0, beyond max range where `far` has it.
+  template <int N>
+  static void finish(int valid, int far, const std::int64_t* weight, const float* f_range, const float* f_free2,
+                     const float* f_band2, PixelRay* rays, float& tile_max, Tally& tally) {
+    for (int l = 0; l < N; ++l) {
       if (!(valid & (1 << l)) || weight[l] == 0) {
         rays[l] = PixelRay{};
         ++tally.invalid;
