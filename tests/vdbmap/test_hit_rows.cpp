@@ -71,6 +71,9 @@ TEST_CASE("every hit-row kernel counts the same runs as the one-pixel reference"
     const CameraIntrinsics K{width, 9, 500.0, 500.0, 0.5 * width - 0.3, 4.1};
     DepthImage depth(width, 9);
     for (float& z : depth.depth_m) z = randomDepth(rng, in);
+    // Smooth rows too (a slanted plane, a few pixels per voxel), whose points form long runs.
+    for (int v = 0; v < 4; ++v)
+      for (int u = 0; u < width; ++u) depth.at(u, v) = 1.5f + 0.0007f * float(u) + 0.01f * float(v);
     for (const std::vector<std::int64_t>& signs : placements) {
       std::vector<HitPose> poses;
       for (const std::int64_t s : signs) poses.push_back(randomPose(rng, s));

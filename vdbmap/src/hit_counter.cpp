@@ -182,8 +182,7 @@ VDBMAP_TARGET_AVX2 inline __m256i packField4(__m256d e) {
   return _mm256_cvtepu32_epi64(_mm_and_si128(biased, _mm_set1_epi32((1 << 21) - 1)));
 }
 
-VDBMAP_TARGET_AVX2 inline void keys4(const PoseLanes4& p, __m256d x, __m256d y, __m256d z, __m256d inv_voxel,
-                                     std::uint64_t out[4]) {
+VDBMAP_TARGET_AVX2 inline __m256i keys4(const PoseLanes4& p, __m256d x, __m256d y, __m256d z, __m256d inv_voxel) {
   const __m256d half = _mm256_set1_pd(0.5);
   __m256i field[3];
   for (int i = 0; i < 2; ++i) {
@@ -194,9 +193,39 @@ VDBMAP_TARGET_AVX2 inline void keys4(const PoseLanes4& p, __m256d x, __m256d y, 
   const __m256d s = _mm256_add_pd(_mm256_mul_pd(p.r[2][0], x),
                                   _mm256_add_pd(_mm256_mul_pd(p.r[2][1], y), _mm256_mul_pd(p.r[2][2], z)));
   field[2] = packField4(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(s, p.t[2]), inv_voxel), half));
-  const __m256i key =
-      _mm256_or_si256(_mm256_or_si256(_mm256_slli_epi64(field[0], 42), _mm256_slli_epi64(field[1], 21)), field[2]);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), key);
+  return _mm256_or_si256(_mm256_or_si256(_mm256_slli_epi64(field[0], 42), _mm256_slli_epi64(field[1], 21)), field[2]);
+}
+
+/// Bit l set where 64-bit lanes l of a and b are equal.
+VDBMAP_TARGET_AVX2 inline int equalLanes(__m256i a, __m256i b) {
+  return _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, b)));
+}
+
+/// appendLanes for four surface points of every pose, without a branch per point: a lane starts a
+/// run where its key differs from the lane before it (lane 0: from the list's last run), and the
+/// lanes between starts add to the run before them. False (nothing done) when a list is empty.
+VDBMAP_TARGET_AVX2 inline bool appendFour(const RowPixels& row, const __m256i (&key)[2]) {
+  const std::size_t P = row.poses.size();
+  for (std::size_t j = 0; j < P; ++j)
+    if (row.runs[j].empty()) return false;
+  for (std::size_t j = 0; j < P; ++j) {
+    std::vector<HitRun>& runs = row.runs[j];
+    const std::int64_t sign = row.poses[j].sign;
+    // Lanes (last run, k0, k1, k2) against (k0, k1, k2, k3).
+    const __m256i before = _mm256_blend_epi32(_mm256_permute4x64_epi64(key[j], _MM_SHUFFLE(2, 1, 0, 0)),
+                                              _mm256_set1_epi64x(std::int64_t(runs.back().key)), 0x03);
+    int start = 0;
+    for (int starts = ~equalLanes(key[j], before) & 0xF; starts != 0; starts &= starts - 1) {
+      const int l = __builtin_ctz(unsigned(starts));
+      runs.back().count += (l - start) * sign;
+      alignas(32) std::uint64_t k[4];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(k), key[j]);
+      runs.push_back({k[l], 0});
+      start = l;
+    }
+    runs.back().count += (4 - start) * sign;
+  }
+  return true;
 }
 
 /// countPixelsSse2 four pixels at a time, lane for lane the same operations.
@@ -223,11 +252,19 @@ VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
     const __m256d x = _mm256_cvtps_pd(_mm256_cvtpd_ps(_mm256_mul_pd(a, z)));
     const __m256d y = _mm256_cvtps_pd(_mm256_cvtpd_ps(_mm256_mul_pd(by, z)));
     const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(x, x), _mm256_mul_pd(y, y)), _mm256_mul_pd(z, z));
-    const int surface = ok & _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(r2, min2, _CMP_GE_OS),
-                                                              _mm256_cmp_pd(r2, max2, _CMP_LE_OS)));
+    int surface = ok & _mm256_movemask_pd(
+                           _mm256_and_pd(_mm256_cmp_pd(r2, min2, _CMP_GE_OS), _mm256_cmp_pd(r2, max2, _CMP_LE_OS)));
     if (surface == 0) continue;
+    const std::size_t P = row.poses.size();
+    __m256i key[2] = {_mm256_setzero_si256(), _mm256_setzero_si256()};
+    for (std::size_t j = 0; j < P; ++j) key[j] = keys4(lanes[j], x, y, z, inv_voxel);
+    if (row.move) {
+      surface &= ~equalLanes(key[0], key[1]);  // points that stay in their voxel are skipped
+      if (surface == 0) continue;
+    }
+    if (surface == 0xF && appendFour(row, key)) continue;
     std::uint64_t keys[2][4];
-    for (std::size_t j = 0; j < row.poses.size(); ++j) keys4(lanes[j], x, y, z, inv_voxel, keys[j]);
+    for (std::size_t j = 0; j < P; ++j) _mm256_storeu_si256(reinterpret_cast<__m256i*>(keys[j]), key[j]);
     appendLanes<4>(row, surface, keys);
   }
   return u;
