@@ -154,7 +154,11 @@ void candidateLeaves(const PixelTable& px, const CameraIntrinsics& K, const Pose
                      KeyIndex& index, std::vector<openvdb::Coord>& leaves) {
   const double vs = tsdf.voxel_size_m, leaf_m = 8.0 * vs, delta = tsdf.truncation_m();
   const double f = std::min(std::abs(K.fx), std::abs(K.fy));
-  const int tile = std::clamp(int(std::floor(leaf_m * f / std::max(px.max_range_m, 1e-3))), 1, 32);
+  // At most a leaf's width at max range; whole classification tiles where that is one or more, so
+  // that their maxima give each tile's reach without a pass over its pixels. Any smaller tile
+  // marks a superset of the leaves that hold updates, so the choice does not change the map.
+  int tile = std::clamp(int(std::floor(leaf_m * f / std::max(px.max_range_m, 1e-3))), 1, 32);
+  if (tile >= PixelTable::kTile) tile -= tile % PixelTable::kTile;
   const Vec3d origin = T_W_S.translation();
   const Vec3d q0 = (origin / vs + Vec3d::Constant(0.5)) / 8.0;  // leaf space: leaf L spans [L, L + 1)
 
