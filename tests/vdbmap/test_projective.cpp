@@ -20,13 +20,6 @@ IntegratorConfig projective(int threads = 0) {
   return in;
 }
 
-/// Whether two volumes hold the same hit count in every voxel.
-bool sameHitCounts(const TsdfVolume& x, const TsdfVolume& y) {
-  std::size_t voxels = 0;
-  for (auto it = x.hitCountGrid()->cbeginValueOn(); it; ++it, ++voxels)
-    if (y.hitCountGrid()->tree().getValue(it.getCoord()) != *it) return false;
-  return voxels == y.hitCountGrid()->activeVoxelCount();
-}
 }  // namespace
 
 TEST_CASE("projective: integrating then de-integrating images in another order restores the empty map",

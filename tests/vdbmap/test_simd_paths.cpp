@@ -64,13 +64,6 @@ bool sameFootprints(const std::vector<VoxelFootprint>& a, const std::vector<Voxe
   return true;
 }
 
-bool sameHitCounts(const TsdfVolume& x, const TsdfVolume& y) {
-  std::size_t voxels = 0;
-  for (auto it = x.hitCountGrid()->cbeginValueOn(); it; ++it, ++voxels)
-    if (y.hitCountGrid()->tree().getValue(it.getCoord()) != *it) return false;
-  return voxels == y.hitCountGrid()->activeVoxelCount();
-}
-
 /// Compares every level this CPU runs with the widest, on `frames`.
 void compareLevels(const std::vector<Frame>& frames, const Pose3d& correction, const TsdfConfig& tsdf,
                    const IntegratorConfig& in) {

@@ -80,6 +80,14 @@ inline TsdfConfig config(double voxel_size_m, Weighting weighting = Weighting::I
 }
 
 /// Root mean square distance of the mesh's vertices to the analytic surfaces.
+/// Whether two volumes hold the same hit count in every voxel.
+inline bool sameHitCounts(const TsdfVolume& x, const TsdfVolume& y) {
+  std::size_t voxels = 0;
+  for (auto it = x.hitCountGrid()->cbeginValueOn(); it; ++it, ++voxels)
+    if (y.hitCountGrid()->tree().getValue(it.getCoord()) != *it) return false;
+  return voxels == y.hitCountGrid()->activeVoxelCount();
+}
+
 inline double meshRmse(const TriangleMesh& mesh, const AnalyticScene& scene) {
   REQUIRE(mesh.vertices.size() > 100);
   double sum = 0.0;
