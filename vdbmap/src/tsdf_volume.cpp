@@ -101,19 +101,21 @@ std::uint64_t finish(std::uint64_t h) {  // splitmix64's finaliser
   h ^= h >> 31;
   return h;
 }
-}  // namespace
 
-std::uint64_t TsdfVolume::fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const {
-  const std::uint64_t h = hashBytes(0x706f696e7473ULL, points_S.data(), points_S.size() * sizeof(Vec3f));
-  return finish(hashBytes(h, T_W_S.matrix().data(), 16 * sizeof(double)));
+// A frame's fingerprint is the hash of its data chained with its pose: the data's hash once, then
+// one fingerprint per pose (a re-integration checks the old pose and records the new).
+std::uint64_t dataHash(const PointCloud& points_S) {
+  return hashBytes(0x706f696e7473ULL, points_S.data(), points_S.size() * sizeof(Vec3f));
 }
-
-std::uint64_t TsdfVolume::fingerprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S) const {
-  std::uint64_t h = hashBytes(0x6465707468ULL, depth_m.depth_m.data(), depth_m.depth_m.size() * sizeof(float));
+std::uint64_t dataHash(const DepthImage& depth_m, const CameraIntrinsics& K) {
+  const std::uint64_t h = hashBytes(0x6465707468ULL, depth_m.depth_m.data(), depth_m.depth_m.size() * sizeof(float));
   const double k[6] = {double(K.width), double(K.height), K.fx, K.fy, K.cx, K.cy};
-  h = hashBytes(h, k, sizeof(k));
-  return finish(hashBytes(h, T_W_S.matrix().data(), 16 * sizeof(double)));
+  return hashBytes(h, k, sizeof(k));
 }
+std::uint64_t fingerprint(std::uint64_t data_hash, const Pose3d& T_W_S) {
+  return finish(hashBytes(data_hash, T_W_S.matrix().data(), 16 * sizeof(double)));
+}
+}  // namespace
 
 namespace {
 /// Runs `work` in an arena of `threads` workers (0 = TBB's default).
@@ -263,12 +265,12 @@ IntegrationStats TsdfVolume::integrate(FrameId id, const PointCloud& points_S, c
   checkNewFrame(id, T_W_S);
   checkFrameMemory(id, points_S);
   IntegrationStats stats = apply(points_S, T_W_S, +1);
-  frames_[id] = FrameRecord{fingerprint(points_S, T_W_S), T_W_S};
+  frames_[id] = FrameRecord{fingerprint(dataHash(points_S), T_W_S), T_W_S};
   return stats;
 }
 
 IntegrationStats TsdfVolume::deintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S) {
-  const auto it = checkKnownFrame(id, fingerprint(points_S, T_W_S), "points");
+  const auto it = checkKnownFrame(id, fingerprint(dataHash(points_S), T_W_S), "points");
   IntegrationStats stats = apply(points_S, T_W_S, -1);
   frames_.erase(it);
   return stats;
@@ -279,13 +281,13 @@ IntegrationStats TsdfVolume::integrate(FrameId id, const DepthImage& depth_m, co
   checkNewFrame(id, T_W_S);
   checkFrameMemory(id, depth_m, K);
   IntegrationStats stats = apply(depth_m, K, T_W_S, +1, footprint);
-  frames_[id] = FrameRecord{fingerprint(depth_m, K, T_W_S), T_W_S};
+  frames_[id] = FrameRecord{fingerprint(dataHash(depth_m, K), T_W_S), T_W_S};
   return stats;
 }
 
 IntegrationStats TsdfVolume::deintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
                                          const Pose3d& T_W_S) {
-  const auto it = checkKnownFrame(id, fingerprint(depth_m, K, T_W_S), "depth image, intrinsics");
+  const auto it = checkKnownFrame(id, fingerprint(dataHash(depth_m, K), T_W_S), "depth image, intrinsics");
   IntegrationStats stats = apply(depth_m, K, T_W_S, -1);
   frames_.erase(it);
   return stats;
@@ -316,20 +318,22 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const SensorFrame& frame, c
 
 IntegrationStats TsdfVolume::reintegrate(FrameId id, const PointCloud& points_S, const Pose3d& T_W_S_old,
                                          const Pose3d& T_W_S_new) {
-  const auto it = checkKnownFrame(id, fingerprint(points_S, T_W_S_old), "points");
+  const std::uint64_t data_hash = dataHash(points_S);
+  const auto it = checkKnownFrame(id, fingerprint(data_hash, T_W_S_old), "points");
   checkPose(id, T_W_S_new, "the new T_W_S");
   IntegrationStats stats = apply(points_S, T_W_S_old, -1);
   const IntegrationStats in = apply(points_S, T_W_S_new, +1);
   stats.voxel_updates += in.voxel_updates;
   stats.touched_voxels.expand(in.touched_voxels);
-  it->second = FrameRecord{fingerprint(points_S, T_W_S_new), T_W_S_new};
+  it->second = FrameRecord{fingerprint(data_hash, T_W_S_new), T_W_S_new};
   return stats;
 }
 
 IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K,
                                          const Pose3d& T_W_S_old, const Pose3d& T_W_S_new,
                                          VoxelFootprint* footprint) {
-  const auto it = checkKnownFrame(id, fingerprint(depth_m, K, T_W_S_old), "depth image, intrinsics");
+  const std::uint64_t data_hash = dataHash(depth_m, K);
+  const auto it = checkKnownFrame(id, fingerprint(data_hash, T_W_S_old), "depth image, intrinsics");
   checkPose(id, T_W_S_new, "the new T_W_S");
   IntegrationStats stats;
   if (footprint) footprint->clear();
@@ -344,7 +348,7 @@ IntegrationStats TsdfVolume::reintegrate(FrameId id, const DepthImage& depth_m, 
     stats.voxel_updates += in.voxel_updates;
     stats.touched_voxels.expand(in.touched_voxels);
   }
-  it->second = FrameRecord{fingerprint(depth_m, K, T_W_S_new), T_W_S_new};
+  it->second = FrameRecord{fingerprint(data_hash, T_W_S_new), T_W_S_new};
   return stats;
 }
 

@@ -188,8 +188,6 @@ class TsdfVolume {
   void checkFrameMemory(FrameId id, const DepthImage& depth_m, const CameraIntrinsics& K) const;
   /// Throws FrameError unless `id` is integrated with this fingerprint; returns its record.
   std::map<FrameId, FrameRecord>::iterator checkKnownFrame(FrameId id, std::uint64_t fingerprint, const char* what);
-  std::uint64_t fingerprint(const PointCloud& points_S, const Pose3d& T_W_S) const;
-  std::uint64_t fingerprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S) const;
 
   TsdfConfig config_;
   IntegratorConfig integrator_;
