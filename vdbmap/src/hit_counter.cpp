@@ -167,7 +167,7 @@ int countPixelsSse2(const RowPixels& row, int u) {
 #if VDBMAP_AVX2_KERNELS
 // The four-pixel kernel (internal/simd.hpp says why only these functions target AVX2).
 
-/// PoseLanes::keys for lanes 0-3.
+/// A pose's rotation and translation, each coefficient in all four lanes (PoseLanes, wider).
 struct PoseLanes4 {
   __m256d r[3][3], t[3];
 };
