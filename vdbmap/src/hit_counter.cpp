@@ -16,6 +16,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -201,32 +202,101 @@ VDBMAP_TARGET_AVX2 inline int equalLanes(__m256i a, __m256i b) {
   return _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, b)));
 }
 
-/// appendLanes for four surface points of every pose, without a branch per point: a lane starts a
-/// run where its key differs from the lane before it (lane 0: from the list's last run), and the
-/// lanes between starts add to the run before them. False (nothing done) when a list is empty.
-VDBMAP_TARGET_AVX2 inline bool appendFour(const RowPixels& row, const __m256i (&key)[2]) {
-  const std::size_t P = row.poses.size();
-  for (std::size_t j = 0; j < P; ++j)
-    if (row.runs[j].empty()) return false;
-  for (std::size_t j = 0; j < P; ++j) {
-    std::vector<HitRun>& runs = row.runs[j];
-    const std::int64_t sign = row.poses[j].sign;
-    // Lanes (last run, k0, k1, k2) against (k0, k1, k2, k3).
-    const __m256i before = _mm256_blend_epi32(_mm256_permute4x64_epi64(key[j], _MM_SHUFFLE(2, 1, 0, 0)),
-                                              _mm256_set1_epi64x(std::int64_t(runs.back().key)), 0x03);
-    int start = 0;
-    for (int starts = ~equalLanes(key[j], before) & 0xF; starts != 0; starts &= starts - 1) {
-      const int l = __builtin_ctz(unsigned(starts));
-      runs.back().count += (l - start) * sign;
-      alignas(32) std::uint64_t k[4];
-      _mm256_store_si256(reinterpret_cast<__m256i*>(k), key[j]);
-      runs.push_back({k[l], 0});
-      start = l;
+/// Tables for appending up to four points without a branch. For a bit set s of four lanes:
+/// `gather[s]`, the permutevar8x32 indices that bring the lanes in s (64-bit keys) to the front in
+/// order. For the first c lanes of which those in s start a run: `before_first[c][s]`, how many
+/// come before the first start (they add to the run before them), and `length[c][s]`, the lengths
+/// of the runs the starts begin.
+struct RunTables {
+  std::int32_t gather[16][8];
+  std::int64_t before_first[5][16];
+  std::int64_t length[5][16][4];
+};
+constexpr RunTables makeRunTables() {
+  RunTables t{};
+  for (int s = 0; s < 16; ++s) {
+    int n = 0;
+    for (int l = 0; l < 4; ++l)
+      if (s & (1 << l)) {
+        t.gather[s][2 * n] = 2 * l;
+        t.gather[s][2 * n + 1] = 2 * l + 1;
+        ++n;
+      }
+    for (int c = 0; c <= 4; ++c) {
+      if (s >> c) continue;  // starts lie among the first c lanes
+      int first = c, m = 0;
+      for (int l = 0; l < c; ++l) {
+        if (!(s & (1 << l))) continue;
+        if (first == c) first = l;
+        int next = l + 1;
+        while (next < c && !(s & (1 << next))) ++next;
+        t.length[c][s][m++] = next - l;
+      }
+      t.before_first[c][s] = first;
     }
-    runs.back().count += (4 - start) * sign;
   }
-  return true;
+  return t;
 }
+inline constexpr RunTables kRunTables = makeRunTables();
+
+/// One pose's runs of a row, written through a pointer into a scratch buffer with room for a run
+/// per pixel and four more, then appended to the pose's list at the end of the row. Its first run
+/// is the list's last, which the row may continue, or a placeholder with a key no voxel has
+/// (packVoxel uses 63 bits).
+class RowRuns {
+ public:
+  RowRuns(std::vector<HitRun>& list, std::vector<HitRun>& scratch, int width) : list_(list) {
+    if (scratch.size() < std::size_t(width) + 5) scratch.resize(std::size_t(width) + 5);
+    first_ = back_ = scratch.data();
+    if (list.empty()) {
+      *back_ = {kNoKey, 0};
+    } else {
+      *back_ = list.back();
+      list.pop_back();
+    }
+  }
+  ~RowRuns() { list_.insert(list_.end(), first_ + (first_->key == kNoKey ? 1 : 0), back_ + 1); }
+  RowRuns(const RowRuns&) = delete;
+  RowRuns& operator=(const RowRuns&) = delete;
+
+  /// appendHit.
+  void add(std::uint64_t key, std::int64_t count) {
+    if (back_->key == key)
+      back_->count += count;
+    else
+      *++back_ = {key, count};
+  }
+
+  /// The points of the lanes in `lanes` (bit l: lane l), in lane order, counted with `sign` (+1
+  /// or -1): what an add() per point does, without a branch per point. The lanes' keys are packed
+  /// to the front; a packed lane starts a run where its key differs from the one before it (the
+  /// first: from the last run).
+  VDBMAP_TARGET_AVX2 void addLanes(__m256i key, int lanes, std::int64_t sign) {
+    const RunTables& t = kRunTables;
+    const int c = __builtin_popcount(unsigned(lanes));
+    const __m256i packed =
+        _mm256_permutevar8x32_epi32(key, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t.gather[lanes])));
+    const __m256i before = _mm256_blend_epi32(_mm256_permute4x64_epi64(packed, _MM_SHUFFLE(2, 1, 0, 0)),
+                                              _mm256_set1_epi64x(std::int64_t(back_->key)), 0x03);
+    const int starts = ~equalLanes(packed, before) & ((1 << c) - 1);
+    back_->count += t.before_first[c][starts] * sign;
+    const __m256i keys =
+        _mm256_permutevar8x32_epi32(packed, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t.gather[starts])));
+    __m256i counts = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t.length[c][starts]));
+    if (sign < 0) counts = _mm256_sub_epi64(_mm256_setzero_si256(), counts);
+    // (key, count) of up to four new runs, written whole; the first popcount(starts) are kept.
+    const __m256i lo = _mm256_unpacklo_epi64(keys, counts), hi = _mm256_unpackhi_epi64(keys, counts);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(back_ + 1), _mm256_permute2x128_si256(lo, hi, 0x20));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(back_ + 3), _mm256_permute2x128_si256(lo, hi, 0x31));
+    back_ += __builtin_popcount(unsigned(starts));
+  }
+
+ private:
+  static constexpr std::uint64_t kNoKey = ~std::uint64_t(0);
+  std::vector<HitRun>& list_;
+  HitRun* first_;
+  HitRun* back_;
+};
 
 /// countPixelsSse2 four pixels at a time, lane for lane the same operations.
 VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
@@ -242,6 +312,14 @@ VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
   const __m256d inv_voxel = _mm256_set1_pd(row.ends.inverseVoxelSize());
   const __m256d lane_u = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0);
   const __m128 zero = _mm_setzero_ps(), inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
+  thread_local std::vector<HitRun> scratch[2];
+  std::optional<RowRuns> writer_storage[2];
+  RowRuns* writers[2] = {nullptr, nullptr};
+  bool unit_signs = true;
+  for (std::size_t j = 0; j < row.poses.size(); ++j) {
+    writers[j] = &writer_storage[j].emplace(row.runs[j], scratch[j], row.width);
+    unit_signs = unit_signs && (row.poses[j].sign == 1 || row.poses[j].sign == -1);
+  }
   for (; u + 3 < row.width; u += 4) {
     // Valid: above 0 and below infinity, which is finite and positive (NaN fails both).
     const __m128 zf = _mm_loadu_ps(row.z + u);
@@ -262,10 +340,17 @@ VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
       surface &= ~equalLanes(key[0], key[1]);  // points that stay in their voxel are skipped
       if (surface == 0) continue;
     }
-    if (surface == 0xF && appendFour(row, key)) continue;
-    std::uint64_t keys[2][4];
-    for (std::size_t j = 0; j < P; ++j) _mm256_storeu_si256(reinterpret_cast<__m256i*>(keys[j]), key[j]);
-    appendLanes<4>(row, surface, keys);
+    if (unit_signs) {
+      for (std::size_t j = 0; j < P; ++j) writers[j]->addLanes(key[j], surface, row.poses[j].sign);
+      continue;
+    }
+    // Points that stay are already dropped from `surface`, so a move adds like two placements.
+    for (std::size_t j = 0; j < P; ++j) {
+      alignas(32) std::uint64_t k[4];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(k), key[j]);
+      for (int l = 0; l < 4; ++l)
+        if (surface & (1 << l)) writers[j]->add(k[l], row.poses[j].sign);
+    }
   }
   return u;
 }
