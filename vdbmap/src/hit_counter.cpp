@@ -240,9 +240,9 @@ constexpr RunTables makeRunTables() {
 inline constexpr RunTables kRunTables = makeRunTables();
 
 /// One pose's runs of a row, written through a pointer into a scratch buffer with room for a run
-/// per pixel and four more, then appended to the pose's list at the end of the row. Its first run
-/// is the list's last, which the row may continue, or a placeholder with a key no voxel has
-/// (packVoxel uses 63 bits).
+/// per pixel and four more, then appended to the pose's list by finish(). Its first run is the
+/// list's last, which the row may continue, or a placeholder with a key no voxel has (packVoxel
+/// uses 63 bits).
 class RowRuns {
  public:
   RowRuns(std::vector<HitRun>& list, std::vector<HitRun>& scratch, int width) : list_(list) {
@@ -255,9 +255,11 @@ class RowRuns {
       list.pop_back();
     }
   }
-  ~RowRuns() { list_.insert(list_.end(), first_ + (first_->key == kNoKey ? 1 : 0), back_ + 1); }
   RowRuns(const RowRuns&) = delete;
   RowRuns& operator=(const RowRuns&) = delete;
+
+  /// Appends the row's runs to the list; the writer is done.
+  void finish() { list_.insert(list_.end(), first_ + (first_->key == kNoKey ? 1 : 0), back_ + 1); }
 
   /// appendHit.
   void add(std::uint64_t key, std::int64_t count) {
@@ -352,6 +354,7 @@ VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
         if (surface & (1 << l)) writers[j]->add(k[l], row.poses[j].sign);
     }
   }
+  for (std::size_t j = 0; j < row.poses.size(); ++j) writers[j]->finish();
   return u;
 }
 #endif
