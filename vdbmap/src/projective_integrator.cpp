@@ -507,7 +507,7 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
   classifyPixels(depth_m, K, tsdf, integrator, placements, *lease, hits ? &hit_runs : nullptr, stats);
   if (hits) applyHitRuns(hit_runs, *hits);
   if (px.max_range_m <= 0.0 || placements.empty()) return;  // no valid pixel
-  KeyIndex index(4096);
+  KeyIndex index(16384 * placements.size());                // a frame marks thousands of leaves: rarely regrown
   std::vector<openvdb::Coord> leaves;
   for (const ImagePlacement& p : placements) candidateLeaves(px, K, p.T_W_S, tsdf, index, leaves);
 

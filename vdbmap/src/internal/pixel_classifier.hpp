@@ -137,7 +137,8 @@ class PixelClassifier {
     const __m128d r_m = select(beyond, max_r, range);
     alignas(16) std::int64_t weight[2] = {scale_, scale_};
     if (!constant_) {
-      const __m128d z_eff = select(beyond, _mm_div_pd(_mm_mul_pd(z, max_r), range), z);
+      // Most pairs have no pixel beyond max range, and need no second division.
+      const __m128d z_eff = _mm_movemask_pd(beyond) ? select(beyond, _mm_div_pd(_mm_mul_pd(z, max_r), range), z) : z;
       const __m128d w = _mm_add_pd(_mm_div_pd(_mm_set1_pd(double(scale_)), _mm_mul_pd(z_eff, z_eff)), _mm_set1_pd(0.5));
       weight[0] = _mm_cvttsd_si64(w);  // roundToInt64 of a value >= 0
       weight[1] = _mm_cvttsd_si64(_mm_unpackhi_pd(w, w));
@@ -174,7 +175,8 @@ class PixelClassifier {
     const __m256d r_m = _mm256_blendv_pd(range, max_r, beyond);
     std::int64_t weight[4] = {scale_, scale_, scale_, scale_};
     if (!constant_) {
-      const __m256d z_eff = _mm256_blendv_pd(z, _mm256_div_pd(_mm256_mul_pd(z, max_r), range), beyond);
+      const __m256d z_eff =
+          _mm256_movemask_pd(beyond) ? _mm256_blendv_pd(z, _mm256_div_pd(_mm256_mul_pd(z, max_r), range), beyond) : z;
       const __m256d w = _mm256_add_pd(_mm256_div_pd(_mm256_set1_pd(double(scale_)), _mm256_mul_pd(z_eff, z_eff)),
                                       _mm256_set1_pd(0.5));
       alignas(32) double w_lanes[4];
