@@ -392,7 +392,7 @@ void countRowHits(const DepthImage& depth_m, int v, const CameraIntrinsics& K, c
 void compactHitRuns(std::vector<HitRun>& runs) {
   // Hashed, not sorted: a voxel's runs merge into its first one, in place (a voxel's dense index
   // never exceeds the position of its first run).
-  KeyIndex index(runs.size() / 4 + 16);
+  KeyIndex index(runs.size() / 2 + 16);  // room for most runs being distinct voxels: rarely regrown
   for (std::size_t i = 0; i < runs.size(); ++i) {
     bool inserted = false;
     const std::uint32_t k = index.findOrInsert(runs[i].key, inserted);
