@@ -77,11 +77,11 @@ struct RowPixels {
   std::vector<HitRun>* runs;          // one list per pose
 };
 
-/// Appends the lanes in `surface` (bit l for lane l) of keys[j][l], the key of lane l's point at
-/// pose j, exactly as countPoint() does for each point in lane order.
-template <int N>
-inline void appendLanes(const RowPixels& row, int surface, const std::uint64_t (&keys)[2][N]) {
-  for (int l = 0; l < N; ++l) {
+#if defined(__SSE2__)
+/// Appends the points of lanes 0 and 1 in `surface` (bit l for lane l), keys[j][l] the voxel of
+/// lane l's point at pose j, exactly as countPoint() does for each point in lane order.
+inline void appendPair(const RowPixels& row, int surface, const std::uint64_t (&keys)[2][2]) {
+  for (int l = 0; l < 2; ++l) {
     if (!(surface & (1 << l))) continue;
     if (row.move) {
       if (keys[0][l] == keys[1][l]) continue;
@@ -93,7 +93,6 @@ inline void appendLanes(const RowPixels& row, int surface, const std::uint64_t (
   }
 }
 
-#if defined(__SSE2__)
 /// A pose's rotation and translation, each coefficient in both lanes.
 struct PoseLanes {
   __m128d r[3][3], t[3];
@@ -159,7 +158,7 @@ int countPixelsSse2(const RowPixels& row, int u) {
     if (surface == 0) continue;
     std::uint64_t keys[2][2];
     for (std::size_t j = 0; j < row.poses.size(); ++j) lanes[j].keys(x, y, z, inv_voxel, keys[j]);
-    appendLanes<2>(row, surface, keys);
+    appendPair(row, surface, keys);
   }
   return u;
 }
@@ -261,16 +260,8 @@ class RowRuns {
   /// Appends the row's runs to the list; the writer is done.
   void finish() { list_.insert(list_.end(), first_ + (first_->key == kNoKey ? 1 : 0), back_ + 1); }
 
-  /// appendHit.
-  void add(std::uint64_t key, std::int64_t count) {
-    if (back_->key == key)
-      back_->count += count;
-    else
-      *++back_ = {key, count};
-  }
-
   /// The points of the lanes in `lanes` (bit l: lane l), in lane order, counted with `sign` (+1
-  /// or -1): what an add() per point does, without a branch per point. The lanes' keys are packed
+  /// or -1): what appendHit() per point does, without a branch per point. The lanes' keys are packed
   /// to the front; a packed lane starts a run where its key differs from the one before it (the
   /// first: from the last run).
   VDBMAP_TARGET_AVX2 void addLanes(__m256i key, int lanes, std::int64_t sign) {
@@ -300,7 +291,7 @@ class RowRuns {
   HitRun* back_;
 };
 
-/// countPixelsSse2 four pixels at a time, lane for lane the same operations.
+/// countPixelsSse2 four pixels at a time, lane for lane the same operations; poses' signs +1 or -1.
 VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
   PoseLanes4 lanes[2];
   for (std::size_t j = 0; j < row.poses.size(); ++j)
@@ -317,11 +308,8 @@ VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
   thread_local std::vector<HitRun> scratch[2];
   std::optional<RowRuns> writer_storage[2];
   RowRuns* writers[2] = {nullptr, nullptr};
-  bool unit_signs = true;
-  for (std::size_t j = 0; j < row.poses.size(); ++j) {
+  for (std::size_t j = 0; j < row.poses.size(); ++j)
     writers[j] = &writer_storage[j].emplace(row.runs[j], scratch[j], row.width);
-    unit_signs = unit_signs && (row.poses[j].sign == 1 || row.poses[j].sign == -1);
-  }
   for (; u + 3 < row.width; u += 4) {
     // Valid: above 0 and below infinity, which is finite and positive (NaN fails both).
     const __m128 zf = _mm_loadu_ps(row.z + u);
@@ -342,17 +330,8 @@ VDBMAP_TARGET_AVX2 int countPixelsAvx2(const RowPixels& row, int u) {
       surface &= ~equalLanes(key[0], key[1]);  // points that stay in their voxel are skipped
       if (surface == 0) continue;
     }
-    if (unit_signs) {
-      for (std::size_t j = 0; j < P; ++j) writers[j]->addLanes(key[j], surface, row.poses[j].sign);
-      continue;
-    }
     // Points that stay are already dropped from `surface`, so a move adds like two placements.
-    for (std::size_t j = 0; j < P; ++j) {
-      alignas(32) std::uint64_t k[4];
-      _mm256_store_si256(reinterpret_cast<__m256i*>(k), key[j]);
-      for (int l = 0; l < 4; ++l)
-        if (surface & (1 << l)) writers[j]->add(k[l], row.poses[j].sign);
-    }
+    for (std::size_t j = 0; j < P; ++j) writers[j]->addLanes(key[j], surface, row.poses[j].sign);
   }
   for (std::size_t j = 0; j < row.poses.size(); ++j) writers[j]->finish();
   return u;
@@ -376,7 +355,11 @@ void countRowHits(const DepthImage& depth_m, int v, const CameraIntrinsics& K, c
   int u = 0;
   if (!poses.empty() && poses.size() <= 2) {
 #if VDBMAP_AVX2_KERNELS
-    if (level == SimdLevel::Avx2) u = countPixelsAvx2(row, u);
+    // The four-pixel kernel negates counts rather than multiplying them: signs of +1 or -1 (every
+    // placement the integrator counts with).
+    const bool unit_signs =
+        std::all_of(poses.begin(), poses.end(), [](const HitPose& p) { return p.sign == 1 || p.sign == -1; });
+    if (level == SimdLevel::Avx2 && unit_signs) u = countPixelsAvx2(row, u);
 #endif
 #if defined(__SSE2__)
     if (level != SimdLevel::Scalar) u = countPixelsSse2(row, u);

@@ -351,6 +351,13 @@ void visitLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Mat
   }
 }
 
+/// The update of voxel n at squared distance d2 from the camera along `ray`, beyond its free
+/// space: the signed distance to the pixel's surface through SdfUpdate (both voxel loops).
+inline bool applyBand(const SdfUpdate& update, Block& block, openvdb::Index n, const PixelRay& ray, float d2,
+                      std::int64_t sign) {
+  return update.apply(block, n, double(ray.range_m) - std::sqrt(double(d2)), ray.weight_q, sign);
+}
+
 /// Tests the 512 voxels of one leaf against the image and writes their updates into `block`; marks
 /// the visited voxels in `mask` when given (a LeafFootprint's words).
 std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const Eigen::Matrix3f& A, const Eigen::Vector3f& b,
@@ -362,8 +369,7 @@ std::size_t integrateLeaf(const PixelTable& px, const CameraIntrinsics& K, const
       block.addFree(n, sign * ray.weight_q);
       ++updates;
     } else {
-      const double sdf = double(ray.range_m) - std::sqrt(double(d2));
-      updates += update.apply(block, n, sdf, ray.weight_q, sign) ? 1 : 0;
+      updates += applyBand(update, block, n, ray, d2, sign) ? 1 : 0;
     }
   });
   return updates;
@@ -453,8 +459,7 @@ VDBMAP_TARGET_AVX2 std::size_t integrateLeafAvx2(const PixelTable& px, const Cam
         for (unsigned left = band; left != 0; left &= left - 1) {
           const int k = __builtin_ctz(left);
           const PixelRay& ray = *reinterpret_cast<const PixelRay*>(records + offsets[k]);
-          const double sdf = double(ray.range_m) - std::sqrt(double(d2s[k]));
-          updates += update.apply(block, n0 + openvdb::Index(k), sdf, ray.weight_q, sign) ? 1 : 0;
+          updates += applyBand(update, block, n0 + openvdb::Index(k), ray, d2s[k], sign) ? 1 : 0;
         }
       }
     }
