@@ -1,6 +1,6 @@
 #include "internal/hit_counter.hpp"
 
-#include <openvdb/tools/Prune.h>
+#include "internal/prune_leaves.hpp"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -392,19 +392,21 @@ void applyHitRuns(std::vector<HitRun>& runs, openvdb::Int64Grid& hits) {
   compactHitRuns(runs);
   // Serial: few distinct voxels (the surface a frame sees), and OpenVDB trees are not thread-safe
   // for writes.
-  openvdb::Int64Grid::Accessor acc = hits.getAccessor();
-  bool removed = false;
-  for (const HitRun& run : runs) {
-    const openvdb::Coord c = unpackVoxel(run.key);
-    const std::int64_t n = acc.getValue(c) + run.count;
-    if (n == 0) {
-      acc.setValueOff(c, 0);
-      removed = true;
-    } else {
-      acc.setValueOn(c, n);
+  std::vector<openvdb::Coord> emptied;  // the voxels removed
+  {
+    openvdb::Int64Grid::Accessor acc = hits.getAccessor();
+    for (const HitRun& run : runs) {
+      const openvdb::Coord c = unpackVoxel(run.key);
+      const std::int64_t n = acc.getValue(c) + run.count;
+      if (n == 0) {
+        acc.setValueOff(c, 0);
+        emptied.push_back(c);
+      } else {
+        acc.setValueOn(c, n);
+      }
     }
   }
-  if (removed) openvdb::tools::pruneInactive(hits.tree());
+  pruneEmptiedLeaves(hits.tree(), std::move(emptied));
 }
 
 void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,

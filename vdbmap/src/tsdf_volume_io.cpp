@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <openvdb/tools/Prune.h>
 #include <openvdb/tree/LeafManager.h>
 
 #include <algorithm>
@@ -276,6 +277,11 @@ TsdfVolume TsdfVolume::load(const std::filesystem::path& path) {
           if (!hits) throw vdbmap::FileError(exact.string() + ": grid hits is not Int64");
           volume.hits_->setTree(hits->treePtr());
         }
+        // Maps written here hold no inactive node; a file from elsewhere may. Integration prunes
+        // only the branches it empties (internal/prune_leaves.hpp), so the rest is pruned here.
+        openvdb::tools::pruneInactive(volume.weight_q_->tree());
+        openvdb::tools::pruneInactive(volume.wsdf_q_->tree());
+        openvdb::tools::pruneInactive(volume.hits_->tree());
         const auto registry =
             nlohmann::json::parse(requireMeta<openvdb::StringMetadata, std::string>(*emeta, "frames_json", exact));
         for (const auto& f : registry) {

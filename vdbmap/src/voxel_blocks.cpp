@@ -1,14 +1,12 @@
 #include "internal/voxel_blocks.hpp"
 
 #include "internal/free_list.hpp"
-
-#include <openvdb/tools/Prune.h>
+#include "internal/prune_leaves.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cstring>
 
 namespace vdbmap::internal {
@@ -61,6 +59,40 @@ std::unique_ptr<Block> acquireBlock(const openvdb::Coord& origin) {
 }
 
 void releaseBlocks(std::vector<std::unique_ptr<Block>>& blocks) { pool().keep(blocks); }
+void releaseBlock(std::unique_ptr<Block> block) { pool().keep(std::move(block)); }
+
+bool addBlockToLeaves(Block& block, Int64Leaf& w_leaf, Int64Leaf& wd_leaf, std::int64_t sign) {
+  std::int64_t* w_data = w_leaf.buffer().data();
+  std::int64_t* wd_data = wd_leaf.buffer().data();
+  bool emptied = false;
+  for (std::size_t word = 0; word < block.touched.size(); ++word) {
+    std::uint64_t bits = block.touched[word];
+    while (bits) {
+      const openvdb::Index n = openvdb::Index(word * 64 + std::size_t(__builtin_ctzll(bits)));
+      bits &= bits - 1;
+      Block::Cell& band = block.band[n];
+      std::int64_t& free = block.free_w[n];
+      const std::int64_t w = w_data[n] + sign * (band.w + free);
+      const std::int64_t wd = wd_data[n] + sign * (band.wd + free * kSdfScale);
+      band = {0, 0};  // back to the pool zeroed
+      free = 0;
+      if (w == 0) {  // every contribution to this voxel is gone: remove it
+        w_data[n] = 0;
+        wd_data[n] = 0;
+        w_leaf.setActiveState(n, false);
+        wd_leaf.setActiveState(n, false);
+        emptied = true;
+      } else {
+        w_data[n] = w;
+        wd_data[n] = wd;
+        w_leaf.setActiveState(n, true);
+        wd_leaf.setActiveState(n, true);
+      }
+    }
+    block.touched[word] = 0;
+  }
+  return emptied;
+}
 
 void applyBlocks(const std::vector<Block*>& blocks, openvdb::Int64Tree& weight, openvdb::Int64Tree& wsdf,
                  std::int64_t sign) {
@@ -88,49 +120,19 @@ void applyBlocks(const std::vector<Block*>& blocks, openvdb::Int64Tree& weight, 
     i = j;
   }
 
-  std::atomic<bool> removed{false};
+  std::vector<char> emptied(targets.size(), 0);  // whether a voxel of the target was removed
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, targets.size(), 16), [&](const auto& r) {
-    bool removed_here = false;
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
       const Target& target = targets[t];
-      std::int64_t* w_data = target.w->buffer().data();
-      std::int64_t* wd_data = target.wd->buffer().data();
-      for (std::size_t k = target.begin; k != target.end; ++k) {
-        Block& block = *all[k].second;
-        for (std::size_t word = 0; word < block.touched.size(); ++word) {
-          std::uint64_t bits = block.touched[word];
-          while (bits) {
-            const openvdb::Index n = openvdb::Index(word * 64 + std::size_t(__builtin_ctzll(bits)));
-            bits &= bits - 1;
-            Block::Cell& band = block.band[n];
-            std::int64_t& free = block.free_w[n];
-            const std::int64_t w = w_data[n] + sign * (band.w + free);
-            const std::int64_t wd = wd_data[n] + sign * (band.wd + free * kSdfScale);
-            band = {0, 0};  // back to the pool zeroed
-            free = 0;
-            if (w == 0) {  // every contribution to this voxel is gone: remove it
-              w_data[n] = 0;
-              wd_data[n] = 0;
-              target.w->setActiveState(n, false);
-              target.wd->setActiveState(n, false);
-              removed_here = true;
-            } else {
-              w_data[n] = w;
-              wd_data[n] = wd;
-              target.w->setActiveState(n, true);
-              target.wd->setActiveState(n, true);
-            }
-          }
-          block.touched[word] = 0;
-        }
-      }
+      for (std::size_t k = target.begin; k != target.end; ++k)
+        if (addBlockToLeaves(*all[k].second, *target.w, *target.wd, sign)) emptied[t] = 1;
     }
-    if (removed_here) removed = true;
   });
-  if (removed) {
-    openvdb::tools::pruneInactive(weight);
-    openvdb::tools::pruneInactive(wsdf);
-  }
+  std::vector<openvdb::Coord> prune;
+  for (std::size_t t = 0; t < targets.size(); ++t)
+    if (emptied[t]) prune.push_back(targets[t].w->origin());
+  pruneEmptiedLeaves(weight, prune);
+  pruneEmptiedLeaves(wsdf, std::move(prune));
 }
 
 }  // namespace vdbmap::internal

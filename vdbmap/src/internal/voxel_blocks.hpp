@@ -96,6 +96,7 @@ struct Block {
 std::unique_ptr<Block> acquireBlock(const openvdb::Coord& origin);
 /// Returns blocks to the pool; they must be zero again (applyBlocks leaves them so).
 void releaseBlocks(std::vector<std::unique_ptr<Block>>& blocks);
+void releaseBlock(std::unique_ptr<Block> block);
 
 /// Key of a leaf origin (a multiple of 8 per axis) that sorts like openvdb::Coord (x, y, z).
 inline std::uint64_t blockKey(const openvdb::Coord& origin) {
@@ -139,6 +140,12 @@ class SdfUpdate {
   double delta_, inv_delta_, epsilon_;
   bool drop_off_;
 };
+
+/// Adds sign * (the block's updates) into the leaves of W and WD at its origin and zeroes the
+/// block. A voxel whose weight returns to 0 is switched off (value 0); returns whether one was, so
+/// that the caller prunes the leaf when it holds no other (pruneEmptiedLeaves). Changes values and
+/// active states only: threads may apply blocks to different leaves at once.
+bool addBlockToLeaves(Block& block, Int64Leaf& w_leaf, Int64Leaf& wd_leaf, std::int64_t sign);
 
 /// Adds sign * (the blocks' updates) into W and WD, leaf by leaf in parallel. Blocks without any
 /// update create no leaf; voxels whose weight returns to 0 are removed and then empty branches
