@@ -4,6 +4,7 @@
 #include "internal/grid_dda.hpp"
 #include "internal/hit_counter.hpp"
 #include "internal/pixel_classifier.hpp"
+#include "internal/prune_leaves.hpp"
 #include "internal/simd.hpp"
 #include "internal/voxel_blocks.hpp"
 
@@ -383,9 +384,33 @@ bool avx2LeavesFit(const PixelTable& px, std::int64_t sign) {
          (sign == 1 || sign == -1);
 }
 
+/// The free2 and band2 limits of the pixel records at byte offsets `at` (eight lanes): one 8-byte
+/// load per lane, since the two fields are adjacent. On this machine's AMD cores eight loads beat
+/// AVX2's gathers (docs/results/realtime_7scenes.md, stop 53).
+VDBMAP_TARGET_AVX2 inline void loadLimits(const char* records, const std::int32_t* at, __m256& free2, __m256& band2) {
+  static_assert(offsetof(PixelRay, band2) == offsetof(PixelRay, free2) + sizeof(float), "free2, band2 adjacent");
+  const char* base = records + offsetof(PixelRay, free2);
+  const auto pair = [&](int k) { return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(base + at[k])); };
+  // lo = (free2, band2) of lanes 0-3, hi of lanes 4-7
+  const __m256i lo = _mm256_set_m128i(_mm_unpacklo_epi64(pair(2), pair(3)), _mm_unpacklo_epi64(pair(0), pair(1)));
+  const __m256i hi = _mm256_set_m128i(_mm_unpacklo_epi64(pair(6), pair(7)), _mm_unpacklo_epi64(pair(4), pair(5)));
+  // Per 128-bit half: (lo a, lo b, hi a, hi b), i.e. lanes (0 1 4 5 | 2 3 6 7); then in order.
+  const __m256 f = _mm256_shuffle_ps(_mm256_castsi256_ps(lo), _mm256_castsi256_ps(hi), _MM_SHUFFLE(2, 0, 2, 0));
+  const __m256 b = _mm256_shuffle_ps(_mm256_castsi256_ps(lo), _mm256_castsi256_ps(hi), _MM_SHUFFLE(3, 1, 3, 1));
+  free2 = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(f), _MM_SHUFFLE(3, 1, 2, 0)));
+  band2 = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(b), _MM_SHUFFLE(3, 1, 2, 0)));
+}
+
+/// The weights of the pixel records at byte offsets at[first..first + 3], as four 64-bit lanes.
+VDBMAP_TARGET_AVX2 inline __m256i loadWeights(const char* records, const std::int32_t* at, int first) {
+  static_assert(offsetof(PixelRay, weight_q) == 0, "weight_q first");
+  const auto weight = [&](int k) { return *reinterpret_cast<const long long*>(records + at[first + k]); };
+  return _mm256_set_epi64x(weight(3), weight(2), weight(1), weight(0));
+}
+
 /// integrateLeaf a leaf column (eight voxels) at a time, with the same result: the projection and
 /// the squared distances are the same single-precision operations lane by lane (internal/simd.hpp),
-/// the pixel records' limits are gathered, and the free-space voxels of a column are summed in
+/// the pixel records' fields are loaded lane by lane, and the free-space voxels of a column are summed in
 /// one vector add (their updates are the pixel weights, integers). Band voxels go through
 /// SdfUpdate::apply one at a time as in integrateLeaf. Invalid pixels need no test of their own:
 /// their band2 of -1 rejects every voxel.
@@ -420,18 +445,17 @@ VDBMAP_TARGET_AVX2 std::size_t integrateLeafAvx2(const PixelTable& px, const Cam
                         _mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(u, u_end, _CMP_LT_OQ))),
           _mm256_and_ps(_mm256_cmp_ps(v, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, v_end, _CMP_LT_OQ)));
       if (_mm256_movemask_ps(in) == 0) continue;
-      // Byte offsets of the voxels' pixel records (lanes outside the image are never read).
+      // Byte offsets of the voxels' pixel records; lanes outside the image read record 0, masked below.
       const __m256i pixel = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(v), width), _mm256_cvttps_epi32(u));
-      const __m256i offset = _mm256_and_si256(_mm256_mullo_epi32(pixel, record), _mm256_castps_si256(in));
-      const __m256 band2 = _mm256_mask_i32gather_ps(
-          zero, reinterpret_cast<const float*>(records + offsetof(PixelRay, band2)), offset, in, 1);
+      _mm256_store_si256(reinterpret_cast<__m256i*>(offsets),
+                         _mm256_and_si256(_mm256_mullo_epi32(pixel, record), _mm256_castps_si256(in)));
+      __m256 free2, band2;
+      loadLimits(records, offsets, free2, band2);
       // Summed as Eigen's squaredNorm() of a Vector3f sums: x^2 + (y^2 + z^2).
       const __m256 d2 = _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_add_ps(_mm256_mul_ps(y, y), _mm256_mul_ps(z, z)));
       const __m256 visit = _mm256_and_ps(in, _mm256_cmp_ps(d2, band2, _CMP_LE_OQ));
       const unsigned visited = unsigned(_mm256_movemask_ps(visit));
       if (visited == 0) continue;
-      const __m256 free2 = _mm256_mask_i32gather_ps(
-          zero, reinterpret_cast<const float*>(records + offsetof(PixelRay, free2)), offset, visit, 1);
       const __m256 free = _mm256_and_ps(visit, _mm256_cmp_ps(d2, free2, _CMP_LE_OQ));
       const unsigned freed = unsigned(_mm256_movemask_ps(free));
       const int shift = 8 * j;  // voxel (i, j, k) is bit 8 j + k of word i
@@ -440,12 +464,9 @@ VDBMAP_TARGET_AVX2 std::size_t integrateLeafAvx2(const PixelTable& px, const Cam
       if (freed != 0) {
         // The free voxels' weights, 0 in the other lanes, added to the column's eight sums.
         const __m256i free_i = _mm256_castps_si256(free);
-        const __m128i lane_offsets[2] = {_mm256_castsi256_si128(offset), _mm256_extracti128_si256(offset, 1)};
         const __m128i lane_free[2] = {_mm256_castsi256_si128(free_i), _mm256_extracti128_si256(free_i, 1)};
         for (int half = 0; half < 2; ++half) {  // lanes 0-3, then 4-7: 64-bit weights, four at a time
-          __m256i w = _mm256_mask_i64gather_epi64(_mm256_setzero_si256(), reinterpret_cast<const long long*>(records),
-                                                  _mm256_cvtepi32_epi64(lane_offsets[half]),
-                                                  _mm256_cvtepi32_epi64(lane_free[half]), 1);
+          __m256i w = _mm256_and_si256(loadWeights(records, offsets, 4 * half), _mm256_cvtepi32_epi64(lane_free[half]));
           if (sign < 0) w = _mm256_sub_epi64(_mm256_setzero_si256(), w);
           __m256i* sums = reinterpret_cast<__m256i*>(block.free_w.data() + n0 + 4 * half);
           _mm256_storeu_si256(sums, _mm256_add_epi64(_mm256_loadu_si256(sums), w));
@@ -455,7 +476,6 @@ VDBMAP_TARGET_AVX2 std::size_t integrateLeafAvx2(const PixelTable& px, const Cam
       }
       if (const unsigned band = visited & ~freed) {
         _mm256_store_ps(d2s, d2);
-        _mm256_store_si256(reinterpret_cast<__m256i*>(offsets), offset);
         for (unsigned left = band; left != 0; left &= left - 1) {
           const int k = __builtin_ctz(left);
           const PixelRay& ray = *reinterpret_cast<const PixelRay*>(records + offsets[k]);
@@ -521,27 +541,44 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
   const SdfUpdate update(tsdf);
   const double vs = tsdf.voxel_size_m;
 
-  std::vector<std::unique_ptr<Block>> blocks(leaves.size());
+  // Each leaf's updates are summed in a block and added at once to the map's leaves when they
+  // exist (values only, so in parallel), while the block is still in cache; blocks of leaves the
+  // map lacks wait for applyBlocks, which creates them serially.
+  std::vector<std::unique_ptr<Block>> deferred(leaves.size());
   std::vector<std::size_t> updates(leaves.size(), 0);
+  std::vector<char> emptied(leaves.size(), 0);
   [[maybe_unused]] const bool avx2 = simdLevel() == SimdLevel::Avx2;
   VoxelFootprint masks(footprint ? leaves.size() : 0);
+  openvdb::Int64Tree& w_tree = weight_q.tree();
+  openvdb::Int64Tree& wd_tree = wsdf_q.tree();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 4), [&](const auto& r) {
+    std::unique_ptr<Block> block;  // zero between leaves
     for (std::size_t l = r.begin(); l != r.end(); ++l) {
       const openvdb::Coord& origin = leaves[l];
       for (const View& view : views) {
         if (view.cull.outside(origin)) continue;
-        if (!blocks[l]) blocks[l] = acquireBlock(origin);
+        if (!block) block = acquireBlock(origin);
         std::uint64_t* mask = footprint && view.sign > 0 ? masks[l].voxels.data() : nullptr;
         const Eigen::Vector3f b = view.leafOrigin(origin, vs);
 #if VDBMAP_AVX2_KERNELS
         if (avx2 && avx2LeavesFit(px, view.sign)) {
-          updates[l] += integrateLeafAvx2(px, K, view.A, b, update, view.sign, *blocks[l], mask);
+          updates[l] += integrateLeafAvx2(px, K, view.A, b, update, view.sign, *block, mask);
           continue;
         }
 #endif
-        updates[l] += integrateLeaf(px, K, view.A, b, update, view.sign, *blocks[l], mask);
+        updates[l] += integrateLeaf(px, K, view.A, b, update, view.sign, *block, mask);
+      }
+      if (updates[l] == 0) continue;  // the block is still zero
+      Int64Leaf* w_leaf = w_tree.probeLeaf(origin);
+      Int64Leaf* wd_leaf = wd_tree.probeLeaf(origin);
+      if (w_leaf && wd_leaf) {
+        emptied[l] = addBlockToLeaves(*block, *w_leaf, *wd_leaf, +1);
+      } else {
+        block->origin = origin;
+        deferred[l] = std::move(block);
       }
     }
+    if (block) releaseBlock(std::move(block));
   });
   if (footprint) {
     for (std::size_t l = 0; l < leaves.size(); ++l) {
@@ -551,15 +588,19 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
     }
   }
 
-  std::vector<Block*> touched;
+  std::vector<Block*> pending;
+  std::vector<openvdb::Coord> prune;
   for (std::size_t l = 0; l < leaves.size(); ++l) {
-    if (!blocks[l] || updates[l] == 0) continue;
-    touched.push_back(blocks[l].get());
+    if (updates[l] == 0) continue;
+    if (deferred[l]) pending.push_back(deferred[l].get());
+    if (emptied[l]) prune.push_back(leaves[l]);
     stats.voxel_updates += updates[l];
     stats.touched_voxels.expand(openvdb::CoordBBox::createCube(leaves[l], 8));
   }
-  applyBlocks(touched, weight_q.tree(), wsdf_q.tree(), +1);
-  releaseBlocks(blocks);
+  applyBlocks(pending, w_tree, wd_tree, +1);
+  pruneEmptiedLeaves(w_tree, prune);
+  pruneEmptiedLeaves(wd_tree, std::move(prune));
+  releaseBlocks(deferred);
 }
 
 VoxelFootprint projectiveFootprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
