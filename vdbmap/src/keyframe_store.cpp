@@ -1,8 +1,6 @@
 #include "vdbmap/keyframe_store.hpp"
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
+#include "internal/depth_codes.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -45,36 +43,6 @@ void inflateBytes(const std::vector<std::uint8_t>& in, void* out, std::size_t n,
     throw std::runtime_error("keyframe store: corrupt compressed frame");
 }
 
-/// A depth's code: metres in `unit_m` steps, 0 for an invalid depth, clamped to [1, 65535] else.
-inline std::uint16_t depthCode(float d, double unit_m) {
-  if (!(d > 0.0f && std::isfinite(d))) return 0;
-  return std::uint16_t(std::min(65535.0, std::max(1.0, double(d) / unit_m + 0.5)));
-}
-/// The depth every decode gives for a code.
-inline float codeDepth(std::uint16_t q, double unit_m) { return q == 0 ? 0.0f : float(q * unit_m); }
-
-/// depthCode() of depths[0, n) into codes, two at a time with SSE2 (the same operations per lane:
-/// the division, the clamps, the truncation).
-void depthCodes(const float* depths, std::size_t n, double unit_m, std::uint16_t* codes) {
-  std::size_t i = 0;
-#if defined(__SSE2__)
-  const __m128d unit = _mm_set1_pd(unit_m), half = _mm_set1_pd(0.5), one = _mm_set1_pd(1.0);
-  const __m128d top = _mm_set1_pd(65535.0), zero = _mm_setzero_pd();
-  const __m128d largest = _mm_set1_pd(double(std::numeric_limits<float>::max()));
-  for (; i + 1 < n; i += 2) {
-    const __m128d d = _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(depths + i))));
-    // max(x, 1) and min(x, 65535) take the constant for NaN, as std::max(1.0, x) and std::min do.
-    const __m128d clamped = _mm_min_pd(_mm_max_pd(_mm_add_pd(_mm_div_pd(d, unit), half), one), top);
-    const int valid = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(d, zero), _mm_cmple_pd(d, largest)));
-    alignas(16) std::int32_t q[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(q), _mm_cvttpd_epi32(clamped));
-    codes[i] = (valid & 1) ? std::uint16_t(q[0]) : std::uint16_t(0);
-    codes[i + 1] = (valid & 2) ? std::uint16_t(q[1]) : std::uint16_t(0);
-  }
-#endif
-  for (; i < n; ++i) codes[i] = depthCode(depths[i], unit_m);
-}
-
 constexpr std::int32_t kInvalidPoint = std::numeric_limits<std::int32_t>::min();
 /// A point's codes (kInvalidPoint in all three when it is not finite or too far for 32 bits).
 inline std::array<std::int32_t, 3> pointCodes(const Vec3f& p, double unit_m) {
@@ -110,14 +78,13 @@ std::vector<std::uint16_t> deltaCodes(const DepthImage& depth, double unit_m, De
     std::vector<std::uint16_t> q(std::size_t(depth.width));
     for (int v = rows.begin(); v != rows.end(); ++v) {
       const std::size_t row = std::size_t(v) * std::size_t(depth.width);
-      depthCodes(depth.depth_m.data() + row, q.size(), unit_m, q.data());
+      internal::depthCodes(depth.depth_m.data() + row, q.size(), unit_m, q.data());
       std::uint16_t prev = 0;
       for (std::size_t u = 0; u < q.size(); ++u) {
         coded[row + u] = std::uint16_t(q[u] - prev);
         prev = q[u];
       }
-      if (decoded)
-        for (std::size_t u = 0; u < q.size(); ++u) decoded->depth_m[row + u] = codeDepth(q[u], unit_m);
+      if (decoded) internal::codeDepths(q.data(), q.size(), unit_m, decoded->depth_m.data() + row);
     }
   });
   return coded;
@@ -198,8 +165,8 @@ SensorFrame EncodedFrame::quantize(const SensorFrame& frame, double unit_m) {
     std::uint16_t q[kBatch];
     for (std::size_t i = r.begin(); i < r.end(); i += kBatch) {
       const std::size_t n = std::min(kBatch, r.end() - i);
-      depthCodes(depth.depth_m.data() + i, n, unit_m, q);
-      for (std::size_t k = 0; k < n; ++k) image.depth_m[i + k] = codeDepth(q[k], unit_m);
+      internal::depthCodes(depth.depth_m.data() + i, n, unit_m, q);
+      internal::codeDepths(q, n, unit_m, image.depth_m.data() + i);
     }
   });
   return SensorFrame::depth(std::move(image), frame.sharedIntrinsics());
@@ -229,11 +196,10 @@ DepthImage EncodedFrame::decodeDepth() const {
   DepthImage depth(intrinsics_->width, intrinsics_->height, 0.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, depth.height), [&](const tbb::blocked_range<int>& rows) {
     for (int v = rows.begin(); v != rows.end(); ++v) {
-      std::uint16_t q = 0;
-      for (int u = 0; u < depth.width; ++u) {
-        q = std::uint16_t(q + coded[std::size_t(v) * depth.width + u]);
-        depth.at(u, v) = codeDepth(q, unit_m_);
-      }
+      std::uint16_t* q = coded.data() + std::size_t(v) * std::size_t(depth.width);
+      for (int u = 1; u < depth.width; ++u) q[u] = std::uint16_t(q[u - 1] + q[u]);  // row deltas to codes
+      internal::codeDepths(q, std::size_t(depth.width), unit_m_,
+                           depth.depth_m.data() + std::size_t(v) * std::size_t(depth.width));
     }
   });
   return depth;
