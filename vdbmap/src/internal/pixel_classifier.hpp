@@ -199,19 +199,28 @@ class PixelClassifier {
   template <int N>
   static void finish(int valid, int far, const std::int64_t* weight, const float* f_range, const float* f_free2,
                      const float* f_band2, PixelRay* rays, float& tile_max, Tally& tally) {
+    // Maxima and counts in locals: through the references, every record written would force them
+    // back to memory (the compiler cannot tell that they do not alias).
+    float lanes_max = -1.0f;
+    std::size_t invalid = 0, beyond = 0;
     for (int l = 0; l < N; ++l) {
       if (!(valid & (1 << l)) || weight[l] == 0) {
         rays[l] = PixelRay{};
-        ++tally.invalid;
+        ++invalid;
         continue;
       }
-      if (far & (1 << l)) ++tally.beyond;
+      if (far & (1 << l)) ++beyond;
       rays[l].weight_q = weight[l];
       rays[l].range_m = f_range[l];
       rays[l].free2 = f_free2[l];
       rays[l].band2 = f_band2[l];
-      tile_max = std::max(tile_max, f_range[l]);
-      tally.max_range_m = std::max(tally.max_range_m, double(f_range[l]));
+      lanes_max = std::max(lanes_max, f_range[l]);
+    }
+    tally.invalid += invalid;
+    tally.beyond += beyond;
+    if (lanes_max >= 0.0f) {
+      tile_max = std::max(tile_max, lanes_max);
+      tally.max_range_m = std::max(tally.max_range_m, double(lanes_max));
     }
   }
 #endif
