@@ -25,6 +25,7 @@ struct BenchLatencyOptions {
   double budget_ms = ReintegrationConfig{}.budget_ms;
   int budget_frames = ReintegrationConfig{}.budget_frames;
   int repeat = 1;
+  std::string load_ahead = "on";
 };
 
 nlohmann::json percentiles(const std::vector<double>& ms) {
@@ -50,7 +51,9 @@ void runBenchLatency(const BenchLatencyOptions& o) {
       config.reintegration.budget_ms = o.budget_ms;
       config.reintegration.budget_frames = o.budget_frames;
       Mapper mapper(config);
-      const ReplayResult r = replayLog(*source, mapper, ReplayConfig{});
+      ReplayConfig replay;
+      replay.load_ahead = o.load_ahead == "on";
+      const ReplayResult r = replayLog(*source, mapper, replay);
       const nlohmann::json p = percentiles(r.cycle_ms);
       double total_s = 0.0;
       for (const double ms : r.cycle_ms) total_s += ms / 1e3;
@@ -73,9 +76,13 @@ void runBenchLatency(const BenchLatencyOptions& o) {
       std::fprintf(stderr, "%s", line);
     }
   }
-  nlohmann::json out = {{"log", o.log.string()},       {"format", source->format()},
-                        {"voxel_size_m", o.voxel_size_m}, {"cycle_budget_ms", o.budget_ms},
-                        {"cycle_budget_frames", o.budget_frames}, {"runs", runs}};
+  nlohmann::json out = {{"log", o.log.string()},
+                        {"format", source->format()},
+                        {"voxel_size_m", o.voxel_size_m},
+                        {"cycle_budget_ms", o.budget_ms},
+                        {"cycle_budget_frames", o.budget_frames},
+                        {"load_ahead", o.load_ahead == "on"},
+                        {"runs", runs}};
   if (!o.peer.empty()) {
     std::ifstream in(o.peer);
     if (!in) throw std::runtime_error("cannot read --peer " + o.peer.string());
@@ -114,6 +121,10 @@ const GroupRegistration registration("bench", "latency", [](CLI::App& bench) {
       ->check(CLI::Range(0, 1000000));
   sub->add_option("--repeat", o->repeat, "Runs of every mode (the machine's noise shows between them)")
       ->check(CLI::Range(1, 100));
+  sub->add_option("--load-ahead", o->load_ahead,
+                  "on: load the next frame while a cycle runs (as `vdbmap integrate`); off: load each frame before "
+                  "its cycle starts, as bench/open3d_7scenes.py times its peer")
+      ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--peer", o->peer, "A peer's JSON line (bench/open3d_7scenes.py) to put beside ours")
       ->check(CLI::ExistingFile);
   sub->add_option("-o,--output", o->output, "Output folder")->required();

@@ -63,12 +63,14 @@ ReplayResult replayLog(const io::FrameSource& source, Mapper& mapper, const Repl
   frame_ms.reserve(indices.size());
   Vec3d robot_W = Vec3d::Zero();
 
-  // Load the next frame while this one integrates.
+  // Load the next frame while this one integrates (load_ahead).
   std::future<Loaded> next;
-  if (!indices.empty()) next = std::async(std::launch::async, loadFrame, std::cref(source), indices[0]);
+  if (options.load_ahead && !indices.empty())
+    next = std::async(std::launch::async, loadFrame, std::cref(source), indices[0]);
   for (std::size_t k = 0; k < indices.size(); ++k) {
-    Loaded loaded = next.get();
-    if (k + 1 < indices.size()) next = std::async(std::launch::async, loadFrame, std::cref(source), indices[k + 1]);
+    Loaded loaded = options.load_ahead ? next.get() : loadFrame(source, indices[k]);
+    if (options.load_ahead && k + 1 < indices.size())
+      next = std::async(std::launch::async, loadFrame, std::cref(source), indices[k + 1]);
     result.load_s += loaded.load_s;
     const std::size_t i = indices[k];
     if (loaded.error) {

@@ -25,6 +25,10 @@ struct ReplayConfig {
   int frame_stride = 1;                    ///< integrate every k-th frame; [1, 1e6]
   OnBadFrame on_bad_frame = OnBadFrame::Fail;
   bool apply_corrections = true;           ///< false: ignore corrections/ whatever the mode
+  /// Load the next frame while this one integrates (the default: a shorter run). false: load each
+  /// frame before its cycle starts, so that decoding never shares the cores with a cycle, as for a
+  /// peer timed that way (bench/open3d_7scenes.py).
+  bool load_ahead = true;
   /// Called after every frame with (frames done, frames to do); for progress display.
   std::function<void(std::size_t, std::size_t)> progress;
 
