@@ -388,25 +388,62 @@ void compactHitRuns(std::vector<HitRun>& runs) {
   runs.erase(std::remove_if(runs.begin(), runs.end(), [](const HitRun& r) { return r.count == 0; }), runs.end());
 }
 
-void applyHitRuns(std::vector<HitRun>& runs, openvdb::Int64Grid& hits) {
-  compactHitRuns(runs);
-  // Serial: few distinct voxels (the surface a frame sees), and OpenVDB trees are not thread-safe
-  // for writes.
-  std::vector<openvdb::Coord> emptied;  // the voxels removed
+void applyHitRuns(const std::vector<HitRun>& runs, openvdb::Int64Grid& hits) {
+  // The runs by leaf (a voxel key less its low three bits per axis: the bias is a multiple of 8).
+  // Consecutive runs mostly share a leaf, so the last one is checked before the index.
+  constexpr std::uint64_t kLeafKey = ~((std::uint64_t(7) << 42) | (std::uint64_t(7) << 21) | std::uint64_t(7));
+  KeyIndex index(runs.size() / 16 + 16);
+  std::vector<std::uint64_t> leaf_keys;
+  std::vector<std::uint32_t> leaf_of(runs.size());
+  std::uint64_t last_key = ~std::uint64_t(0);
+  std::uint32_t last = 0;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const std::uint64_t key = runs[i].key & kLeafKey;
+    if (key != last_key) {
+      bool inserted = false;
+      last = index.findOrInsert(key, inserted);
+      if (inserted) leaf_keys.push_back(key);
+      last_key = key;
+    }
+    leaf_of[i] = last;
+  }
+  // Each leaf's runs together (counting sort), and the leaves: found or, serially, created.
+  std::vector<std::uint32_t> first(leaf_keys.size() + 1, 0), order(runs.size());
+  for (const std::uint32_t l : leaf_of) ++first[l + 1];
+  for (std::size_t l = 0; l < leaf_keys.size(); ++l) first[l + 1] += first[l];
+  std::vector<std::uint32_t> next(first.begin(), first.end() - 1);
+  for (std::size_t i = 0; i < runs.size(); ++i) order[next[leaf_of[i]]++] = std::uint32_t(i);
+  std::vector<Int64Leaf*> leaves(leaf_keys.size());
   {
     openvdb::Int64Grid::Accessor acc = hits.getAccessor();
-    for (const HitRun& run : runs) {
-      const openvdb::Coord c = unpackVoxel(run.key);
-      const std::int64_t n = acc.getValue(c) + run.count;
-      if (n == 0) {
-        acc.setValueOff(c, 0);
-        emptied.push_back(c);
-      } else {
-        acc.setValueOn(c, n);
-      }
-    }
+    for (std::size_t l = 0; l < leaf_keys.size(); ++l) leaves[l] = acc.touchLeaf(unpackVoxel(leaf_keys[l]));
   }
-  pruneEmptiedLeaves(hits.tree(), std::move(emptied));
+  // Values and active states of distinct leaves, in parallel; a voxel whose count returns to 0 is
+  // switched off (value 0) and its leaf pruned if that emptied it.
+  std::vector<char> emptied(leaf_keys.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaf_keys.size(), 64), [&](const auto& r) {
+    for (std::size_t l = r.begin(); l != r.end(); ++l) {
+      Int64Leaf& leaf = *leaves[l];
+      std::int64_t* counts = leaf.buffer().data();
+      std::array<std::uint64_t, Int64Leaf::SIZE / 64> touched{};
+      for (std::uint32_t k = first[l]; k != first[l + 1]; ++k) {
+        const HitRun& run = runs[order[k]];
+        const openvdb::Index n = Int64Leaf::coordToOffset(unpackVoxel(run.key));
+        counts[n] += run.count;
+        touched[n >> 6] |= std::uint64_t(1) << (n & 63);
+      }
+      for (std::size_t word = 0; word < touched.size(); ++word)
+        for (std::uint64_t bits = touched[word]; bits != 0; bits &= bits - 1) {
+          const openvdb::Index n = openvdb::Index(word * 64 + std::size_t(__builtin_ctzll(bits)));
+          leaf.setActiveState(n, counts[n] != 0);
+          if (counts[n] == 0) emptied[l] = 1;
+        }
+    }
+  });
+  std::vector<openvdb::Coord> prune;
+  for (std::size_t l = 0; l < leaf_keys.size(); ++l)
+    if (emptied[l]) prune.push_back(unpackVoxel(leaf_keys[l]));
+  pruneEmptiedLeaves(hits.tree(), std::move(prune));
 }
 
 void countHits(const PointCloud& points_S, const Pose3d& T_W_S, const TsdfConfig& tsdf,

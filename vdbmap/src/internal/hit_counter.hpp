@@ -99,9 +99,10 @@ struct HitPose {
 void countRowHits(const DepthImage& depth_m, int v, const CameraIntrinsics& K, const EndVoxels& ends,
                   const std::vector<HitPose>& poses, std::vector<HitRun>* runs, SimdLevel level = simdLevel());
 
-/// Adds each voxel's summed count to the grid (compacting `runs` first); voxels whose count
-/// returns to 0 are removed. The result depends only on the sums, not on the order of the runs.
-void applyHitRuns(std::vector<HitRun>& runs, openvdb::Int64Grid& hits);
+/// Adds each voxel's summed count to the grid; voxels whose count returns to 0 are removed. The
+/// result depends only on the sums, not on the order of the runs. Leaf by leaf in parallel; only
+/// creating leaves is serial.
+void applyHitRuns(const std::vector<HitRun>& runs, openvdb::Int64Grid& hits);
 
 /// Adds `sign` to the count of the voxel holding each surface end point of `points_S` seen from
 /// T_W_S: points that are finite, at least min_range_m and at most max_range_m from the sensor (the
