@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cmath>
 #include <limits>
@@ -532,9 +533,15 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
   classifyPixels(depth_m, K, tsdf, integrator, placements, *lease, hits ? &hit_runs : nullptr, stats);
   if (hits) applyHitRuns(hit_runs, *hits);
   if (px.max_range_m <= 0.0 || placements.empty()) return;  // no valid pixel
-  KeyIndex index(16384 * placements.size());                // a frame marks thousands of leaves: rarely regrown
+  // A frame marks thousands of leaves (tens of thousands at 2 cm): the index is sized from the
+  // last frame's count, so that it is rarely regrown. Its capacity does not change the order.
+  static std::atomic<std::size_t> last_leaves_per_placement{16384};
+  KeyIndex index(last_leaves_per_placement.load(std::memory_order_relaxed) * placements.size());
   std::vector<openvdb::Coord> leaves;
+  leaves.reserve(index.capacity());
   for (const ImagePlacement& p : placements) candidateLeaves(px, K, p.T_W_S, tsdf, index, leaves);
+  last_leaves_per_placement.store(std::max<std::size_t>(4096, leaves.size() / placements.size() * 5 / 4),
+                                  std::memory_order_relaxed);
 
   std::vector<View> views;
   for (const ImagePlacement& p : placements) views.emplace_back(px, K, p.T_W_S, p.sign, tsdf);

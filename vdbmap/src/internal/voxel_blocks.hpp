@@ -57,6 +57,8 @@ class KeyIndex {
     return std::uint32_t(size_++);
   }
   std::size_t size() const { return size_; }
+  /// Keys it holds before it grows.
+  std::size_t capacity() const { return slots_.size() / 2; }
 
  private:
   static constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();
