@@ -5,7 +5,13 @@
 #include "vdbmap/io/errors.hpp"
 #include "vdbmap/version.hpp"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <algorithm>
+#include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <iostream>
 #include <map>
@@ -55,9 +61,25 @@ std::string runningCommand(const CLI::App& app) {
   return name;
 }
 
+/// Keeps the memory a frame frees for the next frame. A frame's buffers (the quantized depth
+/// image, 1.2 MB at 640x480; the loader's decoded PNG; hit and index tables) are freed and
+/// allocated again every frame; with glibc's defaults the larger ones come from fresh mappings or
+/// from heap space handed back to the system in between, so their pages fault again every frame:
+/// a fifth of a 7-Scenes frame's time at 5 cm (docs/results/realtime_7scenes.md, stop 53). The
+/// process keeps its peak instead. A GLIBC_TUNABLES setting of malloc's own is left to rule.
+void keepFreedMemory() {
+#if defined(__GLIBC__)
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (tunables && std::strstr(tunables, "glibc.malloc.")) return;
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+#endif
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  keepFreedMemory();
   CLI::App app{"vdbmap: globally consistent TSDF mapping on OpenVDB, with re-integration, "
                "frame pruning and exploration planning"};
   app.require_subcommand(1);
