@@ -562,9 +562,27 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
     std::unique_ptr<Block> block;  // zero between leaves
     for (std::size_t l = r.begin(); l != r.end(); ++l) {
       const openvdb::Coord& origin = leaves[l];
+      Int64Leaf* w_leaf = nullptr;
+      Int64Leaf* wd_leaf = nullptr;
+      bool probed = false;
       for (const View& view : views) {
         if (view.cull.outside(origin)) continue;
         if (!block) block = acquireBlock(origin);
+        if (!probed) {
+          // The map's leaves, fetched into cache while the voxel loop runs (at 2 cm they are
+          // rarely there: the map is large, and the loop touches each leaf once a frame).
+          probed = true;
+          w_leaf = w_tree.probeLeaf(origin);
+          wd_leaf = wd_tree.probeLeaf(origin);
+          if (w_leaf && wd_leaf) {
+            const std::int64_t* w_data = w_leaf->buffer().data();
+            const std::int64_t* wd_data = wd_leaf->buffer().data();
+            for (openvdb::Index n = 0; n < Int64Leaf::SIZE; n += 8) {
+              __builtin_prefetch(w_data + n, 1);
+              __builtin_prefetch(wd_data + n, 1);
+            }
+          }
+        }
         std::uint64_t* mask = footprint && view.sign > 0 ? masks[l].voxels.data() : nullptr;
         const Eigen::Vector3f b = view.leafOrigin(origin, vs);
 #if VDBMAP_AVX2_KERNELS
@@ -576,8 +594,6 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
         updates[l] += integrateLeaf(px, K, view.A, b, update, view.sign, *block, mask);
       }
       if (updates[l] == 0) continue;  // the block is still zero
-      Int64Leaf* w_leaf = w_tree.probeLeaf(origin);
-      Int64Leaf* wd_leaf = wd_tree.probeLeaf(origin);
       if (w_leaf && wd_leaf) {
         emptied[l] = addBlockToLeaves(*block, *w_leaf, *wd_leaf, +1);
       } else {
