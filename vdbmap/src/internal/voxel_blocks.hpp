@@ -1,6 +1,7 @@
 // Pending voxel updates of one frame, in leaf-shaped blocks, and their exact application to the
 // map (private to the library). Both integrators (rays and projective) fill blocks; applyBlocks
-// adds them into the OpenVDB trees leaf by leaf, in parallel.
+// adds them into the OpenVDB trees leaf by leaf, in parallel, creating leaves as needed; the
+// projective integrator adds a block to a leaf the map has (addBlockToLeaves) as soon as it is full.
 #pragma once
 
 #include "vdbmap/config.hpp"
