@@ -192,6 +192,9 @@ void bindReplay(py::module_& m) {
   addStructProtocol(o);
   o.def_readwrite("frame_stride", &ReplayConfig::frame_stride, "integrate every k-th frame; [1, 1e6]")
       .def_readwrite("apply_corrections", &ReplayConfig::apply_corrections, "False: ignore corrections/")
+      .def_readwrite("load_ahead", &ReplayConfig::load_ahead,
+                     "True: load the next frame while this one integrates; False: load each frame before its cycle "
+                     "starts (time cycles as bench/open3d_7scenes.py times Open3D)")
       .def_readwrite("progress", &ReplayConfig::progress,
                      "None or a callable(frames_done, frames_to_do) called after every frame")
       .def("validate", &ReplayConfig::validate, "Raises ValueError naming the field and its allowed range.");

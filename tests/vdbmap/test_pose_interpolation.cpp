@@ -112,6 +112,14 @@ TEST_CASE("a replayed log whose correction lists every other frame equals integr
   Mapper replayed(mc);
   const ReplayResult r = replayLog(*source, replayed, ReplayConfig{});
   CHECK(r.correction_events == 1);
+  // Loading each frame before its cycle instead of during the one before changes only the timing.
+  ReplayConfig serial;
+  serial.load_ahead = false;
+  Mapper replayed_serially(mc);
+  const ReplayResult s = replayLog(*source, replayed_serially, serial);
+  CHECK(s.correction_events == 1);
+  CHECK(s.frames_integrated == r.frames_integrated);
+  CHECK(replayed_serially.volume().exactlyEquals(replayed.volume()));
 
   // The oracle: every frame integrated once, from scratch, at its interpolated corrected pose.
   std::vector<StampedPose> listed_odometry;

@@ -451,6 +451,7 @@ class ReplayConfig:
     frame_stride: int
     on_bad_frame: OnBadFrame
     apply_corrections: bool
+    load_ahead: bool
     progress: Optional[Callable[[int, int], None]]
     def __init__(self, **kwargs: Any) -> None: ...
     def validate(self) -> None: ...
