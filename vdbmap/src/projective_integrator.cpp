@@ -404,8 +404,8 @@ VDBMAP_TARGET_AVX2 inline void loadLimits(const char* records, const std::int32_
 
 /// The weights of the pixel records at byte offsets at[first..first + 3], as four 64-bit lanes.
 VDBMAP_TARGET_AVX2 inline __m256i loadWeights(const char* records, const std::int32_t* at, int first) {
-  static_assert(offsetof(PixelRay, weight_q) == 0, "weight_q first");
-  const auto weight = [&](int k) { return *reinterpret_cast<const long long*>(records + at[first + k]); };
+  // Read as the records they are, as the band voxels' are (a long long read would alias int64_t).
+  const auto weight = [&](int k) { return reinterpret_cast<const PixelRay*>(records + at[first + k])->weight_q; };
   return _mm256_set_epi64x(weight(3), weight(2), weight(1), weight(0));
 }
 
