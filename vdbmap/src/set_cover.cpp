@@ -25,6 +25,7 @@
 #include "internal/grid_dda.hpp"
 #include "internal/projective_integrator.hpp"
 #include "internal/ray_integrator.hpp"
+#include "internal/simd.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -37,6 +38,7 @@
 #include <queue>
 #include <sstream>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace vdbmap {
 namespace {
@@ -63,7 +65,8 @@ void appendVarint(std::vector<std::uint8_t>& out, std::uint64_t v) {
 }
 
 /// Visibility counters r(c) in an Int32 tree whose background is n_ob (cells never decremented
-/// still need n_ob frames), with a one-leaf cache: consecutive cells of a set share leaves.
+/// still need n_ob frames), with a one-leaf cache: consecutive cells of a set share leaves. Only
+/// for FramePruner::visibilityCounters(), which shows them as a grid; the greedy uses ColumnCounters.
 class CounterGrid {
  public:
   using Tree = openvdb::Int32Tree;
@@ -71,60 +74,128 @@ class CounterGrid {
 
   explicit CounterGrid(int n_ob) : tree_(std::make_shared<Tree>(n_ob)), acc_(*tree_) {}
 
-  /// Counters > 0 among the `length` cells from `first` along z (cells of untouched leaves hold
-  /// the background n_ob >= 1).
-  std::size_t positiveInRun(const openvdb::Coord& first, int length) {
-    std::size_t n = 0;
-    forEachLeafSpan(first, length, false, [&](const int* values, int count) {
-      if (!values) {
-        n += std::size_t(count);
-        return;
-      }
-      for (int i = 0; i < count; ++i) n += values[i] > 0;
-    });
-    return n;
-  }
   /// Decrements the counters of the `length` cells from `first` along z, marking them active.
-  void decrementRun(const openvdb::Coord& first, int length) {
-    forEachLeafSpan(first, length, true, [&](int* values, int count) {
-      for (int i = 0; i < count; ++i) values[i] -= 1;
-    });
-  }
-  Tree::Ptr tree() const { return tree_; }
-
- private:
-  /// Splits a z run at leaf boundaries; calls fn(values, count) with the leaf's contiguous values
-  /// of those cells (z is the fastest index within a leaf), or values == nullptr for cells of an
-  /// absent leaf when !create. With create, the cells are also marked active.
-  template <typename Fn>
-  void forEachLeafSpan(openvdb::Coord c, int length, bool create, Fn&& fn) {
+  void decrementRun(openvdb::Coord c, int length) {
     while (length > 0) {
+      // z is the fastest index within a leaf: the run's cells in this leaf are contiguous.
       const int count = std::min(length, int(Leaf::DIM) - (c.z() & int(Leaf::DIM - 1)));
-      seek(c, create);
-      if (leaf_) {
-        const openvdb::Index n = Leaf::coordToOffset(c);
-        if (create)
-          for (int i = 0; i < count; ++i) leaf_->setActiveState(n + openvdb::Index(i), true);
-        fn(leaf_->buffer().data() + n, count);
-      } else {
-        fn(static_cast<int*>(nullptr), count);
+      const openvdb::Coord origin = c & ~(Leaf::DIM - 1);
+      if (!leaf_ || origin != origin_) {
+        leaf_ = acc_.touchLeaf(c);
+        origin_ = origin;
+      }
+      const openvdb::Index n = Leaf::coordToOffset(c);
+      for (int i = 0; i < count; ++i) {
+        leaf_->setActiveState(n + openvdb::Index(i), true);
+        leaf_->buffer().data()[n + openvdb::Index(i)] -= 1;
       }
       c.z() += count;
       length -= count;
     }
   }
+  Tree::Ptr tree() const { return tree_; }
 
-  void seek(const openvdb::Coord& c, bool create) {
-    const openvdb::Coord origin = c & ~(Leaf::DIM - 1);
-    if (origin == origin_ && (leaf_ || !create)) return;
-    leaf_ = create ? acc_.touchLeaf(c) : acc_.probeLeaf(c);
-    origin_ = origin;
-  }
-
+ private:
   Tree::Ptr tree_;
   openvdb::tree::ValueAccessor<Tree> acc_;
   Leaf* leaf_ = nullptr;
   openvdb::Coord origin_{INT_MAX};
+};
+
+/// The greedy's visibility counters, flat: r(c) counts down from `start` and stops at 0, which is
+/// all the greedy asks of it (r(c) > 0 or not). Cells are grouped in columns of 64 along z (z in
+/// [64 k, 64 k + 64) at one x, y), and columns in bricks of 4 x 4, allocated as sets reach them. Each
+/// column keeps a 64-bit mask of its cells with r(c) > 0, and each set is turned once per solve into
+/// its columns and the mask of its cells in each (a frame's cells come in long z runs). A gain is
+/// then a popcount per column, with no tree lookups.
+class ColumnCounters {
+ public:
+  struct Column {
+    std::uint64_t cells;  ///< bit z & 63 for the set's cells in the column
+    std::uint32_t index;
+  };
+
+  /// `start` in [1, 65535]: min(n_ob, number of sets) gives the greedy the same answers as n_ob,
+  /// because a cell reaches 0 from there only once every set, and so every set holding it, is selected.
+  explicit ColumnCounters(std::size_t start) : start_(std::uint16_t(start)) {}
+
+  /// The set's columns, in key order.
+  std::vector<Column> columnsOf(const CellSet& set) {
+    std::vector<Column> columns;
+    set.forEachRun([&](openvdb::Coord c, int length) {
+      while (length > 0) {
+        const int z = c.z() & (kZ - 1), count = std::min(length, kZ - z);
+        const std::uint64_t bits = (count == kZ ? ~std::uint64_t(0) : ((std::uint64_t(1) << count) - 1)) << z;
+        const std::uint32_t index = columnIndex(c);
+        if (!columns.empty() && columns.back().index == index)
+          columns.back().cells |= bits;  // a later run of the same column
+        else
+          columns.push_back({bits, index});
+        c.z() += count;
+        length -= count;
+      }
+    });
+    return columns;
+  }
+  /// Cells of the columns with r(c) > 0.
+  std::size_t positive(const std::vector<Column>& columns) const {
+#if VDBMAP_AVX2_KERNELS
+    if (internal::simdLevel() == internal::SimdLevel::Avx2) return positiveHw(columns);
+#endif
+    std::size_t n = 0;
+    for (const Column& c : columns) n += std::size_t(__builtin_popcountll(positive_[c.index] & c.cells));
+    return n;
+  }
+  void decrement(const std::vector<Column>& columns) {
+    for (const Column& c : columns) {
+      std::uint16_t* r = counters_.data() + std::size_t(c.index) * kZ;
+      for (std::uint64_t bits = c.cells & positive_[c.index]; bits; bits &= bits - 1) {
+        const int z = __builtin_ctzll(bits);
+        if (--r[z] == 0) positive_[c.index] &= ~(std::uint64_t(1) << z);
+      }
+    }
+  }
+
+ private:
+  static constexpr int kXY = 4, kZ = 64;
+  static constexpr std::size_t kBrickColumns = std::size_t(kXY * kXY);
+  /// Column indices are 32-bit.
+  static constexpr std::size_t kMaxBricks = (std::size_t(1) << 32) / kBrickColumns;
+
+#if VDBMAP_AVX2_KERNELS
+  /// positive() with the CPU's popcount instruction (every CPU with AVX2 has it).
+  VDBMAP_TARGET_AVX2 std::size_t positiveHw(const std::vector<Column>& columns) const {
+    std::size_t n = 0;
+    for (const Column& c : columns) n += std::size_t(__builtin_popcountll(positive_[c.index] & c.cells));
+    return n;
+  }
+#endif
+
+  /// The index of c's column; cells are packable, so c + 2^20 >= 0.
+  std::uint32_t columnIndex(const openvdb::Coord& c) {
+    const std::uint64_t key = (std::uint64_t((c.x() + kCoordBias) / kXY) << 40) |
+                              (std::uint64_t((c.y() + kCoordBias) / kXY) << 20) |
+                              std::uint64_t((c.z() + kCoordBias) / kZ);
+    if (key != last_key_) {
+      const auto [it, added] = bricks_.try_emplace(key, 0u);
+      if (added) {
+        if (bricks_.size() > kMaxBricks) throw std::length_error("greedyCover: the sets span too many cells");
+        it->second = std::uint32_t(positive_.size());
+        positive_.resize(positive_.size() + kBrickColumns, ~std::uint64_t(0));
+        counters_.resize(counters_.size() + kBrickColumns * kZ, start_);
+      }
+      last_key_ = key;
+      last_first_ = it->second;
+    }
+    return last_first_ + std::uint32_t((c.x() & (kXY - 1)) * kXY + (c.y() & (kXY - 1)));
+  }
+
+  std::uint16_t start_;
+  std::unordered_map<std::uint64_t, std::uint32_t> bricks_;  ///< brick key -> its first column
+  std::vector<std::uint64_t> positive_;                      ///< per column: bit z & 63 while r > 0
+  std::vector<std::uint16_t> counters_;                      ///< r, 64 per column
+  std::uint64_t last_key_ = ~std::uint64_t(0);
+  std::uint32_t last_first_ = 0;
 };
 
 void validateGreedy(int n_ob, double tau_gain) {
@@ -459,22 +530,31 @@ std::vector<std::size_t> greedyCover(const std::vector<const CellSet*>& sets, in
   for (std::size_t i = 0; i < sets.size(); ++i)
     if (double(sets[i]->size()) > tau_gain) heap.push({sets[i]->size(), i});
 
-  CounterGrid counters(n_ob);
+  const std::size_t start = std::min(std::size_t(n_ob), sets.size());
+  if (start > 65535) throw std::invalid_argument("greedyCover: n_ob and the number of sets are both above 65535");
+  ColumnCounters counters(std::max<std::size_t>(start, 1));
+  std::vector<std::vector<ColumnCounters::Column>> columns(sets.size());
+  for (std::size_t i = 0; i < sets.size(); ++i)
+    if (double(sets[i]->size()) > tau_gain) columns[i] = counters.columnsOf(*sets[i]);
   std::vector<std::size_t> selected;
   while (!heap.empty()) {
     const Entry top = heap.top();
     heap.pop();
+    std::vector<ColumnCounters::Column>& top_columns = columns[top.index];
     if (evaluated_at[top.index] == selected.size()) {
       // Exact and not below any other entry's upper bound: the true greedy choice. Its gain is
       // > tau_gain because entries at or below tau_gain are never pushed.
-      sets[top.index]->forEachRun([&](const openvdb::Coord& c, int n) { counters.decrementRun(c, n); });
+      counters.decrement(top_columns);
+      std::vector<ColumnCounters::Column>().swap(top_columns);  // never looked at again
       selected.push_back(top.index);
       continue;
     }
-    std::size_t gain = 0;
-    sets[top.index]->forEachRun([&](const openvdb::Coord& c, int n) { gain += counters.positiveInRun(c, n); });
+    const std::size_t gain = counters.positive(top_columns);
     evaluated_at[top.index] = selected.size();
-    if (double(gain) > tau_gain) heap.push({gain, top.index});  // gains only fall: else never again
+    if (double(gain) > tau_gain)
+      heap.push({gain, top.index});
+    else
+      std::vector<ColumnCounters::Column>().swap(top_columns);  // gains only fall: never again
   }
   return selected;
 }

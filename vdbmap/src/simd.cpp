@@ -9,7 +9,7 @@ namespace {
 SimdLevel cpuLevel() {
 #if VDBMAP_AVX2_KERNELS
   __builtin_cpu_init();  // in case this runs before libgcc's own initialisation (a static constructor)
-  if (__builtin_cpu_supports("avx2")) return SimdLevel::Avx2;
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt")) return SimdLevel::Avx2;
 #endif
 #if defined(__SSE2__)
   return SimdLevel::Sse2;

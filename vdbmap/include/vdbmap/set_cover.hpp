@@ -151,7 +151,8 @@ CellSet footprintCells(const VoxelFootprint& footprint, double cell_size_vox);
 /// selected sets in selection order; ties are broken by the lowest index. Lazy evaluation: a
 /// set's gain only decreases, so stale gains are upper bounds and only the top one is refreshed;
 /// the result equals the plain greedy's exactly. Duplicate cells within one set count once.
-/// Throws std::invalid_argument when n_ob < 1 or tau_gain is negative or NaN.
+/// Throws std::invalid_argument when n_ob < 1 or tau_gain is negative or NaN, or when n_ob and the
+/// number of sets both exceed 65535 (the counters are 16-bit).
 std::vector<std::size_t> greedyCover(const std::vector<std::vector<openvdb::Coord>>& sets, int n_ob,
                                      double tau_gain);
 std::vector<std::size_t> greedyCover(const std::vector<const CellSet*>& sets, int n_ob, double tau_gain);
