@@ -13,6 +13,15 @@ find_package(Eigen3 3.4 REQUIRED NO_MODULE)  # Eigen3::Eigen
 find_package(Threads REQUIRED)
 find_package(ZLIB REQUIRED)             # ZLIB::ZLIB, keyframe compression
 find_package(PNG REQUIRED)              # PNG::PNG, 16-bit depth images
+# libdeflate 1.14 ships a pkg-config file only: wrapped in an INTERFACE target (exported with the io
+# library, which links it privately; a static io library needs it at the user's link too).
+find_path(VDBMAP_LIBDEFLATE_INCLUDE_DIR libdeflate.h REQUIRED)
+find_library(VDBMAP_LIBDEFLATE_LIBRARY deflate REQUIRED)
+if(NOT TARGET vdbmap_libdeflate)
+  add_library(vdbmap_libdeflate INTERFACE)
+  target_include_directories(vdbmap_libdeflate SYSTEM INTERFACE ${VDBMAP_LIBDEFLATE_INCLUDE_DIR})
+  target_link_libraries(vdbmap_libdeflate INTERFACE ${VDBMAP_LIBDEFLATE_LIBRARY})
+endif()
 find_package(nlohmann_json 3 REQUIRED)  # nlohmann_json::nlohmann_json, sensor.json and summaries
 find_package(CLI11 REQUIRED)            # CLI11::CLI11, the vdbmap command line
 

@@ -5,7 +5,7 @@
 #                                                       # vdbmap::planner, vdbmap::sim
 #
 # The libraries are shared by default (BUILD_SHARED_LIBS); when static, their private dependencies
-# (libpng, zlib, nlohmann_json, OMPL, Ceres) become part of the link interface, so
+# (libpng, libdeflate, zlib, nlohmann_json, OMPL, Ceres) become part of the link interface, so
 # vdbmapConfig.cmake finds those again in the user's project either way. Each library has its own
 # export set, so a component whose dependencies are missing on the user's machine does not stop
 # the others from loading. Installed binaries find the libraries by a relative RPATH, so the prefix
@@ -36,7 +36,8 @@ foreach(module vdbmap vdbmap/io testing planner sim)
 endforeach()
 
 vdbmap_install_library(vdbmap vdbmap vdbmapTargets)
-vdbmap_install_library(vdbmap_io io vdbmapIoTargets)
+set_target_properties(vdbmap_libdeflate PROPERTIES EXPORT_NAME libdeflate)
+vdbmap_install_library(vdbmap_io io vdbmapIoTargets vdbmap_libdeflate)
 vdbmap_install_library(vdbmap_testing testing vdbmapTestingTargets)
 set(VDBMAP_EXPORTED_COMPONENTS io testing)
 set(VDBMAP_SIM_USES_CERES OFF)

@@ -6,7 +6,7 @@ VDBMAP_APT_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libopenvdb-dev libopenvdb-tools libtbb-dev libeigen3-dev libblosc-dev zlib1g-dev
   libboost-iostreams-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
-  libompl-dev libceres-dev libpng-dev libcli11-dev nlohmann-json3-dev libnanoflann-dev
+  libompl-dev libceres-dev libpng-dev libdeflate-dev libcli11-dev nlohmann-json3-dev libnanoflann-dev
   catch2 pybind11-dev python3-dev python3-numpy python3-pytest python3-openvdb
   librosbag-storage-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
 )

@@ -3,6 +3,8 @@
 #include "vdbmap/atomic_file.hpp"
 #include "vdbmap/io/errors.hpp"
 
+#include "png_gray16.hpp"
+
 #include <png.h>
 
 #include <cerrno>
@@ -308,6 +310,19 @@ PngImage readPng(const std::filesystem::path& path) {
 
 namespace {
 
+/// Files up to this size are decoded from memory when they are plain 16-bit gray PNGs.
+constexpr long kMaxFastPngBytes = 64L << 20;
+
+/// The whole of `f` (signature included) when it holds at most max_bytes; else false. Leaves `f`
+/// anywhere.
+bool readWhole(std::FILE* f, long max_bytes, std::vector<std::uint8_t>& bytes) {
+  if (std::fseek(f, 0, SEEK_END) != 0) return false;
+  const long size = std::ftell(f);
+  if (size < 0 || size > max_bytes || std::fseek(f, 0, SEEK_SET) != 0) return false;
+  bytes.resize(std::size_t(size));
+  return std::fread(bytes.data(), 1, bytes.size(), f) == bytes.size();
+}
+
 // readDepthPng, with the header's size checked against `expected` (width, height) when given.
 DepthImage readDepth(const std::filesystem::path& path, double depth_scale, std::uint16_t invalid_raw,
                      const int* expected) {
@@ -318,10 +333,20 @@ DepthImage readDepth(const std::filesystem::path& path, double depth_scale, std:
   if (expected && (std::int64_t(h.width) != expected[0] || std::int64_t(h.height) != expected[1]))
     throw FileError(path.string() + ": depth image is " + std::to_string(h.width) + "x" + std::to_string(h.height) +
                     " but the camera is " + std::to_string(expected[0]) + "x" + std::to_string(expected[1]));
+  std::vector<std::uint16_t> raw;
+  {
+    // The common case, a plain 16-bit gray PNG, without libpng (internal/png_gray16.hpp); anything
+    // else, and every error, goes to libpng below, which names what is wrong.
+    std::vector<std::uint8_t> bytes;
+    std::uint32_t width = 0, height = 0;
+    if (readWhole(file.f, kMaxFastPngBytes, bytes) &&
+        internal::decodeGray16Png(bytes.data(), bytes.size(), std::uint32_t(kMaxPngSide), width, height, raw))
+      return depthFromRaw(int(width), int(height), raw.data(), depth_scale, invalid_raw);
+    if (std::fseek(file.f, 8, SEEK_SET) != 0) throw FileError(path.string() + ": cannot seek: " + std::strerror(errno));
+  }
   PngErrorState st;
   Decoded d;
   std::vector<std::uint8_t> buf8;
-  std::vector<std::uint16_t> raw;
   std::vector<png_bytep> rows;
   bool wrong_kind = false;
   if (!decode(file.f, Mode::Depth16, st, d, buf8, raw, rows, wrong_kind)) {

@@ -1,5 +1,6 @@
 // PNG images through libpng: 16-bit depth images (read and write) and 8/16-bit gray, gray+alpha,
-// RGB and RGBA images (read and write).
+// RGB and RGBA images (read and write). Plain 16-bit gray depth PNGs are read by a faster decoder
+// of the library's own (libdeflate's inflate); every other file, and every error, goes to libpng.
 #pragma once
 
 #include "vdbmap/camera.hpp"
