@@ -11,10 +11,10 @@ find_package(OpenVDB REQUIRED)          # OpenVDB::openvdb (needs Boost iostream
 set(BUILD_SHARED_LIBS ${_vdbmap_build_shared_libs})
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)  # Eigen3::Eigen
 find_package(Threads REQUIRED)
-find_package(ZLIB REQUIRED)             # ZLIB::ZLIB, keyframe compression
+find_package(ZLIB REQUIRED)             # ZLIB::ZLIB, for OpenVDB and libpng
 find_package(PNG REQUIRED)              # PNG::PNG, 16-bit depth images
-# libdeflate 1.14 ships a pkg-config file only: wrapped in an INTERFACE target (exported with the io
-# library, which links it privately; a static io library needs it at the user's link too).
+# libdeflate (keyframe payloads, plain depth PNGs) 1.14 ships a pkg-config file only: wrapped in an
+# INTERFACE target, exported with the core library (static libraries need it at the user's link).
 find_path(VDBMAP_LIBDEFLATE_INCLUDE_DIR libdeflate.h REQUIRED)
 find_library(VDBMAP_LIBDEFLATE_LIBRARY deflate REQUIRED)
 if(NOT TARGET vdbmap_libdeflate)

@@ -35,9 +35,10 @@ foreach(module vdbmap vdbmap/io testing planner sim)
   endif()
 endforeach()
 
-vdbmap_install_library(vdbmap vdbmap vdbmapTargets)
+# libdeflate through an INTERFACE wrapper, exported with the core (the io library links it too).
 set_target_properties(vdbmap_libdeflate PROPERTIES EXPORT_NAME libdeflate)
-vdbmap_install_library(vdbmap_io io vdbmapIoTargets vdbmap_libdeflate)
+vdbmap_install_library(vdbmap vdbmap vdbmapTargets vdbmap_libdeflate)
+vdbmap_install_library(vdbmap_io io vdbmapIoTargets)
 vdbmap_install_library(vdbmap_testing testing vdbmapTestingTargets)
 set(VDBMAP_EXPORTED_COMPONENTS io testing)
 set(VDBMAP_SIM_USES_CERES OFF)

@@ -11,9 +11,11 @@
 #include "vdbmap/testing/analytic_scene.hpp"
 
 #include <catch2/catch.hpp>
+#include <zlib.h>
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -119,6 +121,75 @@ TEST_CASE("a version 1 keyframe store (no unit id) still loads", "[mapper][saved
   std::ofstream(dir / "v1.keyframes", std::ios::binary) << bytes;
   CHECK(KeyframeStore::savedUnitId(dir / "v1.keyframes").empty());
   CHECK(KeyframeStore::load(dir / "v1.keyframes").size() == 2);
+}
+
+TEST_CASE("a keyframe store whose payloads zlib wrote (every store saved before libdeflate) decodes the same",
+          "[mapper][saved]") {
+  const fs::path dir = test::freshDir("vdbmap_saved_zlib");
+  Mapper mapper(config(ConsistencyMode::All));
+  for (int i = 0; i < 3; ++i)
+    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()),
+                    test::circleOdometry(i));
+  mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
+  mapper.keyframes().save(dir / "new.keyframes");
+  // Every payload inflated and deflated again by zlib's compress2 at level 1, as the store did
+  // before; the layout is docs/formats.md's.
+  const std::string in = test::readBytes(dir / "new.keyframes");
+  std::string out;
+  std::size_t pos = 0;
+  const auto copy = [&](std::size_t n) {
+    REQUIRE(pos + n <= in.size());
+    out.append(in, pos, n);
+    pos += n;
+  };
+  const auto u32At = [&](std::size_t at) {
+    std::uint32_t v;
+    std::memcpy(&v, in.data() + at, 4);
+    return v;
+  };
+  const auto u64At = [&](std::size_t at) {
+    std::uint64_t v;
+    std::memcpy(&v, in.data() + at, 8);
+    return v;
+  };
+  const std::uint32_t id_bytes = u32At(12);
+  const std::uint64_t count = u64At(16);
+  copy(24 + id_bytes);
+  int replaced = 0;
+  for (std::uint64_t k = 0; k < count; ++k) {
+    copy(8 + 8 + 2 * 16 * 8);  // id, stamp, two poses
+    const bool compressed = in[pos + 2] != 0, has_camera = in[pos + 3] != 0;
+    copy(4 + 4 + 4 + 8 + (has_camera ? 8 + 4 * 8 : 0));  // flags, stride, count, unit, camera
+    const std::uint64_t n = u64At(pos);
+    pos += 8;
+    REQUIRE(compressed);
+    const std::string payload = in.substr(pos, n);
+    pos += n;
+    // The raw codes: at most 4 bytes per pixel or 12 per point, far below 64 MiB here.
+    std::vector<Bytef> raw(std::size_t(64) << 20);
+    uLongf raw_n = uLongf(raw.size());
+    REQUIRE(uncompress(raw.data(), &raw_n, reinterpret_cast<const Bytef*>(payload.data()), uLong(payload.size())) ==
+            Z_OK);
+    std::vector<Bytef> packed(compressBound(raw_n));
+    uLongf packed_n = uLongf(packed.size());
+    REQUIRE(compress2(packed.data(), &packed_n, raw.data(), raw_n, 1) == Z_OK);
+    const std::uint64_t size = packed_n;
+    out.append(reinterpret_cast<const char*>(&size), 8);
+    out.append(reinterpret_cast<const char*>(packed.data()), packed_n);
+    replaced += std::string(reinterpret_cast<const char*>(packed.data()), packed_n) != payload;
+  }
+  REQUIRE(pos == in.size());
+  CHECK(replaced >= 1);  // zlib's streams are not libdeflate's, so the file really changed
+  std::ofstream(dir / "zlib.keyframes", std::ios::binary) << out;
+  const KeyframeStore loaded = KeyframeStore::load(dir / "zlib.keyframes");
+  REQUIRE(loaded.size() == mapper.keyframes().size());
+  for (const auto& [id, kf] : mapper.keyframes()) {
+    INFO("keyframe " << id);
+    const PointCloud a = kf.data.decode(), b = loaded.at(id).data.decode();
+    REQUIRE(a.size() == b.size());
+    for (std::size_t i = 0; i < a.size(); ++i)
+      CHECK(((a[i].array() == b[i].array()).all() || (!a[i].allFinite() && !b[i].allFinite())));
+  }
 }
 
 TEST_CASE("a saved map corrected after loading equals integrating its frames from scratch at the corrected poses",

@@ -4,25 +4,35 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <new>
 #include <stdexcept>
 #include <string>
 
 namespace vdbmap {
 namespace {
 
+struct DeflateDeleter {
+  void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
+  void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
+};
+
+/// A zlib stream (RFC 1950) of the bytes, as zlib's compress2 writes one, by libdeflate (level 1):
+/// about 3x faster both ways here, and any zlib reads what it writes.
 std::vector<std::uint8_t> deflateBytes(const void* data, std::size_t n) {
-  uLongf bound = compressBound(uLong(n));
-  std::vector<std::uint8_t> out(bound);
-  if (compress2(out.data(), &bound, static_cast<const Bytef*>(data), uLong(n), 1) != Z_OK)
-    throw std::runtime_error("keyframe store: zlib compression failed");
-  out.resize(bound);
+  thread_local const std::unique_ptr<libdeflate_compressor, DeflateDeleter> compressor(libdeflate_alloc_compressor(1));
+  if (!compressor) throw std::bad_alloc();
+  std::vector<std::uint8_t> out(libdeflate_zlib_compress_bound(compressor.get(), n));
+  const std::size_t size = libdeflate_zlib_compress(compressor.get(), data, n, out.data(), out.size());
+  if (size == 0) throw std::runtime_error("keyframe store: compression failed");
+  out.resize(size);
   out.shrink_to_fit();
   return out;
 }
@@ -38,8 +48,14 @@ void inflateBytes(const std::vector<std::uint8_t>& in, void* out, std::size_t n,
     std::memcpy(out, in.data(), n);
     return;
   }
-  uLongf size = uLongf(n);
-  if (uncompress(static_cast<Bytef*>(out), &size, in.data(), uLong(in.size())) != Z_OK || size != n)
+  thread_local const std::unique_ptr<libdeflate_decompressor, DeflateDeleter> decompressor(
+      libdeflate_alloc_decompressor());
+  if (!decompressor) throw std::bad_alloc();
+  // Exactly n bytes, and the whole input one zlib stream.
+  std::size_t used = 0, made = 0;
+  if (libdeflate_zlib_decompress_ex(decompressor.get(), in.data(), in.size(), out, n, &used, &made) !=
+          LIBDEFLATE_SUCCESS ||
+      made != n || used != in.size())
     throw std::runtime_error("keyframe store: corrupt compressed frame");
 }
 
