@@ -222,8 +222,11 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     // Coded raw here and compressed off this thread; decoded once, for integration and the pruner.
     SensorFrame decoded;
     EncodedFrame data = EncodedFrame::encodeRaw(frame, config_.depth_unit_m, decoded);
-    CellSet cells;
-    const IntegrationStats stats = integrate(id, decoded, T_W_S, pruner_ ? &cells : nullptr);
+    // The pruner's cells come from the voxels this integration updates under projective
+    // integration, else from the frame's rays.
+    const bool with_footprint = pruner_ && footprintFromIntegration(decoded, config_);
+    VoxelFootprint footprint;
+    const IntegrationStats stats = volume_.integrate(id, decoded, T_W_S, with_footprint ? &footprint : nullptr);
     ledger_.markDirty(stats.touched_voxels);
 
     Keyframe kf;
@@ -232,9 +235,13 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     kf.T_W_S_integrated = kf.T_W_S_latest = T_W_S;
     kf.integrated = true;
     kf.data = std::move(data);
+    // Started before the pruner's cells are worked out, so that the compression has the other
+    // core meanwhile rather than sharing both with the next frame's integration.
     startCompression(store_.add(std::move(kf)));
 
     if (pruner_) {
+      CellSet cells = with_footprint ? footprintCells(footprint, config_.set_cover.cell_size_vox)
+                                     : raysCells(decoded, T_W_S, config_);
       pruner_->addFrame(id, T_W_S.translation(), std::move(cells));
       if (++frames_since_solve_ >= std::size_t(config_.set_cover.solve_period_frames)) prune();
     }
@@ -357,21 +364,6 @@ class ReintegratingPolicy final : public ConsistencyPolicy {
     if (!compressing_.valid()) return;
     EncodedFrame packed = compressing_.get();  // rethrows what the worker threw
     if (store_.contains(compressing_id_)) store_.at(compressing_id_).data = std::move(packed);
-  }
-
-  /// Integrates a decoded frame; with `cells`, also its set for the pruner: the coarse cells its
-  /// integration touches, recorded by the same pass under projective integration.
-  IntegrationStats integrate(FrameId id, const SensorFrame& frame, const Pose3d& T_W_S, CellSet* cells) {
-    if (!cells) return volume_.integrate(id, frame, T_W_S);
-    if (footprintFromIntegration(frame, config_)) {
-      VoxelFootprint footprint;
-      const IntegrationStats stats = volume_.integrate(id, frame, T_W_S, &footprint);
-      *cells = footprintCells(footprint, config_.set_cover.cell_size_vox);
-      return stats;
-    }
-    const IntegrationStats stats = volume_.integrate(id, frame, T_W_S);
-    *cells = raysCells(frame, T_W_S, config_);
-    return stats;
   }
 
   /// Moves a frame from the pose the map holds to its newest; in keyframes mode the pruner then
