@@ -24,6 +24,7 @@ struct IntegrateOptions {
   std::string weighting = toString(TsdfConfig{}.weighting);
   std::string integrator = toString(IntegratorConfig{}.ray_mode);
   std::string on_bad_frame = "fail";
+  std::string load_ahead = "on";
   double voxel_size_m = TsdfConfig{}.voxel_size_m;
   double truncation_vox = TsdfConfig{}.truncation_vox;
   double max_range_m = 0.0;  // 0 = the sensor's
@@ -83,6 +84,7 @@ void runIntegrate(IntegrateOptions o) {
   ReplayConfig replay;
   replay.frame_stride = o.stride;
   replay.on_bad_frame = parseOnBadFrame(o.on_bad_frame);
+  replay.load_ahead = o.load_ahead == "on";
   Progress progress("integrate");
   replay.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
   std::fprintf(stderr, "%s: %zu frames (%s)\n", o.log.c_str(), source->size(), source->format().c_str());
@@ -122,6 +124,7 @@ void runIntegrate(IntegrateOptions o) {
       {"background_frames", r.background_frames},
       {"pruned_frames_deintegrated", r.pruned_frames_deintegrated},
       {"load_s", r.load_s},
+      {"load_ahead", replay.load_ahead},
       {"wall_s", r.wall_s},
       {"correction_events", r.correction_events},
       {"keyframes_kept", mapper.keyframesKept()},
@@ -205,6 +208,11 @@ const Registration registration("integrate", [](CLI::App& app) {
   sub->add_option("--submap-frames", o->submap_frames, "submap: frames per rigid submap")->check(CLI::Range(1, 1000000));
   sub->add_option("--on-bad-frame", o->on_bad_frame, "A corrupt or missing frame: fail the run, or skip and list it")
       ->check(CLI::IsMember({"fail", "skip"}));
+  sub->add_option("--load-ahead", o->load_ahead,
+                  "on: decode the next frame while a frame integrates (a shorter run; the decoding shares the cores "
+                  "with the timed integration); off: decode each frame before its integration starts, as "
+                  "bench/open3d_7scenes.py times Open3D")
+      ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--mesh", o->mesh, "Also write the surface mesh (.ply)");
   sub->add_option("--json", o->json, "Write a JSON summary");
   sub->callback([o] { runIntegrate(*o); });

@@ -3,6 +3,7 @@
 #include "common/shared_data.hpp"
 #include "vdbmap/camera.hpp"
 #include "vdbmap/io/png_io.hpp"
+#include "vdbmap/tsdf_volume.hpp"
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
@@ -48,6 +49,14 @@ TEST_CASE("integrate, info, mesh and eval chain on a small real log with JSON su
   CHECK(integrate.at("integrate_s").get<double>() > 0.0);
   CHECK(integrate.at("ms_per_frame_median").get<double>() > 0.0);
   CHECK(integrate.at("keyframes_kept") == 4);
+
+  CHECK(integrate.at("load_ahead") == true);
+  // Decoding each frame before its integration (as Open3D's script is timed) makes the same map.
+  REQUIRE(run("integrate " + (kReplica / "office0").string() + " -o " + (dir / "serial.vdb").string() +
+                  " --voxel-size 0.05 --mode all --load-ahead off --json " + (dir / "serial.json").string(),
+              log) == 0);
+  CHECK(nlohmann::json::parse(slurp(dir / "serial.json")).at("load_ahead") == false);
+  CHECK(vdbmap::TsdfVolume::load(dir / "serial.vdb").exactlyEquals(vdbmap::TsdfVolume::load(map)));
 
   REQUIRE(run("info " + map.string() + " --json " + (dir / "info.json").string(), log) == 0);
   const auto info = nlohmann::json::parse(slurp(dir / "info.json"));
