@@ -158,18 +158,20 @@ TEST_CASE("a keyframe store whose payloads zlib wrote (every store saved before 
   int replaced = 0;
   for (std::uint64_t k = 0; k < count; ++k) {
     copy(8 + 8 + 2 * 16 * 8);  // id, stamp, two poses
-    const bool compressed = in[pos + 2] != 0, has_camera = in[pos + 3] != 0;
+    const bool depth = in[pos + 1] == 0, compressed = in[pos + 2] != 0, has_camera = in[pos + 3] != 0;
+    const std::uint32_t points = u32At(pos + 8);         // pixels or points
     copy(4 + 4 + 4 + 8 + (has_camera ? 8 + 4 * 8 : 0));  // flags, stride, count, unit, camera
     const std::uint64_t n = u64At(pos);
     pos += 8;
     REQUIRE(compressed);
     const std::string payload = in.substr(pos, n);
     pos += n;
-    // The raw codes: at most 4 bytes per pixel or 12 per point, far below 64 MiB here.
-    std::vector<Bytef> raw(std::size_t(64) << 20);
+    // The raw codes: a 16-bit code per pixel, or three 32-bit codes per point.
+    std::vector<Bytef> raw(std::size_t(points) * (depth ? 2 : 12));
     uLongf raw_n = uLongf(raw.size());
     REQUIRE(uncompress(raw.data(), &raw_n, reinterpret_cast<const Bytef*>(payload.data()), uLong(payload.size())) ==
             Z_OK);
+    REQUIRE(raw_n == raw.size());
     std::vector<Bytef> packed(compressBound(raw_n));
     uLongf packed_n = uLongf(packed.size());
     REQUIRE(compress2(packed.data(), &packed_n, raw.data(), raw_n, 1) == Z_OK);
