@@ -130,8 +130,6 @@ void bindCostsAndPaths(py::module_& m) {
       .def_readwrite("clearance_m", &TrajectoryConfig::clearance_m, "clearance of arcs and lead-ins; [0, 5]")
       .def_readwrite("check_step_m", &TrajectoryConfig::check_step_m, "0 = half a voxel; [0, 1]")
       .def_readwrite("corner_shrink_steps", &TrajectoryConfig::corner_shrink_steps, "arc halvings; [0, 30]")
-      .def_readwrite("corner_relax_m", &TrajectoryConfig::corner_relax_m,
-                     "how far a corner that hugs an obstacle may move outward for a faster, wider arc; [0, 2]")
       .def_readwrite("yaw_along_travel", &TrajectoryConfig::yaw_along_travel,
                      "face the direction of travel while moving, turning to the goal yaw at the end")
       .def_readwrite("yaw_lead_s", &TrajectoryConfig::yaw_lead_s,

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -44,7 +43,6 @@ void TrajectoryConfig::validate() const {
   if (!(clearance_m >= 0.0 && clearance_m <= 5.0)) check.fail("clearance_m", "[0, 5]");
   if (!(check_step_m >= 0.0 && check_step_m <= 1.0)) check.fail("check_step_m", "[0, 1]");
   if (corner_shrink_steps < 0 || corner_shrink_steps > 30) check.fail("corner_shrink_steps", "[0, 30]");
-  if (!(corner_relax_m >= 0.0 && corner_relax_m <= 2.0)) check.fail("corner_relax_m", "[0, 2]", corner_relax_m);
   if (!(yaw_lead_s > 0.0 && yaw_lead_s <= 10.0)) check.fail("yaw_lead_s", "(0, 10]", yaw_lead_s);
   if (!(start_facing_rad >= 0.0 && start_facing_rad <= M_PI))
     check.fail("start_facing_rad", "[0, pi]", start_facing_rad);
@@ -170,12 +168,11 @@ class TrajectoryBuilder {
     std::vector<Vec3d> pts = cleanPolyline(path);
     for (std::size_t i = 1; i < pts.size(); ++i)
       if (!probe_.isSegmentClear(pts[i - 1], pts[i], p_.clearance_m)) return result;  // PathNotClear
-    relaxCorners(pts);
 
     // The path as it is first, starting with the part of the vehicle's velocity along it; when
     // that does not reproduce the velocity (other direction, or braking needs more room),
-    // lead-ins along the current velocity: of those that reproduce it, the one that arrives first
-    // wins; when none does, the candidate whose start velocity is nearest the vehicle's.
+    // lead-ins along the current velocity, shortest first, until one does. Else the candidate
+    // whose start velocity is nearest the vehicle's wins.
     const Vec3d v0 = start.velocity_W.norm() > kMovingSpeed_m_s ? start.velocity_W : Vec3d::Zero();
     const double speed0 = v0.norm();
     auto mismatch = [&v0](const Trajectory& t) { return (t.startVelocity() - v0).norm(); };
@@ -192,10 +189,8 @@ class TrajectoryBuilder {
             !probe_.isSegmentClear(with_lead[1], with_lead[2], p_.clearance_m))
           continue;
         Trajectory t = assemble(cleanPolyline(with_lead), speed0);
-        // Of the lead-ins that keep the velocity, the one that arrives first: a longer lead-in
-        // turns on a wider arc and brakes less.
-        const bool better = matches(t) ? !matches(best) || t.motion_s_ < best.motion_s_ : mismatch(t) < mismatch(best);
-        if (better) best = std::move(t);
+        if (mismatch(t) < mismatch(best)) best = std::move(t);
+        if (matches(best)) break;
       }
     }
     const bool matched = matches(best);
@@ -250,73 +245,6 @@ class TrajectoryBuilder {
     return arc;
   }
 
-  struct FittedArc {
-    Trajectory::Piece arc;
-    double tangent_m = 0.0;  ///< distance from the vertex where the arc starts
-  };
-
-  /// The largest clear arc at corner i of `pts`, its vertex placed at `vertex` (tangent length
-  /// corner_fraction of the shorter leg, halved until clear); nullopt when the corner must be
-  /// taken stopping.
-  std::optional<FittedArc> fittedArc(const std::vector<Vec3d>& pts, std::size_t i, const Vec3d& vertex) {
-    const Vec3d d_in = vertex - pts[i - 1], d_out = pts[i + 1] - vertex;
-    const Vec3d u_in = d_in.normalized(), u_out = d_out.normalized();
-    const double theta = std::acos(std::clamp(u_in.dot(u_out), -1.0, 1.0));
-    if (theta >= kReversal_rad) return std::nullopt;
-    double T = p_.corner_fraction * std::min(d_in.norm(), d_out.norm());
-    for (int attempt = 0; attempt <= p_.corner_shrink_steps; ++attempt, T *= 0.5) {
-      Trajectory::Piece arc = makeArc(vertex, u_in, u_out, theta, T);
-      if (arcClear(arc)) return FittedArc{arc, T};
-    }
-    return std::nullopt;
-  }
-
-  /// Estimated time from pts[i - 1] through corner i, its vertex placed at `vertex`, to pts[i + 1]: the legs and the
-  /// arc at the local cruise speed V (v_max, or what the shorter leg lets the vehicle reach from the corner), plus what
-  /// braking to the arc's speed limit v_c and speeding up again cost, (V - v_c)^2 / (a_max V), plus the arc's own
-  /// slowness. A corner taken stopping has v_c = 0.
-  double cornerTime(const std::vector<Vec3d>& pts, std::size_t i, const Vec3d& vertex) {
-    const double l_in = (vertex - pts[i - 1]).norm(), l_out = (pts[i + 1] - vertex).norm();
-    const std::optional<FittedArc> fitted = fittedArc(pts, i, vertex);
-    const double a = p_.a_max_m_s2;
-    double v_c = 0.0, length = l_in + l_out, arc_extra_s = 0.0;
-    if (fitted) {
-      v_c = std::min(p_.v_max_m_s, std::sqrt(p_.normal_acc_share * a * fitted->arc.radius));
-      length += fitted->arc.length - 2.0 * fitted->tangent_m;
-    }
-    const double V = std::min(p_.v_max_m_s, std::sqrt(v_c * v_c + a * std::min(l_in, l_out)));
-    if (fitted && v_c > 0.0) arc_extra_s = fitted->arc.length * (1.0 / v_c - 1.0 / V);
-    return length / V + (V - v_c) * (V - v_c) / (a * V) + arc_extra_s;
-  }
-
-  /// TrajectoryConfig::corner_relax_m: each interior vertex in turn moves outward along its
-  /// bisector to the candidate offset with the least cornerTime whose legs stay clear.
-  void relaxCorners(std::vector<Vec3d>& pts) {
-    if (p_.corner_relax_m <= 0.0) return;
-    constexpr double kOffsets_m[] = {0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.4, 2.0};
-    for (std::size_t i = 1; i + 1 < pts.size(); ++i) {
-      const Vec3d u_in = (pts[i] - pts[i - 1]).normalized(), u_out = (pts[i + 1] - pts[i]).normalized();
-      const Vec3d inside = u_out - u_in;
-      if (inside.norm() < 1e-6 || u_in.dot(u_out) <= std::cos(kReversal_rad)) continue;  // straight or reversal
-      const Vec3d outward = -inside.normalized();
-      double best_s = cornerTime(pts, i, pts[i]);
-      Vec3d best = pts[i];
-      for (const double d : kOffsets_m) {
-        if (d > p_.corner_relax_m + 1e-12) break;
-        const Vec3d q = pts[i] + d * outward;
-        if (!probe_.isSegmentClear(pts[i - 1], q, p_.clearance_m) ||
-            !probe_.isSegmentClear(q, pts[i + 1], p_.clearance_m))
-          break;  // farther out is blocked too, nearly always: stop at the first blocked offset
-        const double s = cornerTime(pts, i, q);
-        if (s < best_s) {
-          best_s = s;
-          best = q;
-        }
-      }
-      pts[i] = best;
-    }
-  }
-
   /// Geometry (rounded corners, checked) and the time-optimal speed profile from speed v0.
   Trajectory assemble(const std::vector<Vec3d>& pts, double v0) {
     Trajectory traj;
@@ -328,10 +256,19 @@ class TrajectoryBuilder {
     std::vector<Corner> corners(pts.size());
     std::vector<Trajectory::Piece> arcs(pts.size());
     for (std::size_t i = 1; i + 1 < pts.size(); ++i) {
+      const Vec3d d_in = pts[i] - pts[i - 1], d_out = pts[i + 1] - pts[i];
+      const Vec3d u_in = d_in.normalized(), u_out = d_out.normalized();
+      const double theta = std::acos(std::clamp(u_in.dot(u_out), -1.0, 1.0));
       corners[i].stop = true;
-      if (const std::optional<FittedArc> fitted = fittedArc(pts, i, pts[i])) {
-        corners[i] = Corner{fitted->tangent_m, false};
-        arcs[i] = fitted->arc;
+      if (theta >= kReversal_rad) continue;
+      double T = p_.corner_fraction * std::min(d_in.norm(), d_out.norm());
+      for (int attempt = 0; attempt <= p_.corner_shrink_steps; ++attempt, T *= 0.5) {
+        const Trajectory::Piece arc = makeArc(pts[i], u_in, u_out, theta, T);
+        if (arcClear(arc)) {
+          corners[i] = Corner{T, false};
+          arcs[i] = arc;
+          break;
+        }
       }
     }
 

@@ -113,37 +113,6 @@ TEST_CASE("A moving start keeps the vehicle's velocity through a clear lead-in",
   CHECK(r.trajectory.sample(r.trajectory.duration()).position_W.isApprox(Vec3d(4, 3, 1.2), 1e-12));
 }
 
-TEST_CASE("Turning at speed onto a new path, the vehicle takes the lead-in that arrives first",
-          "[planner][trajectory]") {
-  // Flying +x at v_max in an open room, a path to the +y side: the shortest lead-in that keeps
-  // the velocity (0.6 braking distances, the only one tried before) turns on a tight arc; a
-  // longer one brakes less. The trajectory flown arrives no later than the shortest lead-in, and
-  // its slowest point is faster.
-  const DenseMap map = test::makeRoom(Eigen::Vector3i(120, 120, 30));
-  TrajectoryConfig tp;
-  VehicleState start;
-  start.position_W = Vec3d(3, 3, 1.5);
-  start.velocity_W = Vec3d(tp.v_max_m_s, 0, 0);
-  const Vec3d goal(4, 9, 1.5);
-  const TrajectoryResult r = planTrajectory({start.position_W, goal}, start, 0.0, map, tp);
-  REQUIRE(r.status == TrajectoryStatus::Ok);
-  checkTrajectory(r.trajectory, tp, &map);
-  const double brake_m = tp.v_max_m_s * tp.v_max_m_s / (2.0 * tp.a_max_m_s2);
-  const Vec3d shortest_lead = start.position_W + Vec3d(0.6 * brake_m, 0, 0);
-  TrajectoryConfig as_given = tp;
-  as_given.corner_relax_m = 0.0;  // the lead-in's corner where it is put
-  const TrajectoryResult shortest = planTrajectory({start.position_W, shortest_lead, goal}, start, 0.0, map, as_given);
-  REQUIRE(shortest.status == TrajectoryStatus::Ok);
-  CHECK(r.trajectory.motionDuration() <= shortest.trajectory.motionDuration());
-  CHECK(r.trajectory.corners()[1].x() > shortest_lead.x());
-  const auto slowest = [](const Trajectory& t) {
-    double v = 1e9;
-    for (double s = 0.0; s <= 0.5 * t.motionDuration(); s += 1e-3) v = std::min(v, t.sample(s).velocity_W.norm());
-    return v;
-  };
-  CHECK(slowest(r.trajectory) > slowest(shortest.trajectory) + 0.1);
-}
-
 TEST_CASE("Moving straight at a wall: the start is slowed and the status says so", "[planner][trajectory]") {
   const DenseMap map = test::wallRoom();
   TrajectoryConfig tp;
@@ -189,7 +158,6 @@ TEST_CASE("A corner whose arc would clip an obstacle is tightened or stopped, ne
   map.fill(CoordBBox(Coord(52, 1, 1), Coord(59, 59, 19)), Occupancy::Free); // along y, x 5.2-5.9
   TrajectoryConfig tp;
   tp.clearance_m = 0.25;
-  tp.corner_relax_m = 0.0;  // the path's own corner, tightened (relaxation is tested below)
   VehicleState start;
   start.position_W = Vec3d(1.0, 0.45, 1.0);
   const std::vector<Vec3d> path{start.position_W, Vec3d(5.55, 0.45, 1.0), Vec3d(5.55, 5.0, 1.0)};
@@ -200,46 +168,6 @@ TEST_CASE("A corner whose arc would clip an obstacle is tightened or stopped, ne
   REQUIRE(r.ok());
   checkTrajectory(r.trajectory, tp, &map);
   CHECK(r.trajectory.sample(r.trajectory.duration()).position_W.isApprox(path.back(), 1e-12));
-}
-
-TEST_CASE("A path that hugs a corner swings wide of it where that is faster, and stays clear",
-          "[planner][trajectory]") {
-  // An L of corridors 1.6 m wide; the path turns 0.35 m (diagonally) from the inner corner C at
-  // (4.4, 1.7), where only a small arc fits. Moved outward, the corner takes a larger, faster arc.
-  DenseMap map(0.1, CoordBBox(Coord(-2), Coord(62, 62, 22)));
-  map.fill(CoordBBox(Coord(0), Coord(60, 60, 20)), Occupancy::Occupied);
-  map.fill(CoordBBox(Coord(1, 1, 1), Coord(59, 16, 19)), Occupancy::Free);   // along x, y 0.1-1.7
-  map.fill(CoordBBox(Coord(44, 1, 1), Coord(59, 59, 19)), Occupancy::Free);  // along y, x 4.4-6.0
-  VehicleState start;
-  start.position_W = Vec3d(0.5, 1.2, 1.0);
-  const std::vector<Vec3d> path{start.position_W, Vec3d(4.75, 1.35, 1.0), Vec3d(4.8, 5.0, 1.0)};
-  TrajectoryConfig plain;
-  plain.clearance_m = 0.25;
-  plain.corner_relax_m = 0.0;
-  TrajectoryConfig relaxed = plain;
-  relaxed.corner_relax_m = 0.5;
-  const TrajectoryResult a = planTrajectory(path, start, M_PI / 2, map, plain);
-  const TrajectoryResult b = planTrajectory(path, start, M_PI / 2, map, relaxed);
-  REQUIRE(a.ok());
-  REQUIRE(b.ok());
-  checkTrajectory(a.trajectory, plain, &map);
-  checkTrajectory(b.trajectory, relaxed, &map);
-  CHECK(a.trajectory.corners()[1] == path[1]);
-  const Vec3d moved = b.trajectory.corners()[1] - path[1];
-  CHECK(moved.norm() > 0.0);
-  CHECK(moved.norm() <= relaxed.corner_relax_m + 1e-12);
-  CHECK(moved.x() > 0.0);  // away from C
-  CHECK(moved.y() < 0.0);
-  CHECK(b.trajectory.sample(b.trajectory.duration()).position_W.isApprox(path.back(), 1e-12));
-  // The slowest point between start and goal is faster, and the whole motion shorter.
-  const auto slowest = [](const Trajectory& t) {
-    double v = 1e9;
-    for (double s = 0.3 * t.motionDuration(); s <= 0.7 * t.motionDuration(); s += 1e-3)
-      v = std::min(v, t.sample(s).velocity_W.norm());
-    return v;
-  };
-  CHECK(slowest(b.trajectory) > slowest(a.trajectory) + 0.2);
-  CHECK(b.trajectory.motionDuration() < a.trajectory.motionDuration());
 }
 
 TEST_CASE("A path through an obstacle is refused", "[planner][trajectory]") {
@@ -259,9 +187,6 @@ TEST_CASE("TrajectoryConfig::validate names the field", "[planner][trajectory]")
   p = TrajectoryConfig{};
   p.corner_fraction = 0.6;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("corner_fraction"));
-  p = TrajectoryConfig{};
-  p.corner_relax_m = -0.1;
-  CHECK_THROWS_WITH(p.validate(), Catch::Contains("corner_relax_m"));
 }
 
 TEST_CASE(

@@ -138,7 +138,6 @@ class TrajectoryConfig:
     clearance_m: float
     check_step_m: float
     corner_shrink_steps: int
-    corner_relax_m: float
     yaw_along_travel: bool
     yaw_lead_s: float
     start_facing_rad: float

@@ -20,10 +20,7 @@
 //
 // Start state: when the vehicle is moving, the trajectory starts with exactly its velocity when it
 // can: along the path if the velocity points along it and there is room to brake, else through a
-// lead-in along the current velocity (if clear), curving onto the path (of a few lead-in lengths,
-// the one that arrives first: a longer one turns on a wider arc and brakes less). Corners where the
-// path hugs an obstacle are first moved outward where that makes them faster (corner_relax_m).
-// When neither works
+// short lead-in along the current velocity (if clear), curving onto the path. When neither works
 // (e.g. flying at a wall) the status says the start velocity was reduced. The trajectory ends at
 // rest at the last waypoint.
 //
@@ -64,11 +61,6 @@ struct TrajectoryConfig {
   double check_step_m = 0.0;          ///< 0 = half a voxel
   /// How often an arc that is not clear is halved before the corner becomes a stop; [0, 30]
   int corner_shrink_steps = 6;
-  /// A path that hugs an obstacle's corner leaves its arc no room, so the vehicle nearly stops
-  /// there. Each interior vertex may move outward (along its bisector, away from the inside of the
-  /// turn) by up to this much, where its legs stay clear and the larger arc that then fits makes
-  /// the corner faster by the speed-profile estimate (cornerTime). 0: the vertices as given; [0, 2]
-  double corner_relax_m = 0.5;
   /// Face the direction of travel while moving (see the header comment), e.g. so that a camera
   /// sees the way before the vehicle flies it.
   bool yaw_along_travel = false;
