@@ -24,7 +24,8 @@ DenseMap costRoom() {
 }  // namespace
 
 TEST_CASE("motionCost is FUEL's max of travel time (with the direction term) and turning time", "[planner][cost]") {
-  const CostConfig p;  // 2 m/s, 0.9 rad/s, w_dir 1.5
+  CostConfig p;   // 2 m/s, 0.9 rad/s
+  p.w_dir = 1.5;  // FUEL's
   CHECK(motionCost(4.0, 0.0, 0.0, p) == Approx(2.0));
   CHECK(motionCost(4.0, 2.7, 0.0, p) == Approx(3.0));          // turning takes longer
   CHECK(motionCost(4.0, 0.0, M_PI / 2, p) == Approx(2.0 + 1.5 * M_PI / 2));
@@ -56,7 +57,7 @@ TEST_CASE("CostEvaluator legs: straight, around a wall, moving, unreachable", "[
     moving.position_W = a.position_W;
     moving.velocity_W = Vec3d(0, -1.0, 0);  // away from the target at +x
     const LegCost leg = eval.cost(moving, FlatPose{Vec3d(4, 1, 1), 0.0});
-    CHECK(leg.cost_s == Approx(3.0 / 2.0 + 1.5 * M_PI / 2));
+    CHECK(leg.cost_s == Approx(3.0 / 2.0 + CostConfig{}.w_dir * M_PI / 2));
   }
   SECTION("a pose inside the closed room is unreachable: a large finite cost") {
     const LegCost leg = eval.cost(a, FlatPose{Vec3d(8, 4.7, 1.5), 0.0});

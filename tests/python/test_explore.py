@@ -230,6 +230,8 @@ def test_exploration_config_defaults_and_shortcuts(room):
     assert config.planner.viewpoint.camera.max_range_m == 3.0
     # Revisit rounds are off by default, as `vdbmap explore --revisit-rounds`.
     assert config.planner.revisit_rounds == int(cli_default("explore", "--revisit-rounds")) == 0
+    # Departures away from the velocity cost FUEL's 1.5 s per radian, as `vdbmap explore --w-dir`.
+    assert config.planner.cost.w_dir == float(cli_default("explore", "--w-dir")) == 1.5
     # The final sweep over small clusters is on by default, as `vdbmap explore --final-min-cluster-size`.
     assert config.planner.final_min_cluster_size == int(cli_default("explore", "--final-min-cluster-size")) == 30
     # ... visiting each pocket left when it begins once, as `vdbmap explore --final-sweep once`.

@@ -144,6 +144,8 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --min-cluster-size 0 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --revisit-rounds -1 -o " + (dir / "x").string(), out) != 0);
   CHECK(slurp(out).find("--revisit-rounds") != std::string::npos);
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --w-dir -1 -o " + (dir / "x").string(), out) != 0);
+  CHECK(slurp(out).find("--w-dir") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --alc maybe -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --budgets sometimes -o " + (dir / "x").string(), out) != 0);
   CHECK(slurp(out).find("--budgets") != std::string::npos);

@@ -28,7 +28,10 @@ namespace vdbmap::planner {
 struct CostConfig {
   double v_max_m_s = 2.0;            ///< (0, 100]
   double yaw_rate_max_rad_s = 0.9;   ///< (0, 100]
-  double w_dir = 1.5;                ///< FUEL's w_dir, seconds per radian; [0, 1e3]
+  /// Seconds per radian of departure away from the current velocity (FUEL's w_dir and value).
+  /// Twice this turned the vehicle back less often and reached 0.95 coverage sooner at s1, but
+  /// closed fewer loops at s3 with ALC (docs/exploration.md, stop 55); [0, 1e3]
+  double w_dir = 1.5;
   double unreachable_cost_s = 1000.0;  ///< cost of a pair without a path; (0, 1e9]
   void validate() const;
 };
