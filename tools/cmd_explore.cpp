@@ -33,6 +33,7 @@ struct ExploreOptions {
   std::string alc = "off";
   std::string safety = planner::SafetyConfig{}.enabled ? "on" : "off";
   double safety_window_s = planner::RecentFramesConfig{}.window_s;
+  double safety_max_window_s = planner::SafetyConfig{}.max_window_s;
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
@@ -89,6 +90,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.cost.w_dir = o.w_dir;
   config.planner.safety.enabled = o.safety == "on";
   config.planner.safety.recent.window_s = o.safety_window_s;
+  config.planner.safety.max_window_s = o.safety_max_window_s;
   config.planner.safety.seen_free_is_free = o.safety_seen_free == "on";
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
@@ -114,7 +116,8 @@ void runExplore(const ExploreOptions& o) {
            : std::string()) +
       " --safety " + o.safety +
       (config.planner.safety.enabled
-           ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-seen-free " + o.safety_seen_free
+           ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-max-window-s " +
+                 std::to_string(o.safety_max_window_s) + " --safety-seen-free " + o.safety_seen_free
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -198,8 +201,13 @@ const Registration registration("explore", [](CLI::App& app) {
                   "and looks before flying into space they have not seen free")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--safety-window-s", o->safety_window_s,
-                  "The safety layer trusts the depth frames of the last this many seconds (drift within them is "
-                  "small)")
+                  "The safety layer trusts the depth frames of at least the last this many seconds; longer, up to "
+                  "--safety-max-window-s, while the drift level's noise keeps them within 0.2 m of where they "
+                  "are (s1: the longest; s2: about 29 s; s3 and s4: this)")
+      ->check(CLI::Range(0.1, 600.0));
+  sub->add_option("--safety-max-window-s", o->safety_max_window_s,
+                  "The longest the safety layer's window may widen to under little drift (older frames are kept "
+                  "two a second); at most --safety-window-s: no widening")
       ->check(CLI::Range(0.1, 600.0));
   sub->add_option("--safety-seen-free", o->safety_seen_free,
                   "With the safety layer, paths also read free the space the recent frames saw free, whatever the "

@@ -193,6 +193,9 @@ void bindResult(py::module_& m) {
 }
 
 void bindRuns(py::module_& m) {
+  m.def("odometry_drift_of", &odometryDriftOf, py::arg("drift"),
+        "The vdbmap.planner.OdometryDrift a DriftConfig makes (random walks of sqrt(sigma2 / rate_hz) per "
+        "sqrt(s)), as `vdbmap explore` declares it to the safety layer (planner.safety.odometry).");
   m.def(
       "run_exploration",
       [](const World& world, const ExplorationConfig& config, std::optional<std::filesystem::path> log_dir,

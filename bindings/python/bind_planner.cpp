@@ -184,11 +184,33 @@ void bindExplorationParams(py::module_& m) {
                                     "the exploration manager).");
   addStructProtocol(rf);
   rf.def_readwrite("window_s", &RecentFramesConfig::window_s, "frames older than this are forgotten; (0, 600]")
+      .def_readwrite("dense_s", &RecentFramesConfig::dense_s,
+                     "frames this recent are all kept, older ones one per sparse_period_s; (0, 600]")
+      .def_readwrite("sparse_period_s", &RecentFramesConfig::sparse_period_s,
+                     "spacing of the frames kept older than dense_s; [0, 60]")
       .def_readwrite("pool_px", &RecentFramesConfig::pool_px, "side of the pixel blocks depth is pooled over; [1, 64]")
       .def_readwrite("max_range_m", &RecentFramesConfig::max_range_m, "trusted range; (0, 1000]")
       .def_readwrite("free_margin_m", &RecentFramesConfig::free_margin_m,
                      "seen free: the surface behind lies at least this much farther; [0, 10]")
       .def("validate", &RecentFramesConfig::validate, "Raises ValueError naming the field and its allowed range.");
+
+  py::class_<OdometryDrift> od(m, "OdometryDrift",
+                               "What the odometry is expected to drift (a VIO's noise spec): random walks and "
+                               "biases in position per axis and in yaw.");
+  addStructProtocol(od);
+  od.def_readwrite("position_m_per_sqrt_s", &OdometryDrift::position_m_per_sqrt_s,
+                   "position random walk per axis (one sigma after 1 s); [0, 10]")
+      .def_readwrite("position_bias_m_per_s", &OdometryDrift::position_bias_m_per_s,
+                     "velocity bias per axis; [-10, 10]")
+      .def_readwrite("yaw_rad_per_sqrt_s", &OdometryDrift::yaw_rad_per_sqrt_s,
+                     "yaw random walk (one sigma after 1 s); [0, 10]")
+      .def_readwrite("yaw_bias_rad_per_s", &OdometryDrift::yaw_bias_rad_per_s, "yaw-rate bias; [-1, 1]")
+      .def("displacement_m", &OdometryDrift::displacement_m, py::arg("t_s"), py::arg("lever_m"),
+           "expected displacement after t_s of a point lever_m from the camera")
+      .def("longest_within", &OdometryDrift::longestWithin, py::arg("tolerance_m"), py::arg("lever_m"),
+           py::arg("min_s"), py::arg("max_s"),
+           "the longest time in [min_s, max_s] whose displacement stays within tolerance_m")
+      .def("validate", &OdometryDrift::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<SafetyConfig> sc(m, "SafetyConfig",
                               "The drift-free safety layer near the vehicle: recent depth frames as obstacles, "
@@ -198,6 +220,15 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("face_travel", &SafetyConfig::face_travel,
                      "trajectories face the direction of travel while moving")
       .def_readwrite("recent", &SafetyConfig::recent, "RecentFramesConfig")
+      .def_readwrite("odometry", &SafetyConfig::odometry,
+                     "OdometryDrift or None (unknown): with it the recent frames are trusted for as long as its "
+                     "drift allows, up to max_window_s (assign a whole OdometryDrift: reading gives a copy)")
+      .def_readwrite("max_window_s", &SafetyConfig::max_window_s,
+                     "the longest the odometry's drift may widen recent.window_s to; (0, 600]")
+      .def_readwrite("drift_tolerance_m", &SafetyConfig::drift_tolerance_m,
+                     "the drift a recent frame may carry at drift_lever_m from the camera; [0, 10]")
+      .def_readwrite("drift_lever_m", &SafetyConfig::drift_lever_m, "[0, 100]")
+      .def("window_s", &SafetyConfig::window_s, "how long the recent frames are trusted")
       .def_readwrite("clearance_m", &SafetyConfig::clearance_m,
                      "the rest of the trajectory keeps this from recent surface voxels; [0, 5]")
       .def_readwrite("look_margin_m", &SafetyConfig::look_margin_m,

@@ -40,6 +40,8 @@ ExplorationManagerConfig derivedParams(ExplorationManagerConfig p) {
   p.escape.trajectory = p.trajectory;
   p.safety.recent.max_range_m = p.viewpoint.camera.max_range_m;
   p.safety.recent.free_margin_m = p.safety.clearance_m;
+  p.safety.recent.dense_s = p.safety.recent.window_s;
+  p.safety.recent.window_s = p.safety.window_s();
   if (p.alc_enabled) p.alc.unreachable_cost_s = p.cost.unreachable_cost_s;  // ALC's sums skip the legs M_frt marks so
   return p;
 }
@@ -149,6 +151,16 @@ void SafetyConfig::validate() const {
   check.inRange("look_margin_m", look_margin_m, 0.0, 10.0);
   check.inRange("clearance_m", clearance_m, 0.0, 5.0);
   if (max_chained_looks < 1 || max_chained_looks > 100) check.fail("max_chained_looks", "[1, 100]", max_chained_looks);
+  if (odometry) odometry->validate();
+  if (!(max_window_s > 0.0 && max_window_s <= 600.0)) check.fail("max_window_s", "(0, 600]", max_window_s);
+  check.inRange("drift_tolerance_m", drift_tolerance_m, 0.0, 10.0);
+  check.inRange("drift_lever_m", drift_lever_m, 0.0, 100.0);
+}
+
+double SafetyConfig::window_s() const {
+  validate();
+  if (!odometry || max_window_s <= recent.window_s) return recent.window_s;
+  return odometry->longestWithin(drift_tolerance_m, drift_lever_m, recent.window_s, max_window_s);
 }
 
 void ExplorationManagerConfig::validate() const {

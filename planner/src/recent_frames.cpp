@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 
 namespace vdbmap::planner {
@@ -15,6 +16,8 @@ void RecentFramesConfig::validate() const {
   if (pool_px < 1 || pool_px > 64) check.fail("pool_px", "[1, 64]", pool_px);
   if (!(max_range_m > 0.0 && max_range_m <= 1000.0)) check.fail("max_range_m", "(0, 1000]", max_range_m);
   check.inRange("free_margin_m", free_margin_m, 0.0, 10.0);
+  if (!(dense_s > 0.0 && dense_s <= 600.0)) check.fail("dense_s", "(0, 600]", dense_s);
+  check.inRange("sparse_period_s", sparse_period_s, 0.0, 60.0);
 }
 
 RecentFrames::RecentFrames(const RecentFramesConfig& config) : config_(config) { config_.validate(); }
@@ -30,6 +33,18 @@ void RecentFrames::add(double t_s, const DepthImage& depth, const CameraIntrinsi
   while (!frames_.empty() && frames_.front().t_s < t_s - config_.window_s) {
     uncount(frames_.front());
     frames_.pop_front();
+  }
+  // Older than dense_s: each frame kept is at least sparse_period_s after the one kept before it
+  // (walked from the oldest, so a frame kept once stays kept).
+  double kept_t = -std::numeric_limits<double>::infinity();
+  for (auto it = frames_.begin(); it != frames_.end() && it->t_s < t_s - config_.dense_s;) {
+    if (it->t_s >= kept_t + config_.sparse_period_s) {
+      kept_t = it->t_s;
+      ++it;
+    } else {
+      uncount(*it);
+      it = frames_.erase(it);
+    }
   }
 
   // Pool: block (bu, bv) covers pixels [bu p, bu p + p) x [bv p, bv p + p); its centre ray goes
@@ -77,6 +92,13 @@ void RecentFrames::shift(const Eigen::Isometry3d& shift) {
     f.T_S_W = f.T_W_S.inverse();
     if (voxel_size_m_ > 0.0) count(f);
   }
+}
+
+std::vector<double> RecentFrames::frameTimes() const {
+  std::vector<double> times;
+  times.reserve(frames_.size());
+  for (const Frame& f : frames_) times.push_back(f.t_s);
+  return times;
 }
 
 void RecentFrames::clear() {

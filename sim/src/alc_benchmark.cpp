@@ -96,6 +96,7 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
         ec.planner.alc = config.alc;
         ec.planner.alc.tour.seed = seed;
         ec.planner.safety = config.safety;
+        if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
         const ExplorationRunConfig ro =
             internal::benchmarkRunConfig(config.keep_runs, world_file,
                                          "vdbmap bench alc: world " + w.name + ", arm " + std::string(arm) + ", seed " +

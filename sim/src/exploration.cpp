@@ -348,10 +348,21 @@ void setReintegrationBudget(ReintegrationConfig& reintegration, BudgetMode mode)
   reintegration.budget_frames = counted ? kCountedReintegrationFrames : defaults.budget_frames;
 }
 
+planner::OdometryDrift odometryDriftOf(const DriftConfig& drift) {
+  drift.validate();
+  planner::OdometryDrift o;
+  o.position_m_per_sqrt_s = std::sqrt(drift.sigma2_xyz_m2ps2 / drift.rate_hz);
+  o.position_bias_m_per_s = drift.mu_xyz_mps;
+  o.yaw_rad_per_sqrt_s = std::sqrt(drift.sigma2_yaw_rad2ps2 / drift.rate_hz);
+  o.yaw_bias_rad_per_s = drift.mu_yaw_radps;
+  return o;
+}
+
 ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,
                                        double voxel_size_m) {
   ExplorationConfig config;
   config.simulator.drift = DriftConfig::preset(drift_level, seed);
+  config.planner.safety.odometry = odometryDriftOf(config.simulator.drift);
   config.mapper.tsdf.voxel_size_m = voxel_size_m;
   config.planner.path.seed = seed;
   config.planner.cost_path.seed = seed;
@@ -426,6 +437,8 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["final_sweep_clusters"] = r.planner_counters.final_sweep_clusters;
   j["safety_layer"] = c.planner.safety.enabled;
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
+  // How long the layer trusted its recent frames (widened from recent.window_s by the declared drift).
+  j["safety_window_s"] = c.planner.safety.enabled ? nlohmann::json(c.planner.safety.window_s()) : nlohmann::json();
   j["emergency_stops"] = r.planner_counters.emergency_stops;
   j["look_stops"] = r.planner_counters.look_stops;
   j["map_update_ms_median"] = r.map_update_ms_median;

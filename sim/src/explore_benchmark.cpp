@@ -94,6 +94,7 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
       ec.planner.alc_enabled = config.alc;
       ec.planner.alc.tour.seed = seed;
       ec.planner.safety = config.safety;
+      if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
       const ExplorationRunConfig ro =
           internal::benchmarkRunConfig(config.keep_runs, world_file,
                                        "vdbmap bench explore: world " + w.name + ", seed " + std::to_string(seed) +

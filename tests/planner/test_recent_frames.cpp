@@ -11,6 +11,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <set>
@@ -75,6 +76,12 @@ TEST_CASE("RecentFramesConfig::validate names the field", "[planner][safety]") {
   c = {};
   c.free_margin_m = -1.0;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.free_margin_m"));
+  c = {};
+  c.dense_s = 0.0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.dense_s"));
+  c = {};
+  c.sparse_period_s = -0.5;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.sparse_period_s"));
 }
 
 TEST_CASE("A wall 3 m ahead is seen free up to free_margin_m before it, never behind it or outside the view",
@@ -149,6 +156,50 @@ TEST_CASE("Frames older than the window are forgotten, with their surface voxels
   recent.clear();
   CHECK(recent.empty());
   CHECK(recent.surfaceVoxels(0.1).empty());
+}
+
+TEST_CASE("A long window keeps every frame of the last dense_s and older ones sparse_period_s apart, counted exactly",
+          "[planner][safety]") {
+  const CameraIntrinsics K = quarterCamera();
+  RecentFramesConfig c;
+  c.window_s = 20.0;
+  c.dense_s = 4.0;
+  c.sparse_period_s = 0.5;
+  RecentFrames recent(c);
+  const double period_s = 1.0 / 15.0;  // the simulator's camera rate
+  std::vector<DepthImage> images;
+  std::vector<Pose3d> poses;
+  for (int f = 0; f < 450; ++f) {  // 30 s: the window is full and has moved on
+    images.push_back(randomDepth(K, std::uint32_t(f % 7)));
+    poses.push_back(lookingPose(Vec3d(0.02 * f, 0.0, 1.0), 0.01 * f));
+    recent.add(f * period_s, images.back(), K, poses.back());
+    if (f == 100) recent.surfaceVoxels(0.1);  // counted from here on, incrementally
+  }
+  const double now = 449 * period_s;
+  const std::vector<double> kept = recent.frameTimes();
+  REQUIRE(kept.size() == recent.size());
+  REQUIRE(std::is_sorted(kept.begin(), kept.end()));
+  CHECK(kept.front() >= now - c.window_s);
+  std::size_t dense = 0;
+  for (int f = 0; f < 450; ++f)  // every frame of the last dense_s is kept
+    if (f * period_s >= now - c.dense_s) {
+      ++dense;
+      CHECK(std::find(kept.begin(), kept.end(), f * period_s) != kept.end());
+    }
+  for (std::size_t i = 1; i < kept.size() && kept[i] < now - c.dense_s; ++i) {
+    CHECK(kept[i] - kept[i - 1] >= c.sparse_period_s);            // thinned
+    CHECK(kept[i] - kept[i - 1] < c.sparse_period_s + period_s);  // and no more than that
+  }
+  CHECK(kept.size() - dense <= std::size_t((c.window_s - c.dense_s) / c.sparse_period_s) + 1);
+  // The surface voxels are what the kept frames alone make: every dropped frame was taken out.
+  RecentFramesConfig all = c;
+  all.window_s = all.dense_s = 600.0;
+  RecentFrames reference(all);
+  for (int f = 0; f < 450; ++f)
+    if (std::find(kept.begin(), kept.end(), f * period_s) != kept.end())
+      reference.add(f * period_s, images[std::size_t(f)], K, poses[std::size_t(f)]);
+  REQUIRE(reference.size() == kept.size());
+  CHECK(recent.surfaceVoxels(0.1) == reference.surfaceVoxels(0.1));
 }
 
 TEST_CASE("Surface voxels hold exactly each block's nearest point within range, and move with shift()",

@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 using namespace vdbmap;
 using namespace vdbmap::planner;
@@ -148,6 +149,46 @@ TEST_CASE("SafetyConfig::validate names the field", "[planner][safety]") {
   c = {};
   c.recent.pool_px = 100;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.pool_px"));
+  c = {};
+  c.max_window_s = 0.0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.max_window_s"));
+  c = {};
+  c.drift_tolerance_m = -0.1;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.drift_tolerance_m"));
+  c = {};
+  c.drift_lever_m = 1e3;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.drift_lever_m"));
+  c = {};
+  c.odometry = OdometryDrift{};
+  c.odometry->yaw_rad_per_sqrt_s = -1.0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("OdometryDrift.yaw_rad_per_sqrt_s"));
+}
+
+TEST_CASE("The recent frames are trusted for as long as the declared drift allows, never less than recent.window_s",
+          "[planner][safety]") {
+  ExplorationManagerConfig p;
+  p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5));
+  p.safety.enabled = true;
+  const auto windowOf = [&](const std::optional<OdometryDrift>& odometry) {
+    p.safety.odometry = odometry;
+    const ExplorationManager m(p, planner::test::at(Vec3d(1.0, 1.3, 1.2), 0.0), 0.0);
+    CHECK(m.recentFrames()->config().dense_s == p.safety.recent.window_s);  // all frames of the base window kept
+    return m.recentFrames()->config().window_s;
+  };
+  CHECK(windowOf(std::nullopt) == 10.0);  // unknown drift: the base window
+  CHECK(p.safety.window_s() == 10.0);
+  CHECK(windowOf(OdometryDrift{}) == p.safety.max_window_s);  // none: the longest
+  OdometryDrift walk;  // 0.01 m and 0.01 rad per sqrt(s): at 2 m, 0.0373 m per sqrt(s)
+  walk.position_m_per_sqrt_s = 0.01;
+  walk.yaw_rad_per_sqrt_s = 0.01;
+  const double expected = std::pow(0.2 / (std::sqrt(3.0) * 0.01 + 2.0 * 0.01), 2);
+  CHECK(windowOf(walk) == Approx(expected));
+  CHECK(expected > 10.0);
+  CHECK(expected < 60.0);
+  walk.position_m_per_sqrt_s = 0.05;  // drift beyond the tolerance within the base window: the base window
+  CHECK(windowOf(walk) == 10.0);
+  p.safety.max_window_s = 5.0;  // shorter than the base window: no widening
+  CHECK(windowOf(OdometryDrift{}) == 10.0);
 }
 
 TEST_CASE("The scene is what the test says: the map's gap lies in the true wall, and the true gap is open",

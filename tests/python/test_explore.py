@@ -259,6 +259,15 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     assert not config.planner.safety.enabled  # off by default, as `vdbmap explore --safety`
     assert cli_default("explore", "--safety") == "off"
     assert cli_default("explore", "--safety-window-s") == str(int(vdbmap.planner.RecentFramesConfig().window_s))
+    assert cli_default("explore", "--safety-max-window-s") == str(int(vdbmap.planner.SafetyConfig().max_window_s))
+    # No drift declared: the base window; s1's drift (none) declared: the longest; s3's: the base.
+    safety = vdbmap.planner.SafetyConfig()
+    assert safety.odometry is None and safety.window_s() == safety.recent.window_s
+    safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s1"))
+    assert safety.window_s() == safety.max_window_s
+    safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s3"))
+    assert safety.odometry.position_m_per_sqrt_s == pytest.approx((5e-2 / 200) ** 0.5)
+    assert safety.window_s() == safety.recent.window_s
     config.planner.safety.enabled = True
     config.planner.safety.recent.window_s = 5.0
     config.planner.safety.recent.pool_px = 0

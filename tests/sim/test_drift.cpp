@@ -1,7 +1,8 @@
-// Odometry drift (sim/drift.hpp): the paper's Table I model at 200 Hz.
+// Odometry drift (sim/drift.hpp): the paper's Table I model at 200 Hz, and the drift it declares to the planner.
 #include <catch2/catch.hpp>
 
 #include "vdbmap/sim/drift.hpp"
+#include "vdbmap/sim/exploration.hpp"
 #include "vdbmap/sim/trajectory.hpp"
 
 #include <cmath>
@@ -109,4 +110,45 @@ TEST_CASE("drift is seeded: the same seed replays the same odometry, another see
   CHECK((run(3).position_W - run(4).position_W).norm() > 1e-4);
   DriftingOdometry odom(DriftConfig::preset("s2"), FlatPose{}, 1.0);
   CHECK_THROWS_AS(odom.advance(0.5, FlatPose{}), std::invalid_argument);
+}
+
+TEST_CASE("the drift declared to the planner is the random walk the odometry makes", "[sim][drift]") {
+  // 400 vehicles at rest for 10 s at s3: the position error per axis and the yaw error spread as
+  // odometryDriftOf's random walks times sqrt(10 s), within 5 standard errors of a sample
+  // standard deviation (sigma / sqrt(2 n)).
+  const DriftConfig c = DriftConfig::preset("s3", 1);
+  const planner::OdometryDrift declared = odometryDriftOf(c);
+  CHECK(declared.position_bias_m_per_s == c.mu_xyz_mps);
+  CHECK(declared.yaw_bias_rad_per_s == c.mu_yaw_radps);
+  const int n = 400;
+  const double T = 10.0;
+  double pos2 = 0.0, yaw_sum = 0.0, yaw2 = 0.0, lever2 = 0.0;
+  for (int seed = 1; seed <= n; ++seed) {
+    DriftConfig ci = c;
+    ci.seed = std::uint64_t(seed);
+    DriftingOdometry odom(ci, FlatPose{});
+    const FlatPose p = odom.advance(T, FlatPose{});
+    pos2 += p.position_W.squaredNorm();
+    yaw_sum += p.yaw_rad;
+    yaw2 += p.yaw_rad * p.yaw_rad;
+    // Where the odometry puts a point 2 m ahead of the vehicle (facing +x).
+    const Vec3d ahead = p.position_W + Eigen::AngleAxisd(p.yaw_rad, Vec3d::UnitZ()) * Vec3d(2.0, 0.0, 0.0);
+    lever2 += (ahead - Vec3d(2.0, 0.0, 0.0)).squaredNorm();
+  }
+  const double pos_sd = std::sqrt(pos2 / (3.0 * n));  // pooled over the three axes
+  const double yaw_mean = yaw_sum / n;
+  const double yaw_sd = std::sqrt((yaw2 - n * yaw_mean * yaw_mean) / (n - 1));
+  const double expected_pos_sd = declared.position_m_per_sqrt_s * std::sqrt(T);
+  const double expected_yaw_sd = declared.yaw_rad_per_sqrt_s * std::sqrt(T);
+  CHECK(std::abs(pos_sd - expected_pos_sd) < 5.0 * expected_pos_sd / std::sqrt(2.0 * 3 * n));
+  CHECK(std::abs(yaw_sd - expected_yaw_sd) < 5.0 * expected_yaw_sd / std::sqrt(2.0 * n));
+  // The planner's displacement adds the three errors (position walk, yaw walk, yaw bias): a bound.
+  // The spread of the point 2 m ahead adds them in quadrature, so it lies between the bound /
+  // sqrt(3) and the bound.
+  const double rms_ahead = std::sqrt(lever2 / n);
+  CHECK(rms_ahead < declared.displacement_m(T, 2.0));
+  CHECK(rms_ahead > declared.displacement_m(T, 2.0) / std::sqrt(3.0));
+  // s1 declares no drift at all.
+  const planner::OdometryDrift none = odometryDriftOf(DriftConfig::preset("s1", 1));
+  CHECK(none.displacement_m(600.0, 2.0) == 0.0);
 }

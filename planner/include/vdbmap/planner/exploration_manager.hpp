@@ -40,6 +40,7 @@
 #include "vdbmap/planner/escape_planner.hpp"
 #include "vdbmap/planner/frontier.hpp"
 #include "vdbmap/planner/local_refinement.hpp"
+#include "vdbmap/planner/odometry_drift.hpp"
 #include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
 #include "vdbmap/planner/recent_obstacle_map.hpp"
@@ -85,8 +86,20 @@ struct SafetyConfig {
   /// over the motion, which turns less).
   bool face_travel = true;
   /// The window and pooling of the recent frames; max_range_m and free_margin_m are set by the
-  /// manager (the viewpoint camera's max range, clearance_m).
+  /// manager (the viewpoint camera's max range, clearance_m), and so are window_s (to window_s())
+  /// and dense_s (to the window_s given here).
   RecentFramesConfig recent;
+  /// The odometry's expected drift, when known (a VIO's noise spec; the simulator declares its
+  /// drift level's). With it the recent frames are trusted for as long as that drift allows, up
+  /// to max_window_s (window_s()); without it, for recent.window_s.
+  std::optional<OdometryDrift> odometry;
+  /// The longest window the odometry's drift may widen recent.window_s to; (0, 600]
+  double max_window_s = 60.0;
+  /// The drift (one sigma) a recent frame may carry relative to the vehicle, at a point
+  /// drift_lever_m from the camera. 0.2 m at 2 m is what the 10 s window bore at s3 and s4
+  /// without collision (those levels predict 0.21 and 0.27 m; docs/exploration.md); [0, 10]
+  double drift_tolerance_m = 0.2;
+  double drift_lever_m = 2.0;  ///< [0, 100]
   /// What the rest of the trajectory keeps from recent surface voxels' centres (the vehicle's
   /// radius, plus a margin for voxels: the simulator's vehicle is 0.2 m); also how far in front of
   /// a surface a point must be to be seen free; [0, 5]
@@ -103,6 +116,10 @@ struct SafetyConfig {
   bool seen_free_is_free = false;
 
   void validate() const;
+  /// How long the recent frames are trusted: recent.window_s, widened with a known odometry (when
+  /// max_window_s is longer) to OdometryDrift::longestWithin(drift_tolerance_m, drift_lever_m,
+  /// recent.window_s, max_window_s). Throws std::invalid_argument for an invalid config.
+  double window_s() const;
 };
 
 /// Which small clusters the final sweep visits (ExplorationManagerConfig::final_sweep). A pocket

@@ -227,9 +227,15 @@ void setBudgets(ExplorationConfig& config, BudgetMode mode);
 /// kCountedReintegrationFrames frames (counted); e.g. for `bench drift --budgets counted`.
 void setReintegrationBudget(ReintegrationConfig& reintegration, BudgetMode mode);
 
+/// The odometry drift that `drift` makes (drift.hpp: white noise integrated at rate_hz, so a
+/// random walk of sqrt(sigma2 / rate_hz) per sqrt(s)), declared to the planner as a robot's VIO
+/// declares its noise: SafetyConfig::odometry.
+planner::OdometryDrift odometryDriftOf(const DriftConfig& drift);
+
 /// `vdbmap explore`'s set-up of a world: drift `drift_level` (Table I) seeded with `seed`, which
-/// also seeds the planner's path sampling and tours; voxel size; the default box and start (yaw
-/// 0); counted budgets (setBudgets). Throws std::invalid_argument for an unknown level or no clear start.
+/// also seeds the planner's path sampling and tours, and declared to its safety layer
+/// (odometryDriftOf); voxel size; the default box and start (yaw 0); counted budgets
+/// (setBudgets). Throws std::invalid_argument for an unknown level or no clear start.
 ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,
                                        double voxel_size_m);
 

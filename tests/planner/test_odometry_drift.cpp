@@ -1,0 +1,80 @@
+// OdometryDrift: the displacement a declared odometry noise predicts, and the longest time it
+// stays within a tolerance, against a brute-force scan of the displacement.
+#include "vdbmap/planner/odometry_drift.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+using namespace vdbmap::planner;
+
+namespace {
+/// Brute force of longestWithin: the last t on a grid of step_s in [min_s, max_s] within the tolerance.
+double scanLongestWithin(const OdometryDrift& d, double tol, double lever, double min_s, double max_s, double step_s) {
+  double best = min_s;
+  for (double t = min_s; t <= max_s + 1e-12; t += step_s)
+    if (d.displacement_m(t, lever) <= tol) best = t;
+  return best;
+}
+}  // namespace
+
+TEST_CASE("OdometryDrift::validate names the field", "[planner][safety]") {
+  OdometryDrift d;
+  CHECK_NOTHROW(d.validate());
+  d.position_m_per_sqrt_s = -0.1;
+  CHECK_THROWS_WITH(d.validate(), Catch::Contains("OdometryDrift.position_m_per_sqrt_s"));
+  d = {};
+  d.yaw_rad_per_sqrt_s = NAN;
+  CHECK_THROWS_WITH(d.validate(), Catch::Contains("OdometryDrift.yaw_rad_per_sqrt_s"));
+  d = {};
+  d.yaw_bias_rad_per_s = 2.0;
+  CHECK_THROWS_WITH(d.validate(), Catch::Contains("OdometryDrift.yaw_bias_rad_per_s"));
+  d = {};
+  d.position_bias_m_per_s = -11.0;
+  CHECK_THROWS_WITH(d.validate(), Catch::Contains("OdometryDrift.position_bias_m_per_s"));
+  CHECK_THROWS(d.displacement_m(-1.0, 1.0));
+  CHECK_THROWS(OdometryDrift{}.longestWithin(0.2, 2.0, 10.0, 5.0));
+}
+
+TEST_CASE("The displacement is the position walk over three axes plus the arc of the yaw error", "[planner][safety]") {
+  OdometryDrift d;
+  d.position_m_per_sqrt_s = 0.01;
+  d.yaw_rad_per_sqrt_s = 0.02;
+  // Random walks grow with sqrt(t): 4 s doubles the 1 s displacement.
+  CHECK(d.displacement_m(1.0, 2.0) == Approx(std::sqrt(3.0) * 0.01 + 2.0 * 0.02));
+  CHECK(d.displacement_m(4.0, 2.0) == Approx(2.0 * d.displacement_m(1.0, 2.0)));
+  CHECK(d.displacement_m(4.0, 0.0) == Approx(2.0 * std::sqrt(3.0) * 0.01));  // at the camera: position only
+  // Biases grow with t, whatever their sign.
+  d = {};
+  d.yaw_bias_rad_per_s = -0.001;
+  d.position_bias_m_per_s = 0.002;
+  CHECK(d.displacement_m(10.0, 3.0) == Approx(std::sqrt(3.0) * 0.02 + 3.0 * 0.01));
+  CHECK(OdometryDrift{}.displacement_m(100.0, 2.0) == 0.0);
+}
+
+TEST_CASE("longestWithin equals a brute-force scan, and is clamped to [min_s, max_s]", "[planner][safety]") {
+  // No drift: the longest window. Drift already too large at min_s: the shortest.
+  CHECK(OdometryDrift{}.longestWithin(0.2, 2.0, 10.0, 60.0) == 60.0);
+  OdometryDrift strong;
+  strong.position_m_per_sqrt_s = 0.1;
+  CHECK(strong.longestWithin(0.2, 2.0, 10.0, 60.0) == 10.0);
+  CHECK(strong.longestWithin(0.0, 2.0, 0.0, 60.0) == 0.0);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> walk(0.0, 0.03), bias(-0.004, 0.004), tol(0.05, 0.4), lever(0.0, 4.0);
+  for (int i = 0; i < 200; ++i) {
+    OdometryDrift d;
+    d.position_m_per_sqrt_s = walk(rng);
+    d.yaw_rad_per_sqrt_s = walk(rng);
+    d.position_bias_m_per_s = i % 3 == 0 ? bias(rng) : 0.0;
+    d.yaw_bias_rad_per_s = i % 2 == 0 ? bias(rng) : 0.0;
+    const double t = tol(rng), l = lever(rng);
+    const double step_s = 0.01;
+    const double got = d.longestWithin(t, l, 1.0, 120.0);
+    INFO("case " << i);
+    CHECK(got >= 1.0);
+    CHECK(got <= 120.0);
+    CHECK(std::abs(got - scanLongestWithin(d, t, l, 1.0, 120.0, step_s)) <= step_s);
+    if (got > 1.0 && got < 120.0) CHECK(d.displacement_m(got, l) == Approx(t).epsilon(1e-9));
+  }
+}
