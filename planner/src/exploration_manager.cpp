@@ -157,6 +157,11 @@ void SafetyConfig::validate() const {
   check.inRange("drift_lever_m", drift_lever_m, 0.0, 100.0);
 }
 
+double SafetyConfig::trustedAge_s() const {
+  validate();
+  return odometry ? odometry->longestWithin(drift_tolerance_m, drift_lever_m, 0.0, 1e9) : 0.0;
+}
+
 double SafetyConfig::window_s() const {
   validate();
   if (!odometry || max_window_s <= recent.window_s) return recent.window_s;
@@ -217,6 +222,7 @@ ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, c
   last_t_ = t_s;
   if (params_.alc_enabled) alc_ = std::make_unique<ActiveLoopClosure>(params_.alc, t_s);
   if (params_.safety.enabled) recent_ = std::make_unique<RecentFrames>(params_.safety.recent);
+  map_trusted_until_s_ = t_s + params_.safety.trustedAge_s();
 }
 
 ExplorationManager::~ExplorationManager() = default;
@@ -390,7 +396,12 @@ bool ExplorationManager::remainingTrajectoryClear(const MapQuery& map, double t_
   }
 }
 
-std::optional<Vec3d> ExplorationManager::unseenWayAhead(const VehicleState& vehicle, double voxel_size_m,
+bool ExplorationManager::seenFree(MapProbe& map, const Vec3d& p_W) const {
+  if (recent_->seesFree(p_W)) return true;
+  return last_t_ <= map_trusted_until_s_ && map.isClear(p_W, params_.safety.clearance_m);
+}
+
+std::optional<Vec3d> ExplorationManager::unseenWayAhead(const MapQuery& map, const VehicleState& vehicle,
                                                         double t_s) const {
   const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
   // Nothing to check while the vehicle is at rest for a while yet (turning to face the way first).
@@ -398,19 +409,19 @@ std::optional<Vec3d> ExplorationManager::unseenWayAhead(const VehicleState& vehi
   if (!recent_ || t_rel >= t_end || t_rel + kSoon_s < trajectory_.motionStart()) return std::nullopt;
   const double v = vehicle.velocity_W.norm();
   const double way_m = v * v / (2.0 * params_.trajectory.a_max_m_s2) + params_.safety.look_margin_m;
-  if (const std::optional<UnseenPoint> u =
-          firstUnseen(trajectory_, shift_, t_rel, way_m, vehicle.position_W, voxel_size_m))
+  if (const std::optional<UnseenPoint> u = firstUnseen(map, trajectory_, shift_, t_rel, way_m, vehicle.position_W))
     return u->p_W;
   return std::nullopt;
 }
 
-std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(const Trajectory& trajectory,
+std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(const MapQuery& map,
+                                                                               const Trajectory& trajectory,
                                                                                const Eigen::Isometry3d& shift,
                                                                                double t_from, double way_m,
-                                                                               const Vec3d& origin_W,
-                                                                               double voxel_size_m) const {
+                                                                               const Vec3d& origin_W) const {
   const double t_end = trajectory.motionDuration();
-  const double dt = riskCheckStep_s(voxel_size_m);
+  const double dt = riskCheckStep_s(map.voxelSize());
+  MapProbe probe(map);
   const double tan_fov_y = params_.viewpoint.camera.tan_half_fov_y;
   Vec3d prev = shift * trajectory.sample(t_from).position_W;
   double along_m = 0.0;
@@ -420,13 +431,13 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     prev = p;
     const Vec3d d = p - origin_W;
     const bool in_view_by_yaw = std::abs(d.z()) <= d.head<2>().norm() * tan_fov_y;
-    if (in_view_by_yaw && !recent_->seesFree(p)) return UnseenPoint{p, along_m};
+    if (in_view_by_yaw && !seenFree(probe, p)) return UnseenPoint{p, along_m};
     if (t >= t_end) break;
   }
   return std::nullopt;
 }
 
-bool ExplorationManager::lookSawWay(double t_s) const {
+bool ExplorationManager::lookSawWay(const MapQuery& map, double t_s) const {
   if (!recent_) return false;
   // Facing the way, not just glimpsing the point: the replan that follows flies on along it.
   const VehicleState now = command(t_s);
@@ -434,7 +445,8 @@ bool ExplorationManager::lookSawWay(double t_s) const {
   const Eigen::Vector2d toward = (look_at - now.position_W).head<2>();
   const bool facing = toward.norm() < 1e-3 || std::abs(wrapAngle(std::atan2(toward.y(), toward.x()) - now.yaw_rad)) <=
                                                   params_.trajectory.start_facing_rad;
-  return facing && recent_->seesFree(look_at);
+  MapProbe probe(map);
+  return facing && seenFree(probe, look_at);
 }
 
 bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const {
@@ -468,7 +480,7 @@ ReplanReason ExplorationManager::replanReason(const MapQuery& map, const RecentO
     if (recent && !remainingTrajectoryClearOfRecent(*recent, t_s)) return ReplanReason::EmergencyStop;
   }
   if (flight_ == FlightKind::Look && !trajectoryDone(t_s))
-    return lookSawWay(t_s) ? ReplanReason::WaySeen : ReplanReason::None;
+    return lookSawWay(map, t_s) ? ReplanReason::WaySeen : ReplanReason::None;
   if (pending_.retry) return ReplanReason::Retry;
   if (alc_ && alc_->detourTimedOut(t_s)) return ReplanReason::LoopDetourTimeout;
   if (book_.target() == 0 && !on_detour && !escaping) return ReplanReason::Start;
@@ -514,7 +526,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   step.reason = replanReason(map, recent_map ? &*recent_map : nullptr, t_s);
   std::optional<Vec3d> unseen;
   if (step.reason == ReplanReason::None && flight_ != FlightKind::Look && !escaping(t_s)) {
-    unseen = unseenWayAhead(vehicle, map.voxelSize(), t_s);
+    unseen = unseenWayAhead(map, vehicle, t_s);
     if (unseen)
       step.reason = ReplanReason::LookAhead;
     else if (trajectoryMoves() && t_s < trajectory_t0_ + trajectory_.motionDuration())
@@ -827,8 +839,8 @@ TrajectoryResult ExplorationManager::planFlight(const std::vector<Vec3d>& path_W
     traj = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);
     const double all = std::numeric_limits<double>::infinity();
     if (traj.ok())
-      if (const std::optional<UnseenPoint> unseen = firstUnseen(traj.trajectory, Eigen::Isometry3d::Identity(), 0.0,
-                                                                all, vehicle.position_W, map.voxelSize())) {
+      if (const std::optional<UnseenPoint> unseen =
+              firstUnseen(map, traj.trajectory, Eigen::Isometry3d::Identity(), 0.0, all, vehicle.position_W)) {
         tc.yaw_along_travel = true;
         tc.free_way_m = std::max(0.0, unseen->along_m - params_.safety.look_margin_m);
       }

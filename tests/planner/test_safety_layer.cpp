@@ -65,10 +65,10 @@ DepthImage renderTrue(const CameraIntrinsics& K, const Pose3d& T_W_S) {
   return depth;
 }
 
-/// The global map: the world moved by kMapOffset, known for x < 6 m, unknown beyond.
-DenseMap driftedMap() {
+/// The global map: the world moved by map_offset (in y), known for x < 6 m, unknown beyond.
+DenseMap driftedMap(const Vec3d& map_offset = kMapOffset) {
   const auto vox = [](double m) { return int(std::lround(m / kVoxel)); };
-  const Coord off(0, vox(kMapOffset.y()), 0);
+  const Coord off(0, vox(map_offset.y()), 0);
   DenseMap map(kVoxel, CoordBBox(Coord(-2), Coord(vox(12) + 2, vox(2.5) + 8, vox(2.5) + 2)));
   map.fill(CoordBBox(Coord(0) + off, Coord(vox(12), vox(2), vox(2.5)) + off), Occupancy::Occupied);
   map.fill(CoordBBox(Coord(1) + off, Coord(vox(6), vox(2) - 1, vox(2.5) - 1) + off), Occupancy::Free);
@@ -87,19 +87,21 @@ struct Flight {
 };
 
 /// Flies the manager for up to max_time_s against the drifted map, rendering the true world.
-Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0) {
+Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0, const Vec3d& map_offset = kMapOffset,
+           const std::optional<OdometryDrift>& odometry = std::nullopt) {
   const CameraIntrinsics K = quarterCamera();
   ExplorationManagerConfig p;
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5));
   p.initial_turn = false;
   p.safety.enabled = safety;
   p.safety.face_travel = face_travel;
+  p.safety.odometry = odometry;
   p.path.seed = 3;
   p.path.time_limit_s = 1.0;  // counted: the same flight on any machine
   p.path.max_iterations = 3000;
   p.cost_path.time_limit_s = 1.0;
   p.cost_path.max_iterations = 300;
-  const DenseMap map = driftedMap();
+  const DenseMap map = driftedMap(map_offset);
   const Vec3d start(1.0, 1.3, 1.2);
   ExplorationManager m(p, planner::test::at(start, M_PI), 0.0);
   Flight f;
@@ -237,4 +239,34 @@ TEST_CASE(
   CHECK(looking.ways_seen >= 1);
   CHECK(looking.counters.looks_resumed >= 1);  // (a way that the wall, once seen, blocks is planned anew)
   CHECK(looking.finished);
+}
+
+TEST_CASE("Without drift declared, the map counts as seen: no look where it holds the way clear", "[planner][safety]") {
+  // The map is the true world. Facing away from its way with the yaw spread over the motion, the
+  // vehicle brakes to look when no drift is declared (and, the way behind the block unseen, gives
+  // its target up); declared without drift, the map is as good as a recent frame, and it flies
+  // through the gap. Both keep clear and finish.
+  const Vec3d exact = Vec3d::Zero();
+  const Flight unknown = fly(/*safety=*/true, /*face_travel=*/false, 60.0, exact);
+  const Flight declared = fly(/*safety=*/true, /*face_travel=*/false, 60.0, exact, OdometryDrift{});
+  INFO("unknown drift: looks " << unknown.counters.look_stops << ", reached x " << unknown.max_x_m
+                               << " m; no drift: looks " << declared.counters.look_stops << ", reached x "
+                               << declared.max_x_m << " m");
+  CHECK(unknown.counters.look_stops >= 1);
+  CHECK(declared.counters.look_stops == 0);
+  CHECK(declared.max_x_m > 3.5);  // through the true gap
+  for (const Flight* f : {&unknown, &declared}) {
+    CHECK(f->min_clearance_m >= kVehicleRadiusM);
+    CHECK(f->finished);
+  }
+  // Drift the map is not trusted with beyond its age: s3's walk trusts it for its first 9.4 s.
+  OdometryDrift s3;
+  s3.position_m_per_sqrt_s = s3.yaw_rad_per_sqrt_s = std::sqrt(5e-2 / 200.0);
+  s3.yaw_bias_rad_per_s = 1e-3;
+  SafetyConfig c;
+  c.odometry = s3;
+  CHECK(c.trustedAge_s() == Approx(9.4).margin(0.05));
+  CHECK(SafetyConfig{}.trustedAge_s() == 0.0);
+  c.odometry = OdometryDrift{};
+  CHECK(c.trustedAge_s() == 1e9);
 }

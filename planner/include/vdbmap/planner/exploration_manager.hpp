@@ -69,7 +69,8 @@ namespace vdbmap::planner {
 ///    replans at once and stops if no plan is found (an emergency stop,
 ///    ReplanReason::EmergencyStop);
 ///  - looks where the vehicle flies: the way ahead within its braking distance plus look_margin_m
-///    must have been seen free by a recent frame, else the vehicle brakes along its trajectory and
+///    must have been seen free by a recent frame (or, while the whole map is younger than
+///    trustedAge_s(), be clear in the map), else the vehicle brakes along its trajectory and
 ///    turns toward that way (ReplanReason::LookAhead, FlightKind::Look). As soon as it faces that
 ///    way and a frame sees it free (ReplanReason::WaySeen), it flies on along the rest of the way
 ///    it was flying; else it replans at rest. Points that
@@ -120,6 +121,10 @@ struct SafetyConfig {
   /// max_window_s is longer) to OdometryDrift::longestWithin(drift_tolerance_m, drift_lever_m,
   /// recent.window_s, max_window_s). Throws std::invalid_argument for an invalid config.
   double window_s() const;
+  /// How old a frame may be and still sit within drift_tolerance_m of where the declared odometry
+  /// says (OdometryDrift::longestWithin up to 1e9 s, i.e. always without drift); 0 when no
+  /// odometry is declared. While the whole map is younger, it counts as seen by recent frames.
+  double trustedAge_s() const;
 };
 
 /// Which small clusters the final sweep visits (ExplorationManagerConfig::final_sweep). A pocket
@@ -455,20 +460,24 @@ class ExplorationManager {
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
   /// The rest of the trajectory keeps SafetyConfig::clearance_m from the recent surfaces.
   bool remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const;
-  /// The first point of the way ahead (SafetyConfig::look_margin_m) that no recent frame saw
-  /// free; nullopt when there is none (or the vehicle is not moving along its trajectory).
-  std::optional<Vec3d> unseenWayAhead(const VehicleState& vehicle, double voxel_size_m, double t_s) const;
+  /// p_W counts as seen free for flight: a recent frame saw it free, or the whole map is younger
+  /// than SafetyConfig::trustedAge_s (at the last update) and `map` holds p_W clear by clearance_m.
+  bool seenFree(MapProbe& map, const Vec3d& p_W) const;
+  /// The first point of the way ahead (SafetyConfig::look_margin_m) not seen free (seenFree);
+  /// nullopt when there is none (or the vehicle is not moving along its trajectory).
+  std::optional<Vec3d> unseenWayAhead(const MapQuery& map, const VehicleState& vehicle, double t_s) const;
   struct UnseenPoint {
     Vec3d p_W;
     double along_m;  ///< how far along the trajectory from t_from
   };
-  /// The first point of `trajectory` (moved by `shift`) after t_from, within way_m along it, that
-  /// no recent frame saw free; points more steeply above or below origin_W than the camera's
-  /// vertical half field of view are exempt.
-  std::optional<UnseenPoint> firstUnseen(const Trajectory& trajectory, const Eigen::Isometry3d& shift, double t_from,
-                                         double way_m, const Vec3d& origin_W, double voxel_size_m) const;
-  /// During a look: the vehicle faces the point it looks for, and a recent frame saw it free.
-  bool lookSawWay(double t_s) const;
+  /// The first point of `trajectory` (moved by `shift`) after t_from, within way_m along it, not
+  /// seen free (seenFree); points more steeply above or below origin_W than the camera's vertical
+  /// half field of view are exempt.
+  std::optional<UnseenPoint> firstUnseen(const MapQuery& map, const Trajectory& trajectory,
+                                         const Eigen::Isometry3d& shift, double t_from, double way_m,
+                                         const Vec3d& origin_W) const;
+  /// During a look: the vehicle faces the point it looks for, and it is seen free (seenFree).
+  bool lookSawWay(const MapQuery& map, double t_s) const;
   /// After a look saw the way: flies on along the rest of the trajectory the look interrupted
   /// (to the same goal, as the same kind of flight). False when that is no longer clear.
   bool resumeAfterLook(const MapQuery& map, const VehicleState& vehicle, double t_s);
@@ -556,6 +565,7 @@ class ExplorationManager {
   // The current trajectory.
   Trajectory trajectory_;
   double trajectory_t0_ = 0.0;
+  double map_trusted_until_s_ = 0.0;  ///< start + SafetyConfig::trustedAge_s (seenFree)
   Eigen::Isometry3d shift_ =
       Eigen::Isometry3d::Identity();  ///< applied to trajectory_ (frame shifts since it was planned)
 
