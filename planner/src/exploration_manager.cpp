@@ -892,22 +892,35 @@ ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const Vehic
     hold(vehicle, t_s);
     return ExplorationStatus::Failed;
   }
-  // Brake along the trajectory: its points up to the braking distance, then rest.
-  const double v = vehicle.velocity_W.norm();
-  const double brake_m = v * v / (2.0 * params_.trajectory.a_max_m_s2);
-  const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
-  const double dt = 0.5 * map.voxelSize() / std::max(params_.trajectory.v_max_m_s, 1e-3);
-  std::vector<Vec3d> path{vehicle.position_W};
-  double along_m = 0.0;
-  for (double t = t_rel + dt; along_m < brake_m && t - dt < t_end; t += dt) {
-    const Vec3d p = shift_ * trajectory_.sample(std::min(t, t_end)).position_W;
-    along_m += (p - path.back()).norm();
-    if ((p - path.back()).norm() >= 0.01) path.push_back(p);
-  }
-  const Eigen::Vector2d toward = (unseen - path.back()).head<2>();
+  // Brake straight along the velocity: the shortest stop. The trajectory's own points up to the
+  // braking distance run a few degrees off a drifting estimate's velocity, and a velocity that
+  // exceeds v_max by a hair cannot be matched at all; either made the trajectory generator take a
+  // lead-in along the velocity past the stop and back (2 m out and back, 5 s, in a house run at
+  // s3). The trajectory's points, then a stop on the spot, remain as fallbacks.
+  const TrajectoryConfig& tc = params_.trajectory;
+  const double t_rel = t_s - trajectory_t0_;
+  VehicleState moving = vehicle;
+  const double v = std::min(vehicle.velocity_W.norm(), tc.v_max_m_s);
+  if (v > 0.0) moving.velocity_W *= v / vehicle.velocity_W.norm();
+  const double brake_m = v * v / (2.0 * tc.a_max_m_s2);
+  std::vector<Vec3d> straight{vehicle.position_W};
+  if (brake_m > 0.01) straight.push_back(vehicle.position_W + brake_m * moving.velocity_W.normalized());
+  const Eigen::Vector2d toward = (unseen - straight.back()).head<2>();
   const double yaw = toward.norm() > 1e-3 ? std::atan2(toward.y(), toward.x()) : vehicle.yaw_rad;
-  TrajectoryResult look = planTrajectory(path, vehicle, yaw, map, params_.trajectory);
-  if (!look.ok()) look = planTrajectory({vehicle.position_W}, vehicle, yaw, map, params_.trajectory);
+  TrajectoryResult look = planTrajectory(straight, moving, yaw, map, tc);
+  if (!look.ok()) {
+    const double t_end = trajectory_.motionDuration();
+    const double dt = 0.5 * map.voxelSize() / std::max(tc.v_max_m_s, 1e-3);
+    std::vector<Vec3d> path{vehicle.position_W};
+    double along_m = 0.0;
+    for (double t = t_rel + dt; along_m < brake_m && t - dt < t_end; t += dt) {
+      const Vec3d p = shift_ * trajectory_.sample(std::min(t, t_end)).position_W;
+      along_m += (p - path.back()).norm();
+      if ((p - path.back()).norm() >= 0.01) path.push_back(p);
+    }
+    look = planTrajectory(path, moving, yaw, map, tc);
+  }
+  if (!look.ok()) look = planTrajectory({vehicle.position_W}, moving, yaw, map, tc);
   if (!look.ok()) {
     hold(vehicle, t_s);
     return ExplorationStatus::Failed;

@@ -84,11 +84,15 @@ struct Flight {
   ExplorationCounters counters;
   int ways_seen = 0;  ///< looks that ended early: the vehicle faced the way and saw it free
   bool finished = false;
+  double fastest_look_m_s = 0.0;  ///< the highest speed a look began at
+  /// The most any look flew back toward its start from the farthest point it reached (0: each
+  /// look brakes and stops).
+  double look_return_m = 0.0;
 };
 
 /// Flies the manager for up to max_time_s against the drifted map, rendering the true world.
 Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0, const Vec3d& map_offset = kMapOffset,
-           const std::optional<OdometryDrift>& odometry = std::nullopt) {
+           const std::optional<OdometryDrift>& odometry = std::nullopt, bool noisy_velocity = false) {
   const CameraIntrinsics K = quarterCamera();
   ExplorationManagerConfig p;
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5));
@@ -115,12 +119,25 @@ Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0, const
     const VehicleState c = m.command(t);
     VehicleState v = planner::test::at(c.position_W, c.yaw_rad);
     v.velocity_W = c.velocity_W;
+    // A drifting estimate's velocity: a few degrees off the trajectory and up to a hair above v_max.
+    if (noisy_velocity) v.velocity_W = 1.0002 * (Eigen::AngleAxisd(0.035, Vec3d::UnitZ()) * c.velocity_W);
     const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
     m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
     const Vec3d goal_before = m.command(1e9).position_W;  // where the current flight ends
     const std::size_t resumed_before = m.counters().looks_resumed;
     const ExplorationStep step = m.update(map, CoordBBox(), v, t);
-    if (step.reason == ReplanReason::LookAhead) interrupted_goal = goal_before;
+    if (step.reason == ReplanReason::LookAhead) {
+      interrupted_goal = goal_before;
+      f.fastest_look_m_s = std::max(f.fastest_look_m_s, v.velocity_W.norm());
+      const Trajectory& look = m.trajectory();
+      const Vec3d from = look.sample(0.0).position_W;
+      double farthest = 0.0;
+      for (double s = 0.0; s <= look.duration(); s += 0.01) {
+        const double d = (look.sample(s).position_W - from).norm();
+        farthest = std::max(farthest, d);
+        f.look_return_m = std::max(f.look_return_m, farthest - d);
+      }
+    }
     if (m.counters().looks_resumed > resumed_before) {  // flies on to where the interrupted flight went
       CHECK(step.reason == ReplanReason::WaySeen);
       CHECK(m.flight() == FlightKind::ToTarget);
@@ -269,4 +286,57 @@ TEST_CASE("Without drift declared, the map counts as seen: no look where it hold
   CHECK(SafetyConfig{}.trustedAge_s() == 0.0);
   c.odometry = OdometryDrift{};
   CHECK(c.trustedAge_s() == 1e9);
+}
+
+TEST_CASE("A look brakes straight along the velocity, also when the estimate's velocity is off the trajectory",
+          "[planner][safety]") {
+  // A drifting estimate's velocity runs a few degrees off the trajectory and can exceed v_max by a
+  // hair; braking along the trajectory's own points then made the trajectory generator fly a
+  // lead-in past the stop and back (2 m out and back in a house run at s3).
+  const Flight noisy = fly(/*safety=*/true, /*face_travel=*/false, 60.0, kMapOffset, std::nullopt,
+                           /*noisy_velocity=*/true);
+  INFO("looks " << noisy.counters.look_stops << ", fastest at " << noisy.fastest_look_m_s << " m/s, flew back "
+                << noisy.look_return_m << " m");
+  CHECK(noisy.counters.look_stops >= 1);
+  CHECK(noisy.fastest_look_m_s > 0.5);  // a look at speed, where braking takes room
+  // Within 0.2 m/s of rest the look stops at its start, which takes the generator's shortest
+  // lead-in, 0.1 m out and back; at speed it flew back 1.2 m.
+  CHECK(noisy.look_return_m <= 0.1 + 1e-6);
+  CHECK(noisy.min_clearance_m >= kVehicleRadiusM);
+}
+
+TEST_CASE(
+    "Why a look brakes along the velocity: braking along points a few degrees off it flies past the stop and back",
+    "[planner][safety]") {
+  // The house run at s3 that showed it: 2 m/s along -x, the trajectory's next metre 2 degrees off
+  // the estimate's velocity, which exceeds v_max = 2 m/s by 1e-4.
+  DenseMap open(kVoxel, CoordBBox(Coord(-100, -50, -5), Coord(100, 50, 30)));
+  open.fill(CoordBBox(Coord(-100, -50, -5), Coord(100, 50, 30)), Occupancy::Free);
+  const TrajectoryConfig tc;
+  VehicleState v = planner::test::at(Vec3d(6.375, -0.2, 1.19), 1.5);
+  v.velocity_W = Vec3d(-2.0, -0.019, 0.019);
+  const double brake_m = tc.v_max_m_s * tc.v_max_m_s / (2.0 * tc.a_max_m_s2);
+  std::vector<Vec3d> along_points{v.position_W};
+  for (double s = 0.05; s <= brake_m + 1e-9; s += 0.05)
+    along_points.push_back(v.position_W + s * Vec3d(-1.0, 0.0, -0.035).normalized());
+  const auto flownBack = [](const Trajectory& t) {
+    double farthest = 0.0, back = 0.0;
+    for (double s = 0.0; s <= t.duration(); s += 0.01) {
+      const double d = (t.sample(s).position_W - t.sample(0.0).position_W).norm();
+      farthest = std::max(farthest, d);
+      back = std::max(back, farthest - d);
+    }
+    return back;
+  };
+  const TrajectoryResult old_way = planTrajectory(along_points, v, M_PI, open, tc);
+  REQUIRE(old_way.ok());
+  CHECK(flownBack(old_way.trajectory) > 1.0);
+  // What lookAhead does: the speed capped at v_max, a straight stop along the velocity.
+  VehicleState capped = v;
+  capped.velocity_W *= tc.v_max_m_s / v.velocity_W.norm();
+  const TrajectoryResult look =
+      planTrajectory({v.position_W, v.position_W + brake_m * capped.velocity_W.normalized()}, capped, M_PI, open, tc);
+  REQUIRE(look.status == TrajectoryStatus::Ok);
+  CHECK(flownBack(look.trajectory) < 1e-3);
+  CHECK(look.trajectory.motionDuration() == Approx(1.0).margin(0.05));  // v / a_max
 }
