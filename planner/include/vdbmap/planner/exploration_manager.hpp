@@ -70,7 +70,7 @@ namespace vdbmap::planner {
 ///    ReplanReason::EmergencyStop);
 ///  - looks where the vehicle flies: the way ahead within its braking distance plus look_margin_m
 ///    must have been seen free by a recent frame (or, while the whole map is younger than
-///    trustedAge_s(), be clear in the map), else the vehicle brakes along its trajectory and
+///    trustedAge_s(), be clear in the map), else the vehicle brakes along its velocity and
 ///    turns toward that way (ReplanReason::LookAhead, FlightKind::Look). As soon as it faces that
 ///    way and a frame sees it free (ReplanReason::WaySeen), it flies on along the rest of the way
 ///    it was flying; else it replans at rest. Points that
