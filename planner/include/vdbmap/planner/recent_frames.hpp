@@ -72,8 +72,9 @@ class RecentFrames {
   const RecentFramesConfig& config() const { return config_; }
 
   /// Adds a frame captured at t_s with the sensor pose T_W_S (estimate frame), forgets the
-  /// frames older than t_s - window_s and thins those older than t_s - dense_s (config). Throws std::invalid_argument
-  /// when t_s goes back in time, the image's size differs from K's, or the pose is not finite.
+  /// frames older than t_s - window_s and thins those older than t_s - dense_s (config). Throws
+  /// std::invalid_argument when t_s goes back in time, the image's size differs from K's, or the
+  /// pose is not finite.
   void add(double t_s, const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S);
 
   /// The estimate frame moved: a pose P in the old frame is now shift * P (every stored frame moves).
