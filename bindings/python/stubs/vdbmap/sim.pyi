@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from vdbmap import CameraIntrinsics, ConsistencyMode, Mapper, MapperConfig, SensorInfo
-from vdbmap.planner import ExplorationCounters, ExplorationManagerConfig, ExplorationStatus
+from vdbmap.planner import ExplorationCounters, ExplorationManagerConfig, ExplorationStatus, OdometryDrift
 
 _Path = Union[str, os.PathLike[str]]
 _Array = npt.ArrayLike
@@ -335,6 +335,7 @@ class ExplorationResult:
     @property
     def wall_s(self) -> float: ...
 
+def odometry_drift_of(drift: DriftConfig) -> OdometryDrift: ...
 def run_exploration(world: World, config: ExplorationConfig, log_dir: Optional[_Path] = None, overwrite: bool = False,
                     description: str = "",
                     progress: Optional[Callable[[ExplorationProgress], None]] = None) -> ExplorationResult:
