@@ -163,9 +163,7 @@ double SafetyConfig::trustedAge_s() const {
 }
 
 double SafetyConfig::window_s() const {
-  validate();
-  if (!odometry || max_window_s <= recent.window_s) return recent.window_s;
-  return odometry->longestWithin(drift_tolerance_m, drift_lever_m, recent.window_s, max_window_s);
+  return std::clamp(trustedAge_s(), recent.window_s, std::max(recent.window_s, max_window_s));
 }
 
 void ExplorationManagerConfig::validate() const {
@@ -445,8 +443,9 @@ bool ExplorationManager::lookSawWay(const MapQuery& map, double t_s) const {
   const Eigen::Vector2d toward = (look_at - now.position_W).head<2>();
   const bool facing = toward.norm() < 1e-3 || std::abs(wrapAngle(std::atan2(toward.y(), toward.x()) - now.yaw_rad)) <=
                                                   params_.trajectory.start_facing_rad;
+  if (!facing) return false;
   MapProbe probe(map);
-  return facing && seenFree(probe, look_at);
+  return seenFree(probe, look_at);
 }
 
 bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const {

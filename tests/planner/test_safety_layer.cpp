@@ -78,6 +78,19 @@ DenseMap driftedMap(const Vec3d& map_offset = kMapOffset) {
   return map;
 }
 
+/// The most `t` flies back toward its start from the farthest point it has reached (0 for a
+/// trajectory that only moves away, as braking does).
+double flownBack(const Trajectory& t) {
+  const Vec3d from = t.sample(0.0).position_W;
+  double farthest = 0.0, back = 0.0;
+  for (double s = 0.0; s <= t.duration(); s += 0.01) {
+    const double d = (t.sample(s).position_W - from).norm();
+    farthest = std::max(farthest, d);
+    back = std::max(back, farthest - d);
+  }
+  return back;
+}
+
 struct Flight {
   double min_clearance_m = std::numeric_limits<double>::infinity();
   double max_x_m = 0.0;  ///< how far along the corridor the vehicle got
@@ -129,14 +142,7 @@ Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0, const
     if (step.reason == ReplanReason::LookAhead) {
       interrupted_goal = goal_before;
       f.fastest_look_m_s = std::max(f.fastest_look_m_s, v.velocity_W.norm());
-      const Trajectory& look = m.trajectory();
-      const Vec3d from = look.sample(0.0).position_W;
-      double farthest = 0.0;
-      for (double s = 0.0; s <= look.duration(); s += 0.01) {
-        const double d = (look.sample(s).position_W - from).norm();
-        farthest = std::max(farthest, d);
-        f.look_return_m = std::max(f.look_return_m, farthest - d);
-      }
+      f.look_return_m = std::max(f.look_return_m, flownBack(m.trajectory()));
     }
     if (m.counters().looks_resumed > resumed_before) {  // flies on to where the interrupted flight went
       CHECK(step.reason == ReplanReason::WaySeen);
@@ -319,15 +325,6 @@ TEST_CASE(
   std::vector<Vec3d> along_points{v.position_W};
   for (double s = 0.05; s <= brake_m + 1e-9; s += 0.05)
     along_points.push_back(v.position_W + s * Vec3d(-1.0, 0.0, -0.035).normalized());
-  const auto flownBack = [](const Trajectory& t) {
-    double farthest = 0.0, back = 0.0;
-    for (double s = 0.0; s <= t.duration(); s += 0.01) {
-      const double d = (t.sample(s).position_W - t.sample(0.0).position_W).norm();
-      farthest = std::max(farthest, d);
-      back = std::max(back, farthest - d);
-    }
-    return back;
-  };
   const TrajectoryResult old_way = planTrajectory(along_points, v, M_PI, open, tc);
   REQUIRE(old_way.ok());
   CHECK(flownBack(old_way.trajectory) > 1.0);

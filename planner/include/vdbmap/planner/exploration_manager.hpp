@@ -117,9 +117,9 @@ struct SafetyConfig {
   bool seen_free_is_free = false;
 
   void validate() const;
-  /// How long the recent frames are trusted: recent.window_s, widened with a known odometry (when
-  /// max_window_s is longer) to OdometryDrift::longestWithin(drift_tolerance_m, drift_lever_m,
-  /// recent.window_s, max_window_s). Throws std::invalid_argument for an invalid config.
+  /// How long the recent frames are trusted: trustedAge_s() clamped to [recent.window_s,
+  /// max_window_s] (recent.window_s without a known odometry, or when max_window_s is shorter).
+  /// Throws std::invalid_argument for an invalid config.
   double window_s() const;
   /// How old a frame may be and still sit within drift_tolerance_m of where the declared odometry
   /// says (OdometryDrift::longestWithin up to 1e9 s, i.e. always without drift); 0 when no
