@@ -38,6 +38,9 @@ ExplorationManagerConfig derivedParams(ExplorationManagerConfig p) {
   p.escape.bounds_W = p.box_W;
   p.escape.clearance_m = p.path.clearance_m;
   p.escape.trajectory = p.trajectory;
+  // An escape leaves a blocked start at once: facing the way would first turn on the spot (half a
+  // turn for a retreat), seconds beside what blocked it while drift carries the vehicle on.
+  p.escape.trajectory.yaw_along_travel = false;
   p.safety.recent.max_range_m = p.viewpoint.camera.max_range_m;
   p.safety.recent.free_margin_m = p.safety.clearance_m;
   p.safety.recent.dense_s = p.safety.recent.window_s;

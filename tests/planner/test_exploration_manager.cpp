@@ -59,6 +59,42 @@ VehicleState onTrajectory(const ExplorationManager& m, double t) {
   return s;
 }
 
+/// What flyUntilBlocked leaves: the positions flown (the start first), the vehicle where the block
+/// showed up, the time, and the block (filled in the map).
+struct FlownUntilBlocked {
+  std::vector<Vec3d> flown;
+  VehicleState vehicle;
+  double t_s = 0.0;
+  Vec3d block_centre_W;
+  CoordBBox block;
+};
+
+/// Plans from `start`, flies the manager's trajectories exactly until 0.8 m from it, then fills a
+/// 0.2 m block 0.2 m ahead along the velocity, closer than the path clearance (as thin structure
+/// shows up when the vehicle comes near).
+FlownUntilBlocked flyUntilBlocked(ExplorationManager& m, DenseMap& map, const Vec3d& start) {
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  REQUIRE(m.target() != 0);
+  FlownUntilBlocked f;
+  f.flown = {start};
+  f.vehicle = at(start);
+  while ((f.vehicle.position_W - start).norm() < 0.8) {
+    f.t_s += 1.0 / 15.0;
+    REQUIRE(f.t_s < 20.0);  // replans (e.g. the safety layer's looks) included, it gets there
+    f.vehicle = onTrajectory(m, f.t_s);
+    step = m.update(map, CoordBBox(), f.vehicle, f.t_s);
+    REQUIRE(step.reason != ReplanReason::CollisionRisk);
+    f.flown.push_back(f.vehicle.position_W);
+  }
+  f.block_centre_W = f.vehicle.position_W + 0.2 * f.vehicle.velocity_W.normalized();
+  f.block = CoordBBox(map.worldToVoxel(f.block_centre_W - Vec3d::Constant(0.1)),
+                      map.worldToVoxel(f.block_centre_W + Vec3d::Constant(0.1)));
+  map.fill(f.block, Occupancy::Occupied);
+  REQUIRE_FALSE(test::bruteClear(map, f.vehicle.position_W, m.params().path.clearance_m));
+  return f;
+}
+
 /// Every sample of the manager's trajectory keeps `radius` of known-free space (brute force).
 bool trajectoryClear(const ExplorationManager& m, const DenseMap& map, double radius) {
   const Trajectory& t = m.trajectory();
@@ -544,26 +580,13 @@ TEST_CASE("A start blocked mid-flight retreats along the way flown, and the targ
   DenseMap map = halfKnownRoom();
   const Vec3d start(1.0, 3.0, 1.5);
   ExplorationManager m(roomParams(), at(start), 0.0);
-  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
-  REQUIRE(step.status == ExplorationStatus::Planned);
-  REQUIRE(m.target() != 0);
-  // Follow the trajectory until 0.8 m from the start, recording where the vehicle was.
-  std::vector<Vec3d> flown{start};
-  double t = 0.0;
-  VehicleState s = at(start);
-  while ((s.position_W - start).norm() < 0.8) {
-    t += 1.0 / 15.0;
-    REQUIRE(t < m.trajectoryStartTime() + m.trajectory().duration());
-    s = onTrajectory(m, t);
-    step = m.update(map, CoordBBox(), s, t);
-    REQUIRE(step.reason != ReplanReason::CollisionRisk);
-    flown.push_back(s.position_W);
-  }
-  // A block 0.2 m ahead along the velocity.
-  const Vec3d ahead = s.position_W + 0.2 * s.velocity_W.normalized();
-  const CoordBBox block(map.worldToVoxel(ahead - Vec3d::Constant(0.1)), map.worldToVoxel(ahead + Vec3d::Constant(0.1)));
-  map.fill(block, Occupancy::Occupied);
-  REQUIRE_FALSE(test::bruteClear(map, s.position_W, m.params().path.clearance_m));
+  ExplorationStep step;
+  const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
+  const std::vector<Vec3d>& flown = f.flown;
+  const Vec3d& ahead = f.block_centre_W;
+  const CoordBBox& block = f.block;
+  VehicleState s = f.vehicle;
+  double t = f.t_s;
   const Vec3d blocked = s.position_W;
   const ClusterId target = m.target();  // flown to when blocked
   REQUIRE(m.frontiers().find(target) != nullptr);
@@ -599,6 +622,34 @@ TEST_CASE("A start blocked mid-flight retreats along the way flown, and the targ
     CHECK(step.reason == ReplanReason::None);
   }
   CHECK(m.counters().retreats == 1);
+}
+
+TEST_CASE("With the safety layer facing the way, a retreat still moves off at once, holding its yaw",
+          "[planner][exploration][safety]") {
+  // Facing the way turns a trajectory from rest on the spot first. Back along the way flown that
+  // is half a turn, seconds beside what blocked the vehicle, while drift carries it on (a house
+  // run at s3 sat 2.6 s so, and came 0.185 m from a wall for its 0.2 m radius).
+  DenseMap map = halfKnownRoom();
+  const Vec3d start(1.0, 3.0, 1.5);
+  ExplorationManagerConfig p = roomParams();
+  p.safety.enabled = true;
+  REQUIRE(p.safety.face_travel);
+  // No drift: the map counts as seen, so the flight out needs no look (no frames are rendered).
+  p.safety.odometry = OdometryDrift{};
+  ExplorationManager m(p, at(start), 0.0);
+  REQUIRE(m.params().trajectory.yaw_along_travel);
+  const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
+  const ExplorationStep step = m.update(map, f.block, f.vehicle, f.t_s + 1.0 / 15.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  REQUIRE(m.counters().retreats == 1);
+  REQUIRE(m.flight() == FlightKind::Retreat);
+  const double t0 = m.trajectoryStartTime(), yaw0 = m.command(t0).yaw_rad;
+  // Half a second from rest at a_max 2 m/s^2 covers up to 0.25 m; a turn first would not move.
+  CHECK((m.command(t0 + 0.5).position_W - m.command(t0).position_W).norm() > 0.1);
+  double turned = 0.0;
+  for (double u = 0.0; u <= m.trajectory().duration(); u += 0.02)
+    turned = std::max(turned, std::abs(wrapAngle(m.command(t0 + u).yaw_rad - yaw0)));
+  CHECK(turned < 1e-6);
 }
 
 TEST_CASE("When every target fails from a clear start, the vehicle goes back the way it came, as far as it can",

@@ -210,7 +210,8 @@ struct ExplorationManagerConfig {
   /// Spacing of the collision-risk check along the rest of the trajectory, in voxels; (0, 10]
   double risk_check_spacing_vox = 0.5;
   /// Retreats and straight escapes out of a blocked start: how many flown positions are kept and
-  /// how far each reaches (bounds_W, clearance_m and trajectory are set by the manager).
+  /// how far each reaches (bounds_W, clearance_m and trajectory are set by the manager; the
+  /// trajectory never faces the way, so an escape moves off at once, holding its yaw).
   EscapeConfig escape;
   /// Straight escapes in a row (without a plan from a clear start in between) before giving up:
   /// a chain of them creeps wherever the map's errors push it; [0, 100]
