@@ -551,3 +551,56 @@ TEST_CASE("Refinement layers put the loop cluster's viewpoints first on a detour
   CHECK(plain[0][0].position_W == kTargets[e.order()[0]].pose.position_W);
   CHECK_THROWS_AS(alcRefinementLayers(vehicleAt(), e, {}), std::invalid_argument);
 }
+
+TEST_CASE("A searching detour flies the cluster's viewpoints, then rings around its centre, none twice in a row",
+          "[planner][alc]") {
+  // A 6 x 6 x 3 m room with walls a voxel thick (the -x wall's voxel centres at x = 0); the
+  // cluster's centre 0.7 m from it, so that part of both rings lies within the clearance of it.
+  const DenseMap map = test::makeRoom(Eigen::Vector3i(60, 60, 30));
+  const double clearance = 0.3;
+  const std::vector<Viewpoint> cluster{{Vec3d(0.7, 3.0, 1.5), 0.5}, {Vec3d(1.0, 3.2, 1.5), 0.4}};
+  AlcSearchConfig search;
+  SECTION("without the search, the cluster's viewpoints as they are") {
+    REQUIRE_FALSE(search.enabled);
+    const std::vector<Viewpoint> v = detourViewpoints(cluster, {Vec3d(0.7, 3.0, 1.5)}, search, map, clearance);
+    REQUIRE(v.size() == cluster.size());
+    CHECK(v[0].position_W == cluster[0].position_W);
+  }
+  search.enabled = true;
+  const std::vector<Viewpoint> all = detourViewpoints(cluster, {}, search, map, clearance);
+  SECTION("the recorded viewpoints first, then the ring viewpoints the map holds clear") {
+    REQUIRE(all.size() > cluster.size());
+    CHECK(all[0].position_W == cluster[0].position_W);
+    CHECK(all[1].position_W == cluster[1].position_W);
+    std::size_t on_rings = 0;
+    for (std::size_t i = cluster.size(); i < all.size(); ++i) {
+      const Viewpoint& v = all[i];
+      const double r = (v.position_W - cluster[0].position_W).norm();
+      CHECK((std::abs(r - 0.5) < 1e-9 || std::abs(r - 1.0) < 1e-9));
+      CHECK(v.position_W.z() == cluster[0].position_W.z());
+      CHECK(std::abs(std::abs(wrapAngle(v.yaw_rad - 0.5)) - search.yaw_offset_rad) < 1e-9);
+      CHECK(test::bruteClear(map, v.position_W, clearance));
+      ++on_rings;
+    }
+    // Toward the wall, x = 0.2 m (0.5 m ring, 180 deg; 1 m ring, 120 and 240 deg) or outside the
+    // room (1 m ring, 180 deg): 4 of the 12 fail the clearance.
+    CHECK(on_rings == 8);
+  }
+  SECTION("a viewpoint flown to is left out, until every one was") {
+    const std::vector<Viewpoint> next = detourViewpoints(cluster, {Vec3d(0.65, 3.0, 1.5)}, search, map, clearance);
+    REQUIRE(next.size() == all.size() - 1);
+    CHECK(next[0].position_W == cluster[1].position_W);
+    std::vector<Vec3d> flown;
+    for (const Viewpoint& v : all) flown.push_back(v.position_W);
+    CHECK(detourViewpoints(cluster, flown, search, map, clearance).size() == all.size());  // starts over
+  }
+  SECTION("misuse") {
+    CHECK_THROWS_AS(detourViewpoints({}, {}, search, map, clearance), std::invalid_argument);
+    AlcConfig bad;
+    bad.search.radii_m = {0.5, 0.0};
+    CHECK_THROWS_WITH(bad.validate(), Catch::Contains("radii_m"));
+    bad.search = AlcSearchConfig{};
+    bad.search.directions = 0;
+    CHECK_THROWS_WITH(bad.validate(), Catch::Contains("directions"));
+  }
+}
