@@ -38,7 +38,6 @@ struct ExploreOptions {
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
-  std::string alc_search = planner::AlcSearchConfig{}.enabled ? "on" : "off";
   double w_dir = planner::CostConfig{}.w_dir;
   int min_cluster_size = planner::FrontierConfig{}.min_cluster_size;
   int revisit_rounds = planner::ExplorationManagerConfig{}.revisit_rounds;
@@ -88,7 +87,6 @@ void runExplore(const ExploreOptions& o) {
   config.planner.alc_enabled = o.alc == "on";
   config.planner.alc.epsilon = o.epsilon;
   config.planner.alc.finish_loop_age_s = o.finish_loop_age_s;
-  config.planner.alc.search.enabled = o.alc_search == "on";
   config.planner.cost.w_dir = o.w_dir;
   config.planner.safety.enabled = o.safety == "on";
   config.planner.safety.recent.window_s = o.safety_window_s;
@@ -113,9 +111,9 @@ void runExplore(const ExploreOptions& o) {
       std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " + o.view_score +
       " --revisit-rounds " + std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --budgets " +
       o.budgets + " --alc " + o.alc +
-      (config.planner.alc_enabled ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " +
-                                        std::to_string(o.finish_loop_age_s) + " --alc-search " + o.alc_search
-                                  : std::string()) +
+      (config.planner.alc_enabled
+           ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
+           : std::string()) +
       " --safety " + o.safety +
       (config.planner.safety.enabled
            ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-max-window-s " +
@@ -197,11 +195,6 @@ const Registration registration("explore", [](CLI::App& app) {
              std::to_string(planner::AlcConfig{}.max_finish_detours) +
              " times per flight), so the drift of the last stretch is corrected in the map (0: finish at once)")
       ->check(CLI::Range(0.0, 1e6));
-  sub->add_option("--alc-search", o->alc_search,
-                  "ALC: a detour that reached its loop cluster without a loop flies on to viewpoints on rings "
-                  "around it (0.5 and 1 m) instead of turning where it stands, since drift puts the true place "
-                  "off: on, or off")
-      ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--safety", o->safety,
                   "The drift-free safety layer: the last seconds of depth frames are obstacles over the global map, "
                   "a trajectory they see blocked is replanned at once (an emergency stop), and the vehicle brakes "

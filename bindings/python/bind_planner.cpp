@@ -143,19 +143,6 @@ void bindCostsAndPaths(py::module_& m) {
 }
 
 void bindAlcParams(py::module_& m) {
-  py::class_<AlcSearchConfig> search(m, "AlcSearchConfig",
-                                     "How a detour that reached its loop cluster without a loop goes on: viewpoints on "
-                                     "rings around the cluster's centre, none flown to twice in a row.");
-  addStructProtocol(search);
-  search.def_readwrite("enabled", &AlcSearchConfig::enabled, "off: the cluster's cheapest viewpoint at every replan")
-      .def_readwrite("radii_m", &AlcSearchConfig::radii_m, "rings around the centre viewpoint; each (0, 10]")
-      .def_readwrite("directions", &AlcSearchConfig::directions, "viewpoints per ring; [1, 64]")
-      .def_readwrite("yaw_offset_rad", &AlcSearchConfig::yaw_offset_rad,
-                     "ring viewpoints face the centre's yaw turned alternately by +-this; [0, pi]")
-      .def_readwrite("retry_spacing_m", &AlcSearchConfig::retry_spacing_m,
-                     "a viewpoint this close to one flown to is not flown again until every one was; (0, 10]")
-      .def("validate", &AlcSearchConfig::validate, "Raises ValueError naming the field and its allowed range.");
-
   py::class_<AlcConfig> a(m, "AlcConfig",
                           "Active loop closure (docs/planner.md); the history and cluster parameters stay at their C++ "
                           "defaults.");
@@ -176,7 +163,6 @@ void bindAlcParams(py::module_& m) {
       .def_readwrite("unreachable_cost_s", &AlcConfig::unreachable_cost_s,
                      "legs at or above this are left out of both sums")
       .def_readwrite("tour", &AlcConfig::tour, "TourConfig of both tours")
-      .def_readwrite("search", &AlcConfig::search, "AlcSearchConfig: a detour at its cluster without a loop")
       .def("validate", &AlcConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }
 

@@ -8,20 +8,10 @@
 
 namespace vdbmap::planner {
 
-void AlcSearchConfig::validate() const {
-  const FieldCheck check("AlcSearchConfig");
-  for (const double r : radii_m)
-    if (!(r > 0.0 && r <= 10.0)) check.fail("radii_m", "each in (0, 10]");
-  if (directions < 1 || directions > 64) check.fail("directions", "[1, 64]");
-  if (!(yaw_offset_rad >= 0.0 && yaw_offset_rad <= M_PI)) check.fail("yaw_offset_rad", "[0, pi]");
-  if (!(retry_spacing_m > 0.0 && retry_spacing_m <= 10.0)) check.fail("retry_spacing_m", "(0, 10]");
-}
-
 void AlcConfig::validate() const {
   history.validate();
   clusters.validate();
   tour.validate();
-  search.validate();
   const FieldCheck check("AlcConfig");
   auto in = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
   if (!in(epsilon, 0.0, 100.0)) check.fail("epsilon", "[0, 100]");
@@ -293,29 +283,6 @@ AlcDecision ActiveLoopClosure::decideFinish(const VehicleState& vehicle, double 
   }
   d.status = AlcStatus::kDetour;
   return d;
-}
-
-std::vector<Viewpoint> detourViewpoints(const std::vector<Viewpoint>& cluster_views, const std::vector<Vec3d>& flown_W,
-                                        const AlcSearchConfig& search, const MapQuery& map, double clearance_m) {
-  if (cluster_views.empty()) throw std::invalid_argument("detourViewpoints: the cluster has no viewpoint");
-  if (!search.enabled) return cluster_views;
-  std::vector<Viewpoint> all = cluster_views;
-  const Viewpoint& centre = cluster_views.front();
-  MapProbe probe(map);
-  for (const double r : search.radii_m)
-    for (int k = 0; k < search.directions; ++k) {
-      const double a = 2.0 * M_PI * k / search.directions;
-      Viewpoint v;
-      v.position_W = centre.position_W + r * Vec3d(std::cos(a), std::sin(a), 0.0);
-      v.yaw_rad = wrapAngle(centre.yaw_rad + (k % 2 == 0 ? search.yaw_offset_rad : -search.yaw_offset_rad));
-      if (probe.isClear(v.position_W, clearance_m)) all.push_back(v);
-    }
-  std::vector<Viewpoint> left;
-  for (const Viewpoint& v : all)
-    if (std::none_of(flown_W.begin(), flown_W.end(),
-                     [&](const Vec3d& f) { return (f - v.position_W).norm() < search.retry_spacing_m; }))
-      left.push_back(v);
-  return left.empty() ? all : left;
 }
 
 std::vector<std::vector<Viewpoint>> alcRefinementLayers(const VehicleState& vehicle, const AlcDecision& decision,

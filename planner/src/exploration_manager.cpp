@@ -668,9 +668,7 @@ ExplorationStatus ExplorationManager::finishOrWait(const MapQuery& map, const Ve
 ExplorationStatus ExplorationManager::flyFinishDetour(const MapQuery& map, const VehicleState& vehicle, double t_s,
                                                       const AlcDecision& decision, bool flight_over,
                                                       ExplorationStep& step) {
-  // In turn, so no repeat to avoid (a loop correction moves them with the history).
-  const std::vector<Viewpoint> views =
-      detourViewpoints(decision.cluster_viewpoints, {}, params_.alc.search, map, params_.path.clearance_m);
+  const std::vector<Viewpoint>& views = decision.cluster_viewpoints;
   for (std::size_t k = 0; k < views.size(); ++k) {
     const PlanOutcome outcome =
         planTo(map, vehicle, views[(finish_views_flown_ + k) % views.size()], t_s, FlightKind::LoopDetour);
@@ -721,12 +719,6 @@ ExplorationManager::TourChoice ExplorationManager::chooseTour(const MapQuery& ma
   // tour with a kept target rotated first (ALC's own layers would refine the tour's first cluster
   // and fly to its viewpoint while the kept target is recorded).
   if (choice.detour) {
-    if (alc_->detour() && detour_flown_since_s_ != alc_->detour()->since_s) {
-      detour_flown_W_.clear();
-      detour_flown_since_s_ = alc_->detour()->since_s;
-    }
-    choice.decision->cluster_viewpoints = detourViewpoints(choice.decision->cluster_viewpoints, detour_flown_W_,
-                                                           params_.alc.search, map, params_.path.clearance_m);
     choice.layers = alcRefinementLayers(vehicle, *choice.decision, target_views, params_.refinement);
   } else {
     std::vector<std::vector<Viewpoint>> in_order;
@@ -747,7 +739,6 @@ std::optional<ExplorationStatus> ExplorationManager::flyDetour(const MapQuery& m
   const Viewpoint& view = choice.refined.choice.empty() ? first.front() : first[choice.refined.choice[0]];
   const PlanOutcome outcome = planTo(map, vehicle, view, t_s, FlightKind::LoopDetour);
   if (outcome == PlanOutcome::Ok) {
-    detour_flown_W_.push_back(view.position_W);
     book_.clearTarget();
     step.loop_detour = true;
     return ExplorationStatus::Planned;

@@ -298,38 +298,3 @@ TEST_CASE("A loop before finishing is priced from a start beside unknown voxels,
   CHECK(step.status == ExplorationStatus::Planned);
   CHECK(endsAtLoopCluster(m));
 }
-
-TEST_CASE("A searching detour flies on to viewpoints it has not flown to while no loop closes",
-          "[planner][exploration][alc]") {
-  // Without the search, every replan at the cluster picks its cheapest viewpoint, which is one the
-  // vehicle stands at or next to: it turns on the spot until the timeout.
-  const DenseMap map = corridorRoom();
-  const Vec3d vehicle(4.5, 3, 1.5);
-  const auto detourEnds = [&](bool search) {
-    ExplorationManagerConfig p = alcParams();
-    p.alc.give_up_timeout_s = 30.0;
-    p.alc.search.enabled = search;
-    ExplorationManager m(p, at(Vec3d(4.0, 3, 1.5)), 0.0);
-    double t = flyPlaceThenGo(m, map, 4.0, vehicle);
-    REQUIRE(replanAt(m, map, vehicle, t).loop_detour);
-    std::vector<Vec3d> ends;
-    for (int leg = 0; leg < 6; ++leg) {
-      REQUIRE(m.onLoopDetour());
-      t = m.trajectoryStartTime() + m.trajectory().duration();
-      ends.push_back(m.command(t).position_W);
-      t += 0.05;
-      const ExplorationStep step = m.update(map, CoordBBox(), at(ends.back(), m.command(t).yaw_rad), t);
-      REQUIRE(step.reason == ReplanReason::TrajectoryEnd);
-    }
-    return ends;
-  };
-  const auto closestPair = [](const std::vector<Vec3d>& ends) {
-    double closest = 1e9;
-    for (std::size_t i = 0; i < ends.size(); ++i)
-      for (std::size_t j = i + 1; j < ends.size(); ++j) closest = std::min(closest, (ends[i] - ends[j]).norm());
-    return closest;
-  };
-  const double spacing = AlcSearchConfig{}.retry_spacing_m;
-  CHECK(closestPair(detourEnds(false)) < spacing);
-  CHECK(closestPair(detourEnds(true)) >= spacing);
-}

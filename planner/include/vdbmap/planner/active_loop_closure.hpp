@@ -56,22 +56,6 @@
 
 namespace vdbmap::planner {
 
-/// How a detour that reached its cluster without a loop goes on (detourViewpoints). The estimate's
-/// drift since the cluster was recorded puts the true place off by as much, and a loop detector
-/// wants the true pose close to the old one (the simulator's: 0.5 m and 0.2 rad). Without the
-/// search a detour flies to the cluster's cheapest viewpoint at every replan, which at the
-/// cluster is one it stands at, and turns on the spot until the timeout.
-struct AlcSearchConfig {
-  bool enabled = false;
-  /// Rings around the cluster's centre viewpoint, after its recorded viewpoints; each (0, 10]
-  std::vector<double> radii_m = {0.5, 1.0};
-  int directions = 6;            ///< viewpoints per ring, evenly spaced; [1, 64]
-  double yaw_offset_rad = 0.15;  ///< ring viewpoints face the centre's yaw turned alternately by +-this; [0, pi]
-  /// A viewpoint this close to one the detour flew to is not flown again (until every one was); (0, 10]
-  double retry_spacing_m = 0.3;
-  void validate() const;
-};
-
 struct AlcConfig {
   ViewpointHistoryConfig history;
   LoopClusterConfig clusters;
@@ -91,7 +75,6 @@ struct AlcConfig {
   /// (0, 1e9]
   double unreachable_cost_s = 1000.0;
   TourConfig tour;  ///< the solver's budget and seed for both tours
-  AlcSearchConfig search;
   void validate() const;
 };
 using AlcParams [[deprecated("renamed AlcConfig")]] = AlcConfig;
@@ -236,14 +219,6 @@ class ActiveLoopClosure {
   std::map<LoopClusterId, std::size_t> failures_;
   AlcStats stats_;
 };
-
-/// Where a detour in progress may fly next (AlcSearchConfig): the cluster's recorded viewpoints
-/// (`cluster_views`, its centre first) and, with the search enabled, viewpoints on rings around the
-/// centre that the map holds clear by `clearance_m`; less those within retry_spacing_m of a
-/// viewpoint the detour flew to (`flown_W`). When that leaves none, all of them again. Without the
-/// search, `cluster_views` as they are. Throws std::invalid_argument when cluster_views is empty.
-std::vector<Viewpoint> detourViewpoints(const std::vector<Viewpoint>& cluster_views, const std::vector<Vec3d>& flown_W,
-                                        const AlcSearchConfig& search, const MapQuery& map, double clearance_m);
 
 /// Layers for refineLocalTour (refinementLayers): on a detour the loop cluster's viewpoints come
 /// first, then the frontier clusters in the loop tour's order; otherwise the frontier tour's.

@@ -543,9 +543,6 @@ class ExplorationManager {
   EscapePlanner escapes_;                   ///< the way flown, and the ways out of a blocked start
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
   std::size_t finish_views_flown_ = 0;      ///< flights of the detour before finishing so far
-  /// The viewpoints the exploring detour in progress flew to, and its start (AlcSearchConfig).
-  std::vector<Vec3d> detour_flown_W_;
-  std::optional<double> detour_flown_since_s_;
   std::unique_ptr<RecentFrames> recent_;    ///< null without the safety layer
 
   // The state machine.
