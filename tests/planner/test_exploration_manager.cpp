@@ -60,9 +60,10 @@ VehicleState onTrajectory(const ExplorationManager& m, double t) {
 }
 
 /// What flyUntilBlocked leaves: the positions flown (the start first), the vehicle where the block
-/// showed up, the time, and the block (filled in the map).
+/// showed up, the time, the block (filled in the map), and whether the way out was one trajectory.
 struct FlownUntilBlocked {
   std::vector<Vec3d> flown;
+  bool first_trajectory_only = true;
   VehicleState vehicle;
   double t_s = 0.0;
   Vec3d block_centre_W;
@@ -79,9 +80,11 @@ FlownUntilBlocked flyUntilBlocked(ExplorationManager& m, DenseMap& map, const Ve
   FlownUntilBlocked f;
   f.flown = {start};
   f.vehicle = at(start);
+  const double first_end_s = m.trajectoryStartTime() + m.trajectory().duration();
   while ((f.vehicle.position_W - start).norm() < 0.8) {
     f.t_s += 1.0 / 15.0;
     REQUIRE(f.t_s < 20.0);  // replans (e.g. the safety layer's looks) included, it gets there
+    f.first_trajectory_only = f.first_trajectory_only && f.t_s < first_end_s;
     f.vehicle = onTrajectory(m, f.t_s);
     step = m.update(map, CoordBBox(), f.vehicle, f.t_s);
     REQUIRE(step.reason != ReplanReason::CollisionRisk);
@@ -582,6 +585,7 @@ TEST_CASE("A start blocked mid-flight retreats along the way flown, and the targ
   ExplorationManager m(roomParams(), at(start), 0.0);
   ExplorationStep step;
   const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
+  REQUIRE(f.first_trajectory_only);  // 0.8 m out within the first trajectory
   const std::vector<Vec3d>& flown = f.flown;
   const Vec3d& ahead = f.block_centre_W;
   const CoordBBox& block = f.block;
