@@ -19,10 +19,13 @@ class RecentObstacleReader : public MapReader {
     const openvdb::Coord dim = box.dim();
     openvdb::CoordBBox seen = box;
     seen.intersect(map_.seenFreeBounds());
-    for (auto it = seen.begin(); it; ++it) {  // before the surfaces, which win
-      Occupancy& o = out[boxIndex(box.min(), dim, *it)];
-      if (o != Occupancy::Free && map_.isSeenFree(*it)) o = Occupancy::Free;
-    }
+    // An empty box must not be iterated: OpenVDB's box iterator tests only its first axis, so it
+    // would visit voxels outside the box (and write outside `out`).
+    if (!seen.empty())
+      for (auto it = seen.begin(); it; ++it) {  // before the surfaces, which win
+        Occupancy& o = out[boxIndex(box.min(), dim, *it)];
+        if (o != Occupancy::Free && map_.isSeenFree(*it)) o = Occupancy::Free;
+      }
     openvdb::CoordBBox overlap = box;
     overlap.intersect(map_.surfaceBounds());
     if (overlap.empty()) return;
@@ -84,6 +87,7 @@ bool RecentObstacleMap::nearSurface(const Vec3d& p_W, double radius_m) const {
                        hi = worldToVoxel(p_W + Vec3d::Constant(radius_m));
   openvdb::CoordBBox box(lo, hi);
   box.intersect(bounds_);
+  if (box.empty()) return false;  // (iterating it would visit voxels outside it)
   for (auto it = box.begin(); it; ++it)
     if (isRecentSurface(*it) && (voxelCenter(*it) - p_W).norm() <= radius_m) return true;
   return false;

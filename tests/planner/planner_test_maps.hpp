@@ -34,11 +34,18 @@ inline DenseMap makeRoom(const Eigen::Vector3i& size_vox, double voxel_m = 0.1) 
   return map;
 }
 
-/// A reader's readBox over `box` reads, voxel by voxel, what its at() reads.
+/// A reader's readBox over `box` reads, voxel by voxel, what its at() reads, and writes nothing
+/// outside the box's volume (guard cells on either side of the buffer stay as they were).
 inline void requireReadBoxMatchesAt(MapReader& reader, const openvdb::CoordBBox& box) {
-  std::vector<Occupancy> out(box.volume());
-  reader.readBox(box, out.data());
-  std::size_t i = 0;
+  const std::size_t guard = 4096;
+  const Occupancy sentinel = static_cast<Occupancy>(0x5a);
+  std::vector<Occupancy> out(box.volume() + 2 * guard, sentinel);
+  reader.readBox(box, out.data() + guard);
+  for (std::size_t g = 0; g < guard; ++g) {
+    REQUIRE(out[g] == sentinel);
+    REQUIRE(out[out.size() - 1 - g] == sentinel);
+  }
+  std::size_t i = guard;
   for (int x = box.min().x(); x <= box.max().x(); ++x)
     for (int y = box.min().y(); y <= box.max().y(); ++y)
       for (int z = box.min().z(); z <= box.max().z(); ++z) REQUIRE(out[i++] == reader.at(openvdb::Coord(x, y, z)));

@@ -340,7 +340,13 @@ TEST_CASE("RecentObstacleMap with seen free space reopens what drift closed in t
     REQUIRE(reader->at(*it) == expected);
   }
   CHECK(reopened_voxels > 50);  // the ghost wall's part in view, and the hole
-  for (const CoordBBox& box : {CoordBBox(Coord(18, 5, 3), Coord(22, 15, 9)), all})
+  // Boxes beside the seen free space along y or z alone (overlapping it along x) must not write
+  // outside themselves: an OpenVDB box iterator checks only its first axis, so iterating an empty
+  // intersection visits voxels outside both boxes (this corrupted the heap of office runs).
+  const CoordBBox beside_y(Coord(15, -8, 3), Coord(25, -3, 9)), beside_z(Coord(15, 5, -8), Coord(25, 15, -3));
+  CHECK(reader->at(Coord(20, 0, 6)) == Occupancy::Free);   // the wall beside beside_y is seen free
+  CHECK(reader->at(Coord(20, 10, 0)) == Occupancy::Free);  // and so is the floor above beside_z
+  for (const CoordBBox& box : {CoordBBox(Coord(18, 5, 3), Coord(22, 15, 9)), all, beside_y, beside_z})
     planner::test::requireReadBoxMatchesAt(*reader, box);
 
   // A path across the room: the ghost wall blocks it in the map, the frame seen now reopens it.
