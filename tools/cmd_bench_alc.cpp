@@ -25,6 +25,7 @@ struct BenchAlcOptions {
   double min_finish_coverage = sim::AlcBenchmarkConfig{}.min_finish_coverage;
   std::string safety = planner::SafetyConfig{}.enabled ? "on" : "off";
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
+  std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   bool keep_runs = false;
 };
 
@@ -43,6 +44,7 @@ void runBenchAlc(const BenchAlcOptions& o) {
   c.min_finish_coverage = o.min_finish_coverage;
   c.safety.enabled = o.safety == "on";
   c.safety.seen_free_is_free = o.safety_seen_free == "on";
+  c.safety.map_thin_obstacles = o.safety_map_thin == "on";
   c.keep_runs = o.keep_runs;
   c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   sim::runAlcBenchmark(c, o.output);
@@ -81,7 +83,7 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
   sub->add_option("--min-finish-coverage", o->min_finish_coverage,
                   "Count a run that ends below this coverage of the observable surface as incomplete")
       ->check(CLI::Range(0.0, 1.0));
-  addSafetyOptions(*sub, o->safety, o->safety_seen_free);
+  addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep each run's log and map in OUTDIR/runs/ (large)");
   sub->add_option("-o,--output", o->output, "Output folder")->required();
   sub->callback([o] { runBenchAlc(*o); });

@@ -23,6 +23,7 @@ struct BenchExploreOptions {
   std::string alc = "off";
   std::string safety = planner::SafetyConfig{}.enabled ? "on" : "off";
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
+  std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   bool keep_runs = false;
 };
 
@@ -37,6 +38,7 @@ void runBenchExplore(const BenchExploreOptions& o) {
   c.alc = o.alc == "on";
   c.safety.enabled = o.safety == "on";
   c.safety.seen_free_is_free = o.safety_seen_free == "on";
+  c.safety.map_thin_obstacles = o.safety_map_thin == "on";
   c.keep_runs = o.keep_runs;
   c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   sim::runExploreBenchmark(c, o.output);
@@ -64,7 +66,7 @@ const GroupRegistration registration("bench", "explore", [](CLI::App& bench) {
                   "generated offices are closed at their own ceiling)")
       ->check(CLI::Range(0.0, 1e3));
   sub->add_option("--alc", o->alc, "Active loop closure on or off")->check(CLI::IsMember({"on", "off"}));
-  addSafetyOptions(*sub, o->safety, o->safety_seen_free);
+  addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep every run's log and map (large)");
   sub->add_option("-o,--output", o->output, "Output folder")->required();
   sub->callback([o] { runBenchExplore(*o); });

@@ -35,6 +35,7 @@ struct ExploreOptions {
   double safety_window_s = planner::RecentFramesConfig{}.window_s;
   double safety_max_window_s = planner::SafetyConfig{}.max_window_s;
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
+  std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
@@ -92,6 +93,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.recent.window_s = o.safety_window_s;
   config.planner.safety.max_window_s = o.safety_max_window_s;
   config.planner.safety.seen_free_is_free = o.safety_seen_free == "on";
+  config.planner.safety.map_thin_obstacles = o.safety_map_thin == "on";
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.view_score == "into-unknown";
@@ -117,7 +119,8 @@ void runExplore(const ExploreOptions& o) {
       " --safety " + o.safety +
       (config.planner.safety.enabled
            ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-max-window-s " +
-                 std::to_string(o.safety_max_window_s) + " --safety-seen-free " + o.safety_seen_free
+                 std::to_string(o.safety_max_window_s) + " --safety-seen-free " + o.safety_seen_free +
+                 " --safety-map-thin " + o.safety_map_thin
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -212,6 +215,11 @@ const Registration registration("explore", [](CLI::App& app) {
   sub->add_option("--safety-seen-free", o->safety_seen_free,
                   "With the safety layer, paths also read free the space the recent frames saw free, whatever the "
                   "global map says (a door that drift closed in the map, seen open now, is open)")
+      ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--safety-map-thin", o->safety_map_thin,
+                  "With the safety layer, paths also read the global map's thin structure as obstacles (on, the "
+                  "default); off: only the recent frames' surfaces stand for it (under drift, end points of a "
+                  "surface seen at another drift stay where they landed, and read as a wall in free space)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "

@@ -54,13 +54,18 @@ const std::filesystem::path& requireWorld(const std::filesystem::path& world);
 /// when the house is asked for and not found.
 std::vector<std::string> benchmarkWorldSpecs(const std::vector<std::string>& specs);
 
-/// `--safety on|off` and `--safety-seen-free on|off` of the benchmarks (as `vdbmap explore`'s).
-inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& seen_free) {
+/// `--safety on|off`, `--safety-seen-free on|off` and `--safety-map-thin on|off` of the benchmarks
+/// (as `vdbmap explore`'s).
+inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& seen_free, std::string& map_thin) {
   sub.add_option("--safety", safety, "The drift-free safety layer of recent depth frames (as vdbmap explore --safety)")
       ->check(CLI::IsMember({"on", "off"}));
   sub.add_option("--safety-seen-free", seen_free,
                  "With the safety layer, paths also read free the space the recent frames saw free (as vdbmap "
                  "explore --safety-seen-free)")
+      ->check(CLI::IsMember({"on", "off"}));
+  sub.add_option("--safety-map-thin", map_thin,
+                 "With the safety layer, paths also read the global map's thin structure as obstacles (as vdbmap "
+                 "explore --safety-map-thin)")
       ->check(CLI::IsMember({"on", "off"}));
 }
 

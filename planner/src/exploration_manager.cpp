@@ -514,8 +514,10 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   // tests of paths, costs and trajectories.
   const CachedMap map(free_map);
   std::optional<RecentObstacleMap> recent_map;
+  // With the safety layer, flight may leave the map's thin structure to the recent surfaces.
+  const MapQuery& flight_base = recent_ && !params_.safety.map_thin_obstacles ? map.sightMap() : map;
   if (recent_)
-    recent_map.emplace(map, recent_->surfaceVoxels(map.voxelSize()),
+    recent_map.emplace(flight_base, recent_->surfaceVoxels(map.voxelSize()),
                        params_.safety.seen_free_is_free ? recent_.get() : nullptr);
   const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;
   ExplorationStep step;
@@ -525,7 +527,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   step.clusters = frontiers_.clusters().size();
   step.frontier_voxels = frontiers_.frontierVoxelCount();
 
-  step.reason = replanReason(map, recent_map ? &*recent_map : nullptr, t_s);
+  step.reason = replanReason(flight_base, recent_map ? &*recent_map : nullptr, t_s);
   std::optional<Vec3d> unseen;
   if (step.reason == ReplanReason::None && flight_ != FlightKind::Look && !escaping(t_s)) {
     unseen = unseenWayAhead(map, vehicle, t_s);

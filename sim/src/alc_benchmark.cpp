@@ -203,6 +203,7 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
      << " s, search radius " << config.alc.search_radius_m << " m. Safety layer "
      << (config.safety.enabled ? "on" : "off")
      << (config.safety.enabled && config.safety.seen_free_is_free ? " (seen free is free)" : "")
+     << (config.safety.enabled && !config.safety.map_thin_obstacles ? " (no thin structure from the map)" : "")
      << ". Both arms of a world and seed share the drift and planner seeds and the start. Values: mean ± sample "
         "standard deviation over the runs done. A run is incomplete when it ends below "
      << format("%.2f", config.min_finish_coverage) << " coverage of the observable surface, finished or not.\n";

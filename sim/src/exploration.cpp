@@ -437,6 +437,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["final_sweep_clusters"] = r.planner_counters.final_sweep_clusters;
   j["safety_layer"] = c.planner.safety.enabled;
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
+  j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.map_thin_obstacles;
   // How long the layer trusted its recent frames (widened from recent.window_s by the declared drift).
   j["safety_window_s"] = c.planner.safety.enabled ? nlohmann::json(c.planner.safety.window_s()) : nlohmann::json();
   j["emergency_stops"] = r.planner_counters.emergency_stops;

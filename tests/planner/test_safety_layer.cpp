@@ -337,3 +337,70 @@ TEST_CASE(
   CHECK(flownBack(look.trajectory) < 1e-3);
   CHECK(look.trajectory.motionDuration() == Approx(1.0).margin(0.05));  // v / a_max
 }
+
+namespace {
+/// A map whose flight reading holds a ghost over its base: the voxels of `ghost` read occupied,
+/// as TsdfMapQuery's thin-structure rules read the end points a surface left where an earlier
+/// drift put it. Lines of sight (sightMap) read the base alone, as TsdfMapQuery's do.
+class GhostMap : public MapQuery {
+ public:
+  GhostMap(const DenseMap& base, const CoordBBox& ghost) : base_(base), ghost_(ghost) {}
+  double voxelSize() const override { return base_.voxelSize(); }
+  CoordBBox knownBounds() const override { return base_.knownBounds(); }
+  std::unique_ptr<MapReader> reader() const override { return std::make_unique<Reader>(base_.reader(), ghost_); }
+  const MapQuery& sightMap() const override { return base_; }
+
+ private:
+  struct Reader : MapReader {
+    Reader(std::unique_ptr<MapReader> b, const CoordBBox& g) : base(std::move(b)), ghost(g) {}
+    Occupancy at(const Coord& ijk) override { return ghost.isInside(ijk) ? Occupancy::Occupied : base->at(ijk); }
+    std::unique_ptr<MapReader> base;
+    CoordBBox ghost;
+  };
+  const DenseMap& base_;
+  CoordBBox ghost_;
+};
+}  // namespace
+
+TEST_CASE(
+    "With the map's thin structure left to the recent surfaces, a door its ghost closes is open, and what "
+    "the camera sees there still blocks it",
+    "[planner][safety]") {
+  // wallRoom's 10 x 6 m room, its wall at x = 5 m with a door at y 2.5-3.5 m; unknown beyond x =
+  // 7 m (the frontier). The ghost: a slab 0.2 m before the wall across y 2-4 m, as the end points
+  // of the wall seen at another drift leave it. The vehicle stands at (2, 3, 1) facing the door.
+  DenseMap base = planner::test::wallRoom();
+  base.fill(CoordBBox(Coord(70, 1, 1), Coord(98, 58, 28)), Occupancy::Unknown);
+  const GhostMap map(base, CoordBBox(Coord(47, 20, 1), Coord(47, 40, 28)));
+  REQUIRE(MapProbe(map).atWorld(Vec3d(4.7, 3.0, 1.0)) == Occupancy::Occupied);
+  REQUIRE(MapProbe(map.sightMap()).atWorld(Vec3d(4.7, 3.0, 1.0)) == Occupancy::Free);
+  const VehicleState start = planner::test::at(Vec3d(2.0, 3.0, 1.0), 0.0);
+  const auto firstFlightEnd = [&](bool map_thin, const std::optional<float>& wall_ahead_m) {
+    ExplorationManagerConfig p;
+    p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(10, 6, 3));
+    p.initial_turn = false;
+    p.safety.enabled = true;
+    p.safety.map_thin_obstacles = map_thin;
+    p.path.seed = 3;
+    p.path.time_limit_s = 1.0;  // counted: the same plan on any machine
+    p.path.max_iterations = 3000;
+    p.cost_path.time_limit_s = 1.0;
+    p.cost_path.max_iterations = 300;
+    ExplorationManager m(p, start, 0.0);
+    if (wall_ahead_m) {  // a frame that sees a real wall across the way to the door
+      const CameraIntrinsics K = quarterCamera();
+      const Pose3d T_W_S = lookingPose(start.position_W, start.yaw_rad);
+      m.addDepthFrame(0.0, DepthImage(K.width, K.height, *wall_ahead_m), K, T_W_S);
+    }
+    m.update(map, CoordBBox(), start, 0.0);
+    return m.command(1e9).position_W;
+  };
+  // The map's thin structure read: the ghost closes the door, no flight gets through.
+  CHECK(firstFlightEnd(true, std::nullopt).x() < 5.0);
+  // Left to the recent surfaces (none yet): the door is open.
+  const Vec3d through = firstFlightEnd(false, std::nullopt);
+  INFO("without the map's thin structure the flight ends at " << through.transpose());
+  CHECK(through.x() > 5.0);
+  // A wall the camera sees 2.5 m ahead (x = 4.5 m, across the door's approach) blocks it again.
+  CHECK(firstFlightEnd(false, 2.5f).x() < 4.5);
+}
