@@ -103,21 +103,28 @@ struct Flight {
   double look_return_m = 0.0;
 };
 
+/// The manager's config for these flights: exploring `box_W`, no initial turn, and path budgets
+/// counted, so that a flight is the same on any machine.
+ExplorationManagerConfig countedConfig(const Eigen::AlignedBox3d& box_W) {
+  ExplorationManagerConfig p;
+  p.box_W = box_W;
+  p.initial_turn = false;
+  p.path.seed = 3;
+  p.path.time_limit_s = 1.0;
+  p.path.max_iterations = 3000;
+  p.cost_path.time_limit_s = 1.0;
+  p.cost_path.max_iterations = 300;
+  return p;
+}
+
 /// Flies the manager for up to max_time_s against the drifted map, rendering the true world.
 Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0, const Vec3d& map_offset = kMapOffset,
            const std::optional<OdometryDrift>& odometry = std::nullopt, bool noisy_velocity = false) {
   const CameraIntrinsics K = quarterCamera();
-  ExplorationManagerConfig p;
-  p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5));
-  p.initial_turn = false;
+  ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
   p.safety.enabled = safety;
   p.safety.face_travel = face_travel;
   p.safety.odometry = odometry;
-  p.path.seed = 3;
-  p.path.time_limit_s = 1.0;  // counted: the same flight on any machine
-  p.path.max_iterations = 3000;
-  p.cost_path.time_limit_s = 1.0;
-  p.cost_path.max_iterations = 300;
   const DenseMap map = driftedMap(map_offset);
   const Vec3d start(1.0, 1.3, 1.2);
   ExplorationManager m(p, planner::test::at(start, M_PI), 0.0);
@@ -376,16 +383,9 @@ TEST_CASE(
   REQUIRE(MapProbe(map.sightMap()).atWorld(Vec3d(4.7, 3.0, 1.0)) == Occupancy::Free);
   const VehicleState start = planner::test::at(Vec3d(2.0, 3.0, 1.0), 0.0);
   const auto firstFlightEnd = [&](bool map_thin, const std::optional<float>& wall_ahead_m) {
-    ExplorationManagerConfig p;
-    p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(10, 6, 3));
-    p.initial_turn = false;
+    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(10, 6, 3)));
     p.safety.enabled = true;
     p.safety.map_thin_obstacles = map_thin;
-    p.path.seed = 3;
-    p.path.time_limit_s = 1.0;  // counted: the same plan on any machine
-    p.path.max_iterations = 3000;
-    p.cost_path.time_limit_s = 1.0;
-    p.cost_path.max_iterations = 300;
     ExplorationManager m(p, start, 0.0);
     if (wall_ahead_m) {  // a frame that sees a real wall across the way to the door
       const CameraIntrinsics K = quarterCamera();
