@@ -217,9 +217,9 @@ const Registration registration("explore", [](CLI::App& app) {
                   "global map says (a door that drift closed in the map, seen open now, is open)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--safety-map-thin", o->safety_map_thin,
-                  "With the safety layer, paths also read the global map's thin structure as obstacles (on, the "
-                  "default); off: only the recent frames' surfaces stand for it (under drift, end points of a "
-                  "surface seen at another drift stay where they landed, and read as a wall in free space)")
+                  "With the safety layer, paths also read the global map's thin structure as obstacles (on); off (the "
+                  "default): only the recent frames' surfaces stand for it (under drift, end points of a surface "
+                  "seen at another drift stay where they landed, and read as a wall in free space)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "

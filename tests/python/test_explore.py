@@ -260,9 +260,10 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     assert cli_default("explore", "--safety") == "off"
     assert cli_default("explore", "--safety-window-s") == str(int(vdbmap.planner.RecentFramesConfig().window_s))
     assert cli_default("explore", "--safety-max-window-s") == str(int(vdbmap.planner.SafetyConfig().max_window_s))
-    # Seen free space stays off and the map's thin structure on, as the CLI's defaults say.
-    assert not vdbmap.planner.SafetyConfig().seen_free_is_free and cli_default("explore", "--safety-seen-free") == "off"
-    assert vdbmap.planner.SafetyConfig().map_thin_obstacles and cli_default("explore", "--safety-map-thin") == "on"
+    # With the layer, seen free space is free and thin structure is the recent frames', as the CLI's
+    # defaults say.
+    assert vdbmap.planner.SafetyConfig().seen_free_is_free and cli_default("explore", "--safety-seen-free") == "on"
+    assert not vdbmap.planner.SafetyConfig().map_thin_obstacles and cli_default("explore", "--safety-map-thin") == "off"
     # No drift declared: the base window; s1's drift (none) declared: the longest; s3's: the base.
     safety = vdbmap.planner.SafetyConfig()
     assert safety.odometry is None and safety.window_s() == safety.recent.window_s
