@@ -236,10 +236,11 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("max_chained_looks", &SafetyConfig::max_chained_looks,
                      "looks in a row that leave the way unseen before the target gets a failure; [1, 100]")
       .def_readwrite("seen_free_is_free", &SafetyConfig::seen_free_is_free,
-                     "paths also read free what the recent frames saw free, whatever the global map says")
+                     "paths also read free what the recent frames saw free, whatever the global map says (default "
+                     "True)")
       .def_readwrite("map_thin_obstacles", &SafetyConfig::map_thin_obstacles,
-                     "paths read the global map's thin structure as obstacles (True); False leaves it to the "
-                     "recent surfaces")
+                     "True: paths read the global map's thin structure as obstacles; False (the default) leaves it "
+                     "to the recent surfaces")
       .def("validate", &SafetyConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::enum_<FinalSweepScope>(m, "FinalSweepScope", "Which small clusters the final sweep visits.")
