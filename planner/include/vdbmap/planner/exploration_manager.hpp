@@ -113,15 +113,15 @@ struct SafetyConfig {
   int max_chained_looks = 3;
   /// Paths and trajectories also read free the voxels a recent frame saw free, whatever the
   /// global map says (recent_obstacle_map.hpp): a door that drift closed in the map, seen open now,
-  /// is open. On by default since stop 59 (docs/exploration.md).
+  /// is open. The runs behind the default: docs/exploration.md, "Stop 59".
   bool seen_free_is_free = true;
   /// Paths and trajectories read the global map's thin structure as obstacles
   /// (TsdfMapQueryConfig: tsdf valleys and free voxels holding surface end points). Off, they read
   /// the map's own states (MapQuery::sightMap) and only the recent surfaces stand for thin
   /// structure. Under drift end points do not average as the tsdf does: a surface seen again at
   /// another drift leaves its earlier end points in what the map now holds free, a ghost of it,
-  /// and those read as walls (a door closed by the ghost of the corridor's wall). Off by default
-  /// since stop 59 (docs/exploration.md).
+  /// and those read as walls (a door closed by the ghost of the corridor's wall). The runs behind
+  /// the default: docs/exploration.md, "Stop 59".
   bool map_thin_obstacles = false;
 
   void validate() const;
