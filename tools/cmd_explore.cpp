@@ -36,6 +36,7 @@ struct ExploreOptions {
   double safety_max_window_s = planner::SafetyConfig{}.max_window_s;
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
+  double safety_vertical_margin_m = planner::SafetyConfig{}.vertical_margin_m;
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
@@ -94,6 +95,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.max_window_s = o.safety_max_window_s;
   config.planner.safety.seen_free_is_free = o.safety_seen_free == "on";
   config.planner.safety.map_thin_obstacles = o.safety_map_thin == "on";
+  config.planner.safety.vertical_margin_m = o.safety_vertical_margin_m;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.view_score == "into-unknown";
@@ -120,7 +122,8 @@ void runExplore(const ExploreOptions& o) {
       (config.planner.safety.enabled
            ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-max-window-s " +
                  std::to_string(o.safety_max_window_s) + " --safety-seen-free " + o.safety_seen_free +
-                 " --safety-map-thin " + o.safety_map_thin
+                 " --safety-map-thin " + o.safety_map_thin + " --safety-vertical-margin " +
+                 std::to_string(o.safety_vertical_margin_m)
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -221,6 +224,11 @@ const Registration registration("explore", [](CLI::App& app) {
                   "default): only the recent frames' surfaces stand for it (under drift, end points of a surface "
                   "seen at another drift stay where they landed, and read as a wall in free space)")
       ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--safety-vertical-margin", o->safety_vertical_margin_m,
+                  "With the safety layer under drift (s2-s4), paths keep this much more from the global map's "
+                  "surfaces straight above and below (metres): the camera sees neither, so no look finds a beam "
+                  "overhead that drift brought closer")
+      ->check(CLI::Range(0.0, 2.0));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
                   "small unknown pockets of cluttered places (e.g. 50 for shelving)")

@@ -241,6 +241,11 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("map_thin_obstacles", &SafetyConfig::map_thin_obstacles,
                      "True: paths read the global map's thin structure as obstacles; False (the default) leaves it "
                      "to the recent surfaces")
+      .def_readwrite("vertical_margin_m", &SafetyConfig::vertical_margin_m,
+                     "paths keep this much more from the global map's surfaces straight above and below, when the "
+                     "odometry may drift (the camera sees neither); [0, 2]")
+      .def("effective_vertical_margin_m", &SafetyConfig::verticalMargin_m,
+           "vertical_margin_m, or 0 when the declared odometry does not drift")
       .def("validate", &SafetyConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::enum_<FinalSweepScope>(m, "FinalSweepScope", "Which small clusters the final sweep visits.")

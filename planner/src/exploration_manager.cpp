@@ -158,6 +158,12 @@ void SafetyConfig::validate() const {
   if (!(max_window_s > 0.0 && max_window_s <= 600.0)) check.fail("max_window_s", "(0, 600]", max_window_s);
   check.inRange("drift_tolerance_m", drift_tolerance_m, 0.0, 10.0);
   check.inRange("drift_lever_m", drift_lever_m, 0.0, 100.0);
+  check.inRange("vertical_margin_m", vertical_margin_m, 0.0, 2.0);
+}
+
+double SafetyConfig::verticalMargin_m() const {
+  validate();
+  return odometry && odometry->displacement_m(1.0, 1.0) == 0.0 ? 0.0 : vertical_margin_m;
 }
 
 double SafetyConfig::trustedAge_s() const {
@@ -222,7 +228,10 @@ ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, c
   trajectory_t0_ = t_s;
   last_t_ = t_s;
   if (params_.alc_enabled) alc_ = std::make_unique<ActiveLoopClosure>(params_.alc, t_s);
-  if (params_.safety.enabled) recent_ = std::make_unique<RecentFrames>(params_.safety.recent);
+  if (params_.safety.enabled) {
+    recent_ = std::make_unique<RecentFrames>(params_.safety.recent);
+    vertical_margin_m_ = params_.safety.verticalMargin_m();
+  }
   map_trusted_until_s_ = t_s + params_.safety.trustedAge_s();
 }
 
@@ -518,7 +527,8 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   const MapQuery& flight_base = recent_ && !params_.safety.map_thin_obstacles ? map.sightMap() : map;
   if (recent_)
     recent_map.emplace(flight_base, recent_->surfaceVoxels(map.voxelSize()),
-                       params_.safety.seen_free_is_free ? recent_.get() : nullptr);
+                       params_.safety.seen_free_is_free ? recent_.get() : nullptr,
+                       int(std::lround(vertical_margin_m_ / map.voxelSize())));
   const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;
   ExplorationStep step;
   const Stopwatch map_update;

@@ -1,5 +1,8 @@
 #include "vdbmap/planner/recent_obstacle_map.hpp"
 
+#include <stdexcept>
+#include <string>
+
 namespace vdbmap::planner {
 
 namespace {
@@ -10,22 +13,41 @@ class RecentObstacleReader : public MapReader {
 
   Occupancy at(const openvdb::Coord& ijk) override {
     if (map_.isRecentSurface(ijk)) return Occupancy::Occupied;
-    const Occupancy base = base_->at(ijk);
-    return base != Occupancy::Free && map_.isSeenFree(ijk) ? Occupancy::Free : base;
+    const Occupancy o = withSeenFree(ijk);
+    if (o != Occupancy::Free) return o;
+    for (int k = 1; k <= map_.verticalMarginVoxels(); ++k)
+      if (withSeenFree(ijk.offsetBy(0, 0, k)) == Occupancy::Occupied ||
+          withSeenFree(ijk.offsetBy(0, 0, -k)) == Occupancy::Occupied)
+        return Occupancy::Occupied;
+    return o;
   }
 
   void readBox(const openvdb::CoordBBox& box, Occupancy* out) override {
-    base_->readBox(box, out);
+    const int m = map_.verticalMarginVoxels();
     const openvdb::Coord dim = box.dim();
-    openvdb::CoordBBox seen = box;
-    seen.intersect(map_.seenFreeBounds());
-    // An empty box must not be iterated: OpenVDB's box iterator tests only its first axis, so it
-    // would visit voxels outside the box (and write outside `out`).
-    if (!seen.empty())
-      for (auto it = seen.begin(); it; ++it) {  // before the surfaces, which win
-        Occupancy& o = out[boxIndex(box.min(), dim, *it)];
-        if (o != Occupancy::Free && map_.isSeenFree(*it)) o = Occupancy::Free;
-      }
+    if (m == 0) {
+      readWithSeenFree(box, out);
+    } else {
+      // The box read m voxels taller at both ends; each column of the box then reads occupied
+      // where a free voxel has an obstacle within m voxels (a running count over 2m + 1 voxels).
+      const openvdb::CoordBBox tall(box.min().offsetBy(0, 0, -m), box.max().offsetBy(0, 0, m));
+      const openvdb::Coord tall_dim = tall.dim();
+      tall_.resize(std::size_t(tall.volume()));
+      readWithSeenFree(tall, tall_.data());
+      for (int x = box.min().x(); x <= box.max().x(); ++x)
+        for (int y = box.min().y(); y <= box.max().y(); ++y) {
+          const Occupancy* column = &tall_[boxIndex(tall.min(), tall_dim, openvdb::Coord(x, y, tall.min().z()))];
+          Occupancy* o = &out[boxIndex(box.min(), dim, openvdb::Coord(x, y, box.min().z()))];
+          int obstacles = 0;  // in column[z, z + 2m] for box voxel z
+          for (int z = 0; z < 2 * m; ++z) obstacles += column[z] == Occupancy::Occupied;
+          for (int z = 0; z < dim.z(); ++z) {
+            obstacles += column[z + 2 * m] == Occupancy::Occupied;
+            const Occupancy here = column[z + m];
+            o[z] = here == Occupancy::Free && obstacles > 0 ? Occupancy::Occupied : here;
+            obstacles -= column[z] == Occupancy::Occupied;
+          }
+        }
+    }
     openvdb::CoordBBox overlap = box;
     overlap.intersect(map_.surfaceBounds());
     if (overlap.empty()) return;
@@ -38,13 +60,38 @@ class RecentObstacleReader : public MapReader {
   }
 
  private:
+  /// The base map's state with the seen free space read free (no recent surfaces, no margin).
+  Occupancy withSeenFree(const openvdb::Coord& ijk) {
+    const Occupancy base = base_->at(ijk);
+    return base != Occupancy::Free && map_.isSeenFree(ijk) ? Occupancy::Free : base;
+  }
+
+  void readWithSeenFree(const openvdb::CoordBBox& box, Occupancy* out) {
+    base_->readBox(box, out);
+    openvdb::CoordBBox seen = box;
+    seen.intersect(map_.seenFreeBounds());
+    // An empty box must not be iterated: OpenVDB's box iterator tests only its first axis, so it
+    // would visit voxels outside the box (and write outside `out`).
+    if (seen.empty()) return;
+    const openvdb::Coord dim = box.dim();
+    for (auto it = seen.begin(); it; ++it) {
+      Occupancy& o = out[boxIndex(box.min(), dim, *it)];
+      if (o != Occupancy::Free && map_.isSeenFree(*it)) o = Occupancy::Free;
+    }
+  }
+
   std::unique_ptr<MapReader> base_;
   const RecentObstacleMap& map_;
+  std::vector<Occupancy> tall_;  ///< readBox's taller box (kept to reuse its allocation)
 };
 }  // namespace
 
-RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free)
-    : base_(&base), surface_(&surface), seen_free_(seen_free) {
+RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free,
+                                     int vertical_margin_voxels)
+    : base_(&base), surface_(&surface), seen_free_(seen_free), vertical_margin_(vertical_margin_voxels) {
+  if (vertical_margin_voxels < 0 || vertical_margin_voxels > 100)
+    throw std::invalid_argument("RecentObstacleMap: vertical_margin_voxels must be in [0, 100], got " +
+                                std::to_string(vertical_margin_voxels));
   if (seen_free_) {
     const Eigen::AlignedBox3d reach = seen_free_->reach_W();
     if (!reach.isEmpty()) {

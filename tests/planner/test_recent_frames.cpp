@@ -13,8 +13,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <set>
+#include <stdexcept>
 
 using namespace vdbmap;
 using namespace vdbmap::planner;
@@ -355,4 +357,84 @@ TEST_CASE("RecentObstacleMap with seen free space reopens what drift closed in t
   const PathResult through = PathPlanner(reopened).plan(start, goal, 1);
   REQUIRE(through.ok());
   CHECK((through.waypoints.back() - goal).norm() < 1e-9);
+}
+
+TEST_CASE(
+    "RecentObstacleMap's vertical margin grows the map's obstacles up and down, and seen free space does not undo it",
+    "[planner][safety]") {
+  // The room and frame of the test above: a ghost wall at x = 2 m that the frame sees free, a
+  // ghost voxel outside its view. With a margin of m voxels, a voxel that reads free without it
+  // reads occupied when a voxel within m straight above or below reads occupied (as the wrapper
+  // without margin reads it: recent surfaces aside, a seen-free ghost grows nothing).
+  DenseMap base = planner::test::makeRoom(Eigen::Vector3i(40, 20, 12));
+  for (int y = 1; y <= 18; ++y)
+    for (int z = 1; z <= 10; ++z) base.set(Coord(20, y, z), Occupancy::Occupied);
+  base.set(Coord(10, 18, 6), Occupancy::Occupied);
+  base.set(Coord(30, 5, 9), Occupancy::Unknown);  // unknown grows nothing
+  const CameraIntrinsics K = quarterCamera();
+  RecentFrames recent;
+  recent.add(0.0, flatWall(K, 3.4f), K, lookingPose(Vec3d(0.5, 1.0, 0.6), 0.0));
+  const SurfaceVoxels& surface = recent.surfaceVoxels(base.voxelSize());
+  const RecentObstacleMap none(base, surface, &recent), grown(base, surface, &recent, 2);
+  CHECK(grown.verticalMarginVoxels() == 2);
+  auto none_reader = none.reader(), reader = grown.reader();
+  const CoordBBox all(Coord(-2), Coord(41, 21, 13));
+  std::size_t grown_voxels = 0;
+  for (auto it = all.begin(); it; ++it) {
+    const Occupancy plain = none_reader->at(*it);
+    Occupancy expected = plain;
+    if (plain == Occupancy::Free && !surface.count(*it))
+      for (int k = -2; k <= 2; ++k) {
+        const Coord c = (*it).offsetBy(0, 0, k);
+        if (!surface.count(c) && none_reader->at(c) == Occupancy::Occupied) expected = Occupancy::Occupied;
+      }
+    grown_voxels += plain != expected;
+    REQUIRE(reader->at(*it) == expected);
+  }
+  // The floor and ceiling grow by up to two voxels (less where the frame saw them free), the
+  // ghost voxel by two above and two below; the seen-free ghost wall not at all.
+  CHECK(reader->at(Coord(10, 18, 4)) == Occupancy::Occupied);
+  CHECK(reader->at(Coord(10, 18, 8)) == Occupancy::Occupied);
+  CHECK(reader->at(Coord(10, 18, 3)) == Occupancy::Free);
+  CHECK(reader->at(Coord(20, 10, 6)) == Occupancy::Free);
+  CHECK(reader->at(Coord(30, 5, 8)) == Occupancy::Free);
+  CHECK(grown_voxels > 38 * 18);  // more than one layer over the room
+  for (const CoordBBox& box :
+       {CoordBBox(Coord(18, 5, 3), Coord(22, 15, 9)), all, CoordBBox(Coord(9, 17, 5), Coord(9, 17, 5)),
+        CoordBBox(Coord(15, -8, 3), Coord(25, -3, 9)), CoordBBox(Coord(15, 5, -8), Coord(25, 15, -3))})
+    planner::test::requireReadBoxMatchesAt(*reader, box);
+  CHECK_THROWS_AS(RecentObstacleMap(base, surface, &recent, -1), std::invalid_argument);
+  CHECK_THROWS_AS(RecentObstacleMap(base, surface, &recent, 101), std::invalid_argument);
+}
+
+TEST_CASE("Under a beam that drift holds too high in the map, the vertical margin keeps paths clear of the true beam",
+          "[planner][safety]") {
+  // A 4 x 2 x 2.5 m room with a beam across it over x 1.5-2.5 m. The true beam's underside is at
+  // 1.85 m; drift left the map holding it 0.2 m higher (voxels 21-23, underside at 2.05 m), and
+  // the camera, looking ahead, never sees straight up. Paths keep clearance_m (0.3 m) from the
+  // map; the vehicle is 0.2 m.
+  constexpr double kVehicleRadiusM = 0.2, kTrueUnderside_m = 1.85;
+  DenseMap base = planner::test::makeRoom(Eigen::Vector3i(40, 20, 25));
+  base.fill(CoordBBox(Coord(15, 1, 21), Coord(25, 18, 23)), Occupancy::Occupied);
+  const SurfaceVoxels no_surface;
+  const RecentObstacleMap as_held(base, no_surface), with_margin(base, no_surface, nullptr, 2);
+  const auto trueClearanceUnderBeam = [&](const std::vector<Vec3d>& path) {
+    double least = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i + 1 < path.size(); ++i)
+      for (double s = 0.0; s <= 1.0; s += 0.01) {
+        const Vec3d p = path[i] + s * (path[i + 1] - path[i]);
+        if (p.x() >= 1.5 && p.x() <= 2.5) least = std::min(least, kTrueUnderside_m - p.z());
+      }
+    return least;
+  };
+  // A goal under the beam as high as the map allows: the map as held lets the vehicle into the
+  // true beam; with the margin that goal is refused, and one 0.2 m lower is clear of it.
+  const Vec3d start(0.5, 1.0, 1.2), high_goal(2.0, 1.0, 1.75), lower_goal(2.0, 1.0, 1.55);
+  const PathResult into = PathPlanner(as_held).plan(start, high_goal, 1);
+  REQUIRE(into.ok());
+  CHECK(trueClearanceUnderBeam(into.waypoints) < kVehicleRadiusM);
+  CHECK_FALSE(PathPlanner(with_margin).plan(start, high_goal, 1).ok());
+  const PathResult under = PathPlanner(with_margin).plan(start, lower_goal, 1);
+  REQUIRE(under.ok());
+  CHECK(trueClearanceUnderBeam(under.waypoints) >= kVehicleRadiusM);
 }

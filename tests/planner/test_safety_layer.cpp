@@ -119,12 +119,14 @@ ExplorationManagerConfig countedConfig(const Eigen::AlignedBox3d& box_W) {
 
 /// Flies the manager for up to max_time_s against the drifted map, rendering the true world.
 Flight fly(bool safety, bool face_travel = true, double max_time_s = 60.0, const Vec3d& map_offset = kMapOffset,
-           const std::optional<OdometryDrift>& odometry = std::nullopt, bool noisy_velocity = false) {
+           const std::optional<OdometryDrift>& odometry = std::nullopt, bool noisy_velocity = false,
+           double vertical_margin_m = SafetyConfig{}.vertical_margin_m) {
   const CameraIntrinsics K = quarterCamera();
   ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
   p.safety.enabled = safety;
   p.safety.face_travel = face_travel;
   p.safety.odometry = odometry;
+  p.safety.vertical_margin_m = vertical_margin_m;
   const DenseMap map = driftedMap(map_offset);
   const Vec3d start(1.0, 1.3, 1.2);
   ExplorationManager m(p, planner::test::at(start, M_PI), 0.0);
@@ -191,9 +193,23 @@ TEST_CASE("SafetyConfig::validate names the field", "[planner][safety]") {
   c.drift_lever_m = 1e3;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.drift_lever_m"));
   c = {};
+  c.vertical_margin_m = 2.5;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("SafetyConfig.vertical_margin_m"));
+  c = {};
   c.odometry = OdometryDrift{};
   c.odometry->yaw_rad_per_sqrt_s = -1.0;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("OdometryDrift.yaw_rad_per_sqrt_s"));
+}
+
+TEST_CASE("The vertical margin applies unless the declared odometry does not drift", "[planner][safety]") {
+  SafetyConfig c;
+  CHECK(c.verticalMargin_m() == 0.2);  // unknown drift
+  c.odometry = OdometryDrift{};
+  CHECK(c.verticalMargin_m() == 0.0);  // none declared
+  c.odometry->position_bias_m_per_s = -0.001;
+  CHECK(c.verticalMargin_m() == 0.2);
+  c.vertical_margin_m = 0.35;
+  CHECK(c.verticalMargin_m() == 0.35);
 }
 
 TEST_CASE("The recent frames are trusted for as long as the declared drift allows, never less than recent.window_s",
@@ -306,8 +322,9 @@ TEST_CASE("A look brakes straight along the velocity, also when the estimate's v
   // A drifting estimate's velocity runs a few degrees off the trajectory and can exceed v_max by a
   // hair; braking along the trajectory's own points then made the trajectory generator fly a
   // lead-in past the stop and back (2 m out and back in a house run at s3).
+  // (The map is off in y alone: without the vertical margin the flight meets its look at speed.)
   const Flight noisy = fly(/*safety=*/true, /*face_travel=*/false, 60.0, kMapOffset, std::nullopt,
-                           /*noisy_velocity=*/true);
+                           /*noisy_velocity=*/true, /*vertical_margin_m=*/0.0);
   INFO("looks " << noisy.counters.look_stops << ", fastest at " << noisy.fastest_look_m_s << " m/s, flew back "
                 << noisy.look_return_m << " m");
   CHECK(noisy.counters.look_stops >= 1);

@@ -272,6 +272,11 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s3"))
     assert safety.odometry.position_m_per_sqrt_s == pytest.approx((5e-2 / 200) ** 0.5)
     assert safety.window_s() == safety.recent.window_s
+    # The vertical margin holds under drift (s3's, or none declared), not without it (s1's).
+    assert cli_default("explore", "--safety-vertical-margin") == str(safety.vertical_margin_m)
+    assert safety.effective_vertical_margin_m() == safety.vertical_margin_m == 0.2
+    safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s1"))
+    assert safety.effective_vertical_margin_m() == 0.0
     config.planner.safety.enabled = True
     config.planner.safety.recent.window_s = 5.0
     config.planner.safety.recent.pool_px = 0

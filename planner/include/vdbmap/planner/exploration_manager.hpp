@@ -123,8 +123,16 @@ struct SafetyConfig {
   /// and those read as walls (a door closed by the ghost of the corridor's wall). The runs behind
   /// the default: docs/exploration.md, "Stop 59".
   bool map_thin_obstacles = false;
+  /// How far paths and trajectories keep from the global map's surfaces straight above and below,
+  /// beyond their clearance (RecentObstacleMap's vertical margin, rounded to voxels). The camera
+  /// sees neither straight up nor down, so drift can bring a beam overhead closer than the map
+  /// holds without any look showing it. Applied only when the odometry may drift
+  /// (verticalMargin_m()); [0, 2]
+  double vertical_margin_m = 0.2;
 
   void validate() const;
+  /// vertical_margin_m, or 0 when the declared odometry does not drift at all (every term 0).
+  double verticalMargin_m() const;
   /// How long the recent frames are trusted: trustedAge_s() clamped to [recent.window_s,
   /// max_window_s] (recent.window_s without a known odometry, or when max_window_s is shorter).
   /// Throws std::invalid_argument for an invalid config.
@@ -552,6 +560,7 @@ class ExplorationManager {
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
   std::size_t finish_views_flown_ = 0;      ///< flights of the detour before finishing so far
   std::unique_ptr<RecentFrames> recent_;    ///< null without the safety layer
+  double vertical_margin_m_ = 0.0;          ///< SafetyConfig::verticalMargin_m() with the layer
 
   // The state machine.
   ExplorationPhase phase_ = ExplorationPhase::Exploring;

@@ -10,6 +10,13 @@
 // corridor and again, displaced, from the room, narrows or closes the door in the map, and the
 // vehicle inside the room finds no way out. Free space seen now reopens it.
 //
+// Optionally surfaces above and below grow toward the vehicle (`vertical_margin_voxels`): a free
+// voxel with one of the base map's obstacles (as read through the seen free space) within that
+// many voxels straight above or below reads occupied. The camera sees neither straight up nor
+// straight down, so under drift a beam overhead or the floor below may sit closer than the map
+// holds, and no look brings it into view. A recent frame's free space does not undo this: a ray
+// that passed through the voxel says nothing about what lies just above or below it.
+//
 // Lines of sight (sightMap) and frontiers read the base map: a recent surface voxel changes what
 // the vehicle may fly through, not what the map knows.
 #pragma once
@@ -33,7 +40,9 @@ class RecentObstacleMap : public MapQuery {
   /// kMaxDenseVoxels (then the set is looked up).
   /// With `seen_free` (it must outlive the wrapper too), the voxels it saw free read free (above);
   /// each voxel's answer is computed once per wrapper, when first read.
-  RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free = nullptr);
+  /// `vertical_margin_voxels` in [0, 100]: how far the base map's obstacles grow up and down (above).
+  RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free = nullptr,
+                    int vertical_margin_voxels = 0);
 
   double voxelSize() const override { return base_->voxelSize(); }
   /// The base map's bounds grown by the surface voxels.
@@ -56,6 +65,7 @@ class RecentObstacleMap : public MapQuery {
   bool nearSurface(const Vec3d& p_W, double radius_m) const;
   /// The bounding box of the recent surface voxels (empty when there are none).
   const openvdb::CoordBBox& surfaceBounds() const { return bounds_; }
+  int verticalMarginVoxels() const { return vertical_margin_; }
 
  private:
   static constexpr std::size_t kMaxDenseVoxels = std::size_t(1) << 27;   ///< 16 MB of bits
@@ -68,6 +78,7 @@ class RecentObstacleMap : public MapQuery {
   std::vector<std::uint64_t> bits_;  ///< one per voxel of bounds_, z fastest (empty: look up surface_)
 
   const RecentFrames* seen_free_ = nullptr;
+  int vertical_margin_ = 0;
   openvdb::CoordBBox free_bounds_;
   openvdb::Coord free_dim_;
   /// isSeenFree() per voxel of free_bounds_, z fastest: 0 not asked yet, 1 free, 2 not (empty: ask
