@@ -201,9 +201,7 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
      << " m, loop closure `" << toString(config.loop_closure) << "`, time limit " << config.max_time_s
      << " s. ALC: epsilon " << config.alc.epsilon << ", give-up timeout " << config.alc.give_up_timeout_s
      << " s, search radius " << config.alc.search_radius_m << " m. Safety layer "
-     << (config.safety.enabled ? "on" : "off")
-     << (config.safety.enabled && config.safety.seen_free_is_free ? " (seen free is free)" : "")
-     << (config.safety.enabled && !config.safety.map_thin_obstacles ? " (no thin structure from the map)" : "")
+     << internal::safetyDescription(config.safety, config.drift_level)
      << ". Both arms of a world and seed share the drift and planner seeds and the start. Values: mean ± sample "
         "standard deviation over the runs done. A run is incomplete when it ends below "
      << format("%.2f", config.min_finish_coverage) << " coverage of the observable surface, finished or not.\n";

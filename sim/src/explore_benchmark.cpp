@@ -118,9 +118,7 @@ std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const
   std::ostringstream md;
   md << "# Exploration speed\n\nDrift " << config.drift_level << ", seeds 1.." << config.seeds << ", voxel "
      << config.voxel_size_m << " m, ALC " << (config.alc ? "on" : "off") << ", safety layer "
-     << (config.safety.enabled ? (config.safety.seen_free_is_free ? "on (seen free is free)" : "on") : "off")
-     << (config.safety.enabled && !config.safety.map_thin_obstacles ? " (no thin structure from the map)" : "")
-     << ", time limit " << config.max_time_s
+     << internal::safetyDescription(config.safety, config.drift_level) << ", time limit " << config.max_time_s
      << " s. Times are simulated seconds; `t95` is the time to 95 % coverage of the observable surface (`-`: never "
         "reached); the final sweep is the time spent on the small clusters after the main ones were done; the "
         "real-time factor is simulated over wall-clock time (this machine). A run is complete when it finished at 0.95 "

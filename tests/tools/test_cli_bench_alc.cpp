@@ -75,13 +75,17 @@ TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed",
     const fs::path summary = multi / "runs" / r.at("world").get<std::string>() /
                              (r.at("arm").get<std::string>() + "_seed1") / "summary.json";
     REQUIRE(fs::exists(summary));
-    CHECK(nlohmann::json::parse(slurp(summary)).at("safety_layer") == true);
+    const auto run_summary = nlohmann::json::parse(slurp(summary));
+    CHECK(run_summary.at("safety_layer") == true);
+    CHECK(run_summary.at("safety_vertical_margin_m") == 0.2);  // s3 drifts: the margin holds
   }
   CHECK(worlds == std::set<std::string>{"room", "room2"});
   const std::string multi_md = slurp(multi / "alc.md");
   CHECK(multi_md.find("2 pairs") != std::string::npos);
   CHECK(multi_md.find("| room2 | 1 |") != std::string::npos);
-  CHECK(multi_md.find("Safety layer on (seen free is free)") != std::string::npos);
+  CHECK(
+      multi_md.find("Safety layer on (seen free is free) (no thin structure from the map) (vertical margin 0.20 m)") !=
+      std::string::npos);
   CHECK(run("bench alc --world " + (dir / "room.ply").string() + " --worlds " + (dir / "room2.ply").string() + " -o " +
                 (dir / "x").string(),
             out) != 0);  // one or the other

@@ -3,6 +3,7 @@
 
 #include "vdbmap/sim/exploration.hpp"
 
+#include <cstdio>
 #include <string>
 #include <utility>
 
@@ -19,6 +20,19 @@ inline ExplorationRunConfig benchmarkRunConfig(bool keep_runs, std::string world
   ro.world = std::move(world_file);
   ro.description = std::move(description);
   return ro;
+}
+
+/// The safety layer as a benchmark's table header states it: "off", or "on" with its options and
+/// the vertical margin its runs keep at `drift_level` (none without drift).
+inline std::string safetyDescription(const planner::SafetyConfig& safety, const std::string& drift_level) {
+  if (!safety.enabled) return "off";
+  planner::SafetyConfig at_level = safety;
+  if (!at_level.odometry) at_level.odometry = odometryDriftOf(DriftConfig::preset(drift_level));
+  char margin[32];
+  std::snprintf(margin, sizeof margin, "%.2f", at_level.verticalMargin_m());
+  return std::string("on") + (safety.seen_free_is_free ? " (seen free is free)" : "") +
+         (!safety.map_thin_obstacles ? " (no thin structure from the map)" : "") + " (vertical margin " + margin +
+         " m)";
 }
 
 }  // namespace vdbmap::sim::internal
