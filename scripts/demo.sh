@@ -2,15 +2,16 @@
 # Sets up (Debian packages, Release build into build/) and runs the main job:
 #  1. the simulated vehicle explores the AWS small house world (embedded in data/worlds) at
 #     odometry drift s3 with the mapper (keyframes mode, 0.1 m voxels) and the exploration planner
-#     with active loop closure (--alc on) in closed loop, and writes the run folder
-#     demo_out/explore_house_s3/ (log/, map.vdb, mesh.ply, trajectories, coverage.csv,
-#     cycles.csv, summary.json, and report.html: one page to open in a browser), printing the
-#     summary; a few minutes;
+#     with active loop closure (--alc on) and the safety layer (--safety on) in closed loop, and
+#     writes the run folder demo_out/explore_house_s3/ (log/, map.vdb, mesh.ply, trajectories,
+#     coverage.csv, cycles.csv, summary.json, and report.html: one page to open in a browser),
+#     printing the summary; a few minutes;
 #  2. when the shared data is there (VDBMAP_SHARED_DATA, default ../shared/data), the 500 real
 #     7-Scenes RedKitchen depth frames integrated at 5 cm into demo_out/redkitchen.vdb with its
 #     mesh, JSON summary and report page (a few seconds), and a picture rendered by OpenVDB's
 #     vdb_render when it is installed; without the data this step says so in one line and is skipped.
-# Extra arguments go to `vdbmap explore` (e.g. --drift s1 --seed 2, or --alc off). See README.md.
+# Extra arguments go to `vdbmap explore` (e.g. --drift s1 --seed 2, --alc off or --safety off).
+# See README.md.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 vdbmap_install_packages
@@ -23,9 +24,14 @@ mkdir -p demo_out
 vdbmap="$vdbmap_build/bin/vdbmap"
 
 echo "== 1. exploring the small house at drift s3 =="
-alc=(--alc on)  # unless the extra arguments choose
-for arg in "$@"; do [[ "$arg" == --alc* ]] && alc=(); done
-"$vdbmap" explore --world "$house" --drift s3 --seed 1 "${alc[@]}" --report -o demo_out/explore_house_s3 --overwrite "$@"
+alc=(--alc on)        # unless the extra arguments choose
+safety=(--safety on)  # the safety layer guards the flight against the drifted map (docs/exploration.md)
+for arg in "$@"; do
+  [[ "$arg" == --alc* ]] && alc=()
+  [[ "$arg" == --safety || "$arg" == --safety=* ]] && safety=()  # not --safety-window-s etc.
+done
+"$vdbmap" explore --world "$house" --drift s3 --seed 1 "${alc[@]}" "${safety[@]}" --report -o demo_out/explore_house_s3 \
+  --overwrite "$@"
 echo "demo_out/explore_house_s3/summary.json:"
 cat demo_out/explore_house_s3/summary.json
 
