@@ -1,9 +1,9 @@
 // What the benchmarks' runs share (sim-internal).
 #pragma once
 
+#include "text_format.hpp"
 #include "vdbmap/sim/exploration.hpp"
 
-#include <cstdio>
 #include <string>
 #include <utility>
 
@@ -28,11 +28,9 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
   if (!safety.enabled) return "off";
   planner::SafetyConfig at_level = safety;
   if (!at_level.odometry) at_level.odometry = odometryDriftOf(DriftConfig::preset(drift_level));
-  char margin[32];
-  std::snprintf(margin, sizeof margin, "%.2f", at_level.verticalMargin_m());
   return std::string("on") + (safety.seen_free_is_free ? " (seen free is free)" : "") +
-         (!safety.map_thin_obstacles ? " (no thin structure from the map)" : "") + " (vertical margin " + margin +
-         " m)";
+         (!safety.map_thin_obstacles ? " (no thin structure from the map)" : "") + " (vertical margin " +
+         format("%.2f", at_level.verticalMargin_m()) + " m)";
 }
 
 }  // namespace vdbmap::sim::internal
