@@ -37,6 +37,8 @@ struct ExploreOptions {
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   double safety_vertical_margin_m = planner::SafetyConfig{}.vertical_margin_m;
+  double safety_vertical_sigmas = planner::SafetyConfig{}.vertical_margin_sigmas;
+  double safety_vertical_margin_max_m = planner::SafetyConfig{}.max_vertical_margin_m;
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
@@ -96,6 +98,8 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.seen_free_is_free = o.safety_seen_free == "on";
   config.planner.safety.map_thin_obstacles = o.safety_map_thin == "on";
   config.planner.safety.vertical_margin_m = o.safety_vertical_margin_m;
+  config.planner.safety.vertical_margin_sigmas = o.safety_vertical_sigmas;
+  config.planner.safety.max_vertical_margin_m = o.safety_vertical_margin_max_m;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.view_score == "into-unknown";
@@ -123,7 +127,9 @@ void runExplore(const ExploreOptions& o) {
            ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-max-window-s " +
                  std::to_string(o.safety_max_window_s) + " --safety-seen-free " + o.safety_seen_free +
                  " --safety-map-thin " + o.safety_map_thin + " --safety-vertical-margin " +
-                 std::to_string(o.safety_vertical_margin_m)
+                 std::to_string(o.safety_vertical_margin_m) + " --safety-vertical-sigmas " +
+                 std::to_string(o.safety_vertical_sigmas) + " --safety-vertical-margin-max " +
+                 std::to_string(o.safety_vertical_margin_max_m)
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -227,7 +233,15 @@ const Registration registration("explore", [](CLI::App& app) {
   sub->add_option("--safety-vertical-margin", o->safety_vertical_margin_m,
                   "With the safety layer under drift (s2-s4), paths keep this much more from the global map's "
                   "surfaces straight above and below (metres): the camera sees neither, so no look finds a beam "
-                  "overhead that drift brought closer")
+                  "overhead that drift brought closer. It grows with the map's age (--safety-vertical-sigmas)")
+      ->check(CLI::Range(0.0, 2.0));
+  sub->add_option("--safety-vertical-sigmas", o->safety_vertical_sigmas,
+                  "The vertical margin grows to this many sigmas of the drift level's vertical drift over the time "
+                  "flown (a surface mapped that long ago may sit that much off), from --safety-vertical-margin up "
+                  "to --safety-vertical-margin-max")
+      ->check(CLI::Range(0.0, 10.0));
+  sub->add_option("--safety-vertical-margin-max", o->safety_vertical_margin_max_m,
+                  "The most the vertical margin grows to (metres); it never falls below --safety-vertical-margin")
       ->check(CLI::Range(0.0, 2.0));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "

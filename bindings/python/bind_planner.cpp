@@ -207,6 +207,8 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("yaw_bias_rad_per_s", &OdometryDrift::yaw_bias_rad_per_s, "yaw-rate bias; [-1, 1]")
       .def("displacement_m", &OdometryDrift::displacement_m, py::arg("t_s"), py::arg("lever_m"),
            "expected displacement after t_s of a point lever_m from the camera")
+      .def("axis_displacement_m", &OdometryDrift::axisDisplacement_m, py::arg("t_s"),
+           "expected position error along one axis (one sigma, e.g. vertical) after t_s")
       .def("longest_within", &OdometryDrift::longestWithin, py::arg("tolerance_m"), py::arg("lever_m"),
            py::arg("min_s"), py::arg("max_s"),
            "the longest time in [min_s, max_s] whose displacement stays within tolerance_m")
@@ -244,8 +246,14 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("vertical_margin_m", &SafetyConfig::vertical_margin_m,
                      "paths keep this much more from the global map's surfaces straight above and below, when the "
                      "odometry may drift (the camera sees neither); [0, 2]")
-      .def("effective_vertical_margin_m", &SafetyConfig::verticalMargin_m,
-           "vertical_margin_m, or 0 when the declared odometry does not drift")
+      .def_readwrite("vertical_margin_sigmas", &SafetyConfig::vertical_margin_sigmas,
+                     "with a declared odometry the margin grows to this many sigmas of its vertical drift over "
+                     "the map's age; [0, 10]")
+      .def_readwrite("max_vertical_margin_m", &SafetyConfig::max_vertical_margin_m,
+                     "the most the margin grows to (never below vertical_margin_m); [0, 2]")
+      .def("effective_vertical_margin_m", &SafetyConfig::verticalMargin_m, py::arg("map_age_s") = 0.0,
+           "the margin kept while the map's oldest frame is map_age_s old: 0 when the declared odometry does not "
+           "drift, vertical_margin_m without a declared odometry, else grown with its vertical drift")
       .def("validate", &SafetyConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::enum_<FinalSweepScope>(m, "FinalSweepScope", "Which small clusters the final sweep visits.")

@@ -159,11 +159,18 @@ void SafetyConfig::validate() const {
   check.inRange("drift_tolerance_m", drift_tolerance_m, 0.0, 10.0);
   check.inRange("drift_lever_m", drift_lever_m, 0.0, 100.0);
   check.inRange("vertical_margin_m", vertical_margin_m, 0.0, 2.0);
+  check.inRange("vertical_margin_sigmas", vertical_margin_sigmas, 0.0, 10.0);
+  check.inRange("max_vertical_margin_m", max_vertical_margin_m, 0.0, 2.0);
 }
 
-double SafetyConfig::verticalMargin_m() const {
+double SafetyConfig::verticalMargin_m(double map_age_s) const {
   validate();
-  return odometry && odometry->displacement_m(1.0, 1.0) == 0.0 ? 0.0 : vertical_margin_m;
+  if (!(map_age_s >= 0.0 && std::isfinite(map_age_s)))
+    throw std::invalid_argument("SafetyConfig::verticalMargin_m: map_age_s must be finite and >= 0");
+  if (!odometry) return vertical_margin_m;
+  if (odometry->displacement_m(1.0, 1.0) == 0.0) return 0.0;
+  const double grown = vertical_margin_sigmas * odometry->axisDisplacement_m(map_age_s);
+  return std::clamp(grown, vertical_margin_m, std::max(vertical_margin_m, max_vertical_margin_m));
 }
 
 double SafetyConfig::trustedAge_s() const {
@@ -228,10 +235,8 @@ ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, c
   trajectory_t0_ = t_s;
   last_t_ = t_s;
   if (params_.alc_enabled) alc_ = std::make_unique<ActiveLoopClosure>(params_.alc, t_s);
-  if (params_.safety.enabled) {
-    recent_ = std::make_unique<RecentFrames>(params_.safety.recent);
-    vertical_margin_m_ = params_.safety.verticalMargin_m();
-  }
+  if (params_.safety.enabled) recent_ = std::make_unique<RecentFrames>(params_.safety.recent);
+  start_t_ = t_s;
   map_trusted_until_s_ = t_s + params_.safety.trustedAge_s();
 }
 
@@ -258,6 +263,13 @@ void ExplorationManager::shiftFrame(const Eigen::Isometry3d& shift) {
 void ExplorationManager::addDepthFrame(double t_s, const DepthImage& depth, const CameraIntrinsics& K,
                                        const Pose3d& T_W_S) {
   if (recent_) recent_->add(t_s, depth, K, T_W_S);
+}
+
+double ExplorationManager::verticalMargin_m(double t_s) const {
+  if (!recent_) return 0.0;
+  if (!(t_s >= start_t_))
+    throw std::invalid_argument("ExplorationManager::verticalMargin_m: t_s is before the manager's start");
+  return params_.safety.verticalMargin_m(t_s - start_t_);
 }
 
 void ExplorationManager::notifyLoopClosure(double t_s,
@@ -528,7 +540,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (recent_)
     recent_map.emplace(flight_base, recent_->surfaceVoxels(map.voxelSize()),
                        params_.safety.seen_free_is_free ? recent_.get() : nullptr,
-                       int(std::lround(vertical_margin_m_ / map.voxelSize())));
+                       int(std::lround(verticalMargin_m(t_s) / map.voxelSize())));
   const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;
   ExplorationStep step;
   const Stopwatch map_update;

@@ -23,6 +23,12 @@ double OdometryDrift::displacement_m(double t_s, double lever_m) const {
          lever_m * (yaw_rad_per_sqrt_s * root_t + std::abs(yaw_bias_rad_per_s) * t_s);
 }
 
+double OdometryDrift::axisDisplacement_m(double t_s) const {
+  if (!(t_s >= 0.0 && std::isfinite(t_s)))
+    throw std::invalid_argument("OdometryDrift::axisDisplacement_m: t_s must be finite and >= 0");
+  return position_m_per_sqrt_s * std::sqrt(t_s) + std::abs(position_bias_m_per_s) * t_s;
+}
+
 double OdometryDrift::longestWithin(double tolerance_m, double lever_m, double min_s, double max_s) const {
   if (!(tolerance_m >= 0.0 && std::isfinite(tolerance_m) && min_s >= 0.0 && min_s <= max_s && std::isfinite(max_s)))
     throw std::invalid_argument(

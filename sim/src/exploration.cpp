@@ -438,8 +438,12 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["safety_layer"] = c.planner.safety.enabled;
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
   j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.map_thin_obstacles;
+  // The vertical margin at the start and at the end (grown with the map's age under declared drift).
   j["safety_vertical_margin_m"] =
       c.planner.safety.enabled ? nlohmann::json(c.planner.safety.verticalMargin_m()) : nlohmann::json();
+  j["safety_vertical_margin_end_m"] = c.planner.safety.enabled
+                                          ? nlohmann::json(c.planner.safety.verticalMargin_m(s.exploration_time_s))
+                                          : nlohmann::json();
   // How long the layer trusted its recent frames (widened from recent.window_s by the declared drift).
   j["safety_window_s"] = c.planner.safety.enabled ? nlohmann::json(c.planner.safety.window_s()) : nlohmann::json();
   j["emergency_stops"] = r.planner_counters.emergency_stops;

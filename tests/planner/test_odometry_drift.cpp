@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 using namespace vdbmap::planner;
@@ -51,6 +52,21 @@ TEST_CASE("The displacement is the position walk over three axes plus the arc of
   d.position_bias_m_per_s = 0.002;
   CHECK(d.displacement_m(10.0, 3.0) == Approx(std::sqrt(3.0) * 0.02 + 3.0 * 0.01));
   CHECK(OdometryDrift{}.displacement_m(100.0, 2.0) == 0.0);
+}
+
+TEST_CASE("The axis displacement is one axis' position walk and bias, without the yaw's arc", "[planner][safety]") {
+  OdometryDrift d;
+  d.position_m_per_sqrt_s = 0.01;
+  d.position_bias_m_per_s = -0.002;
+  d.yaw_rad_per_sqrt_s = 0.5;  // turns the camera, does not lift it
+  d.yaw_bias_rad_per_s = 0.01;
+  CHECK(d.axisDisplacement_m(0.0) == 0.0);
+  CHECK(d.axisDisplacement_m(25.0) == Approx(0.01 * 5.0 + 0.002 * 25.0));
+  // One axis of the three-axis walk that displacement_m counts at the camera.
+  d.yaw_rad_per_sqrt_s = d.yaw_bias_rad_per_s = 0.0;
+  CHECK(d.axisDisplacement_m(9.0) == Approx(d.displacement_m(9.0, 0.0) / std::sqrt(3.0)));
+  CHECK_THROWS(d.axisDisplacement_m(-1.0));
+  CHECK_THROWS(d.axisDisplacement_m(std::numeric_limits<double>::infinity()));
 }
 
 TEST_CASE("longestWithin equals a brute-force scan, and is clamped to [min_s, max_s]", "[planner][safety]") {

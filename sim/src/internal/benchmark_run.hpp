@@ -23,14 +23,16 @@ inline ExplorationRunConfig benchmarkRunConfig(bool keep_runs, std::string world
 }
 
 /// The safety layer as a benchmark's table header states it: "off", or "on" with its options and
-/// the vertical margin its runs keep at `drift_level` (none without drift).
+/// the vertical margin its runs keep at `drift_level` (none without drift; "a-b" when it grows
+/// from a at the start to at most b).
 inline std::string safetyDescription(const planner::SafetyConfig& safety, const std::string& drift_level) {
   if (!safety.enabled) return "off";
   planner::SafetyConfig at_level = safety;
   if (!at_level.odometry) at_level.odometry = odometryDriftOf(DriftConfig::preset(drift_level));
+  const double first_m = at_level.verticalMargin_m(), most_m = at_level.verticalMargin_m(1e9);
   return std::string("on") + (safety.seen_free_is_free ? " (seen free is free)" : "") +
          (!safety.map_thin_obstacles ? " (no thin structure from the map)" : "") + " (vertical margin " +
-         format("%.2f", at_level.verticalMargin_m()) + " m)";
+         format("%.2f", first_m) + (most_m > first_m ? format("-%.2f", most_m) : std::string()) + " m)";
 }
 
 }  // namespace vdbmap::sim::internal

@@ -126,13 +126,24 @@ struct SafetyConfig {
   /// How far paths and trajectories keep from the global map's surfaces straight above and below,
   /// beyond their clearance (RecentObstacleMap's vertical margin, rounded to voxels). The camera
   /// sees neither straight up nor down, so drift can bring a beam overhead closer than the map
-  /// holds without any look showing it. Applied only when the odometry may drift
-  /// (verticalMargin_m()); [0, 2]
+  /// holds without any look showing it. Applied only when the odometry may drift; with a declared
+  /// odometry it grows with the map's age (verticalMargin_m()); [0, 2]
   double vertical_margin_m = 0.2;
+  /// With a declared odometry the margin grows to this many sigmas of its vertical drift over the
+  /// map's age: a surface mapped t seconds ago may sit that much off relative to the vehicle
+  /// (OdometryDrift::axisDisplacement_m); [0, 10]
+  double vertical_margin_sigmas = 2.0;
+  /// The most the margin grows to (it never falls below vertical_margin_m): beyond it the free band
+  /// between a 3 m ceiling and the floor, or under a door's lintel, closes; [0, 2]
+  double max_vertical_margin_m = 0.5;
 
   void validate() const;
-  /// vertical_margin_m, or 0 when the declared odometry does not drift at all (every term 0).
-  double verticalMargin_m() const;
+  /// The vertical margin while the oldest frame in the map is map_age_s >= 0 seconds old: 0 when
+  /// the declared odometry does not drift at all (every term 0); vertical_margin_m without a
+  /// declared odometry; else vertical_margin_sigmas x its vertical drift after map_age_s, clamped
+  /// to [vertical_margin_m, max(vertical_margin_m, max_vertical_margin_m)]. Throws
+  /// std::invalid_argument for an invalid config or a negative or non-finite age.
+  double verticalMargin_m(double map_age_s = 0.0) const;
   /// How long the recent frames are trusted: trustedAge_s() clamped to [recent.window_s,
   /// max_window_s] (recent.window_s without a known odometry, or when max_window_s is shorter).
   /// Throws std::invalid_argument for an invalid config.
@@ -402,6 +413,9 @@ class ExplorationManager {
   void addDepthFrame(double t_s, const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S);
   /// The safety layer's recent frames (null when it is off).
   const RecentFrames* recentFrames() const { return recent_.get(); }
+  /// The vertical margin an update at t_s keeps (SafetyConfig::verticalMargin_m for a map as old as
+  /// the manager); 0 when the layer is off. Throws std::invalid_argument for a t_s before the start.
+  double verticalMargin_m(double t_s) const;
 
   /// Active loop closure (null when alc_enabled is false).
   const ActiveLoopClosure* alc() const { return alc_.get(); }
@@ -560,7 +574,7 @@ class ExplorationManager {
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
   std::size_t finish_views_flown_ = 0;      ///< flights of the detour before finishing so far
   std::unique_ptr<RecentFrames> recent_;    ///< null without the safety layer
-  double vertical_margin_m_ = 0.0;          ///< SafetyConfig::verticalMargin_m() with the layer
+  double start_t_ = 0.0;                    ///< when the manager started (the map's oldest frame)
 
   // The state machine.
   ExplorationPhase phase_ = ExplorationPhase::Exploring;

@@ -23,6 +23,11 @@ struct OdometryDrift {
   /// camera. Throws std::invalid_argument for a negative or non-finite argument.
   double displacement_m(double t_s, double lever_m) const;
 
+  /// The expected position error along one axis (one sigma, e.g. vertical) after t_s >= 0
+  /// seconds: position_m_per_sqrt_s sqrt(t_s) + |position_bias_m_per_s| t_s. Throws
+  /// std::invalid_argument for a negative or non-finite t_s.
+  double axisDisplacement_m(double t_s) const;
+
   /// The longest time in [min_s, max_s] whose displacement_m(t, lever_m) stays within
   /// tolerance_m: max_s when the drift stays within it that long, min_s when even min_s exceeds
   /// it. Throws std::invalid_argument unless 0 <= min_s <= max_s and the other arguments are
