@@ -220,27 +220,27 @@ TEST_CASE("The vertical margin applies unless the declared odometry does not dri
 
 TEST_CASE("The vertical margin grows with the map's age to vertical_margin_sigmas of the declared vertical drift",
           "[planner][safety]") {
-  SafetyConfig c;  // margin 0.2 m, 2 sigmas, at most 0.5 m
+  SafetyConfig c;  // margin 0.2 m, 2 sigmas, at most 0.3 m
   c.odometry = OdometryDrift{};
-  c.odometry->position_m_per_sqrt_s = 0.02;
+  c.odometry->position_m_per_sqrt_s = 0.01;
   c.odometry->yaw_rad_per_sqrt_s = 0.3;  // the yaw's drift does not lift a ceiling
-  const auto sigmas = [&](double age_s) { return 2.0 * 0.02 * std::sqrt(age_s); };
+  const auto sigmas = [&](double age_s) { return 2.0 * 0.01 * std::sqrt(age_s); };
   CHECK(c.verticalMargin_m(0.0) == 0.2);  // young maps keep vertical_margin_m
-  CHECK(c.verticalMargin_m(25.0) == 0.2);
-  CHECK(c.verticalMargin_m(100.0) == Approx(sigmas(100.0)));  // 0.4 m
-  CHECK(c.verticalMargin_m(400.0) == 0.5);                    // 0.8 m, capped
+  CHECK(c.verticalMargin_m(64.0) == 0.2);
+  CHECK(c.verticalMargin_m(156.25) == Approx(sigmas(156.25)));  // 0.25 m
+  CHECK(c.verticalMargin_m(400.0) == 0.3);                      // 0.4 m, capped
   double previous = 0.0;
   for (double age_s = 0.0; age_s <= 1000.0; age_s += 7.0) {
     const double m = c.verticalMargin_m(age_s);
     CHECK(m >= previous);
-    CHECK(m == Approx(std::clamp(sigmas(age_s), 0.2, 0.5)));
+    CHECK(m == Approx(std::clamp(sigmas(age_s), 0.2, 0.3)));
     previous = m;
   }
   // A cap below the margin leaves the margin; no sigmas, a constant margin; an unknown drift
   // cannot grow it.
   c.max_vertical_margin_m = 0.1;
   CHECK(c.verticalMargin_m(400.0) == 0.2);
-  c.max_vertical_margin_m = 0.5;
+  c.max_vertical_margin_m = 0.3;
   c.vertical_margin_sigmas = 0.0;
   CHECK(c.verticalMargin_m(400.0) == 0.2);
   c.vertical_margin_sigmas = 2.0;
@@ -253,15 +253,15 @@ TEST_CASE("The manager keeps the margin for a map as old as its flight, and none
           "[planner][safety]") {
   ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
   p.safety.odometry = OdometryDrift{};
-  p.safety.odometry->position_m_per_sqrt_s = 0.02;
+  p.safety.odometry->position_m_per_sqrt_s = 0.01;
   const VehicleState start = planner::test::at(Vec3d(1.0, 1.3, 1.2), M_PI);
   const ExplorationManager off(p, start, 50.0);
-  CHECK(off.verticalMargin_m(150.0) == 0.0);
+  CHECK(off.verticalMargin_m(206.25) == 0.0);
   p.safety.enabled = true;
-  const ExplorationManager on(p, start, 50.0);  // started at 50 s: its map is 100 s old at 150 s
+  const ExplorationManager on(p, start, 50.0);  // started at 50 s: its map is 156.25 s old at 206.25 s
   CHECK(on.verticalMargin_m(50.0) == 0.2);
-  CHECK(on.verticalMargin_m(150.0) == Approx(p.safety.verticalMargin_m(100.0)));
-  CHECK(on.verticalMargin_m(150.0) == Approx(0.4));
+  CHECK(on.verticalMargin_m(206.25) == Approx(p.safety.verticalMargin_m(156.25)));
+  CHECK(on.verticalMargin_m(206.25) == Approx(0.25));
   CHECK_THROWS(on.verticalMargin_m(49.0));
 }
 

@@ -133,9 +133,10 @@ struct SafetyConfig {
   /// map's age: a surface mapped t seconds ago may sit that much off relative to the vehicle
   /// (OdometryDrift::axisDisplacement_m); [0, 10]
   double vertical_margin_sigmas = 2.0;
-  /// The most the margin grows to (it never falls below vertical_margin_m): beyond it the free band
-  /// between a 3 m ceiling and the floor, or under a door's lintel, closes; [0, 2]
-  double max_vertical_margin_m = 0.5;
+  /// The most the margin grows to (it never falls below vertical_margin_m). Each 0.1 m more takes
+  /// 0.2 m from the band a path may use under a door's lintel (docs/exploration.md, "Stop 61":
+  /// at 0.5 m the offices' doors failed paths and ended runs early); [0, 2]
+  double max_vertical_margin_m = 0.3;
 
   void validate() const;
   /// The vertical margin while the oldest frame in the map is map_age_s >= 0 seconds old: 0 when
