@@ -265,10 +265,10 @@ void ExplorationManager::addDepthFrame(double t_s, const DepthImage& depth, cons
   if (recent_) recent_->add(t_s, depth, K, T_W_S);
 }
 
-double ExplorationManager::verticalMargin_m(double t_s) const {
+double ExplorationManager::verticalMarginAt_m(double t_s) const {
   if (!recent_) return 0.0;
   if (!(t_s >= start_t_))
-    throw std::invalid_argument("ExplorationManager::verticalMargin_m: t_s is before the manager's start");
+    throw std::invalid_argument("ExplorationManager::verticalMarginAt_m: t_s is before the manager's start");
   return params_.safety.verticalMargin_m(t_s - start_t_);
 }
 
@@ -540,7 +540,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (recent_)
     recent_map.emplace(flight_base, recent_->surfaceVoxels(map.voxelSize()),
                        params_.safety.seen_free_is_free ? recent_.get() : nullptr,
-                       int(std::lround(verticalMargin_m(t_s) / map.voxelSize())));
+                       int(std::lround(verticalMarginAt_m(t_s) / map.voxelSize())));
   const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;
   ExplorationStep step;
   const Stopwatch map_update;

@@ -256,13 +256,13 @@ TEST_CASE("The manager keeps the margin for a map as old as its flight, and none
   p.safety.odometry->position_m_per_sqrt_s = 0.01;
   const VehicleState start = planner::test::at(Vec3d(1.0, 1.3, 1.2), M_PI);
   const ExplorationManager off(p, start, 50.0);
-  CHECK(off.verticalMargin_m(206.25) == 0.0);
+  CHECK(off.verticalMarginAt_m(206.25) == 0.0);
   p.safety.enabled = true;
   const ExplorationManager on(p, start, 50.0);  // started at 50 s: its map is 156.25 s old at 206.25 s
-  CHECK(on.verticalMargin_m(50.0) == 0.2);
-  CHECK(on.verticalMargin_m(206.25) == Approx(p.safety.verticalMargin_m(156.25)));
-  CHECK(on.verticalMargin_m(206.25) == Approx(0.25));
-  CHECK_THROWS(on.verticalMargin_m(49.0));
+  CHECK(on.verticalMarginAt_m(50.0) == 0.2);
+  CHECK(on.verticalMarginAt_m(206.25) == Approx(p.safety.verticalMargin_m(156.25)));
+  CHECK(on.verticalMarginAt_m(206.25) == Approx(0.25));
+  CHECK_THROWS(on.verticalMarginAt_m(49.0));
 }
 
 TEST_CASE("The recent frames are trusted for as long as the declared drift allows, never less than recent.window_s",

@@ -416,7 +416,7 @@ class ExplorationManager {
   const RecentFrames* recentFrames() const { return recent_.get(); }
   /// The vertical margin an update at t_s keeps (SafetyConfig::verticalMargin_m for a map as old as
   /// the manager); 0 when the layer is off. Throws std::invalid_argument for a t_s before the start.
-  double verticalMargin_m(double t_s) const;
+  double verticalMarginAt_m(double t_s) const;
 
   /// Active loop closure (null when alc_enabled is false).
   const ActiveLoopClosure* alc() const { return alc_.get(); }
