@@ -135,7 +135,7 @@ struct SafetyConfig {
   double vertical_margin_sigmas = 2.0;
   /// The most the margin grows to (it never falls below vertical_margin_m). Each 0.1 m more takes
   /// 0.2 m from the band a path may use under a door's lintel (docs/exploration.md, "Stop 61":
-  /// at 0.5 m the offices' doors failed paths and ended runs early); [0, 2]
+  /// at 0.5 m the offices' runs failed far more paths and ended early); [0, 2]
   double max_vertical_margin_m = 0.3;
 
   void validate() const;
