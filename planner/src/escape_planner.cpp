@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -33,25 +35,39 @@ void EscapeConfig::validate() const {
 
 EscapePlanner::EscapePlanner(const EscapeConfig& params) : params_(params) { params_.validate(); }
 
-void EscapePlanner::recordFlown(const Vec3d& p_W, double voxel_m) {
-  if (!flown_W_.empty() && (p_W - flown_W_.back()).norm() < voxel_m) return;
-  flown_W_.push_back(p_W);
-  if (flown_W_.size() > std::size_t(params_.flown_positions_kept)) flown_W_.pop_front();
+void EscapePlanner::recordFlown(const Vec3d& p_W, double stamp_s, double voxel_m) {
+  if (!flown_.empty() && (p_W - flown_.back().p_W).norm() < voxel_m) return;
+  flown_.push_back({p_W, stamp_s});
+  if (flown_.size() > std::size_t(params_.flown_positions_kept)) flown_.pop_front();
 }
 
 void EscapePlanner::shiftFrame(const Eigen::Isometry3d& shift) {
-  for (Vec3d& p : flown_W_) p = shift * p;
+  for (Flown& f : flown_) f.p_W = shift * f.p_W;
 }
 
-std::optional<Trajectory> EscapePlanner::retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest) {
+void EscapePlanner::correctHistory(const std::function<FlatPose(const FlownViewpoint&)>& corrected) {
+  std::vector<Vec3d> moved;
+  moved.reserve(flown_.size());
+  for (const Flown& f : flown_) {
+    const Vec3d p_W = corrected(FlownViewpoint{f.p_W, 0.0, f.stamp_s}).position_W;
+    if (!p_W.allFinite())
+      throw std::invalid_argument("EscapePlanner::correctHistory: non-finite corrected position for t = " +
+                                  std::to_string(f.stamp_s));
+    moved.push_back(p_W);
+  }
+  for (std::size_t i = 0; i < flown_.size(); ++i) flown_[i].p_W = moved[i];
+}
+
+std::optional<Trajectory> EscapePlanner::retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest,
+                                                 const std::function<bool(const Trajectory&)>& accept) {
   const double vs = map.voxelSize(), r = params_.clearance_m;
   MapProbe probe(map);
   std::vector<Vec3d> way{vehicle.position_W};
   double length = 0.0;
   std::size_t keep = 0;     // flown positions left once back at the end: those flown before it
   std::size_t way_end = 0;  // the end's index in `way`
-  for (std::size_t i = flown_W_.size(); i-- > 0;) {
-    const Vec3d& q = flown_W_[i];
+  for (std::size_t i = flown_.size(); i-- > 0;) {
+    const Vec3d& q = flown_[i].p_W;
     const double step = (q - way.back()).norm();
     if (length + step > params_.retreat_reach_m) break;
     if (step < 1e-3) continue;
@@ -70,8 +86,8 @@ std::optional<Trajectory> EscapePlanner::retreat(const MapQuery& map, const Vehi
   VehicleState at_rest = vehicle;
   at_rest.velocity_W.setZero();
   TrajectoryResult traj = planTrajectory(way, at_rest, vehicle.yaw_rad, corridor_map, params_.trajectory);
-  if (!traj.ok()) return std::nullopt;
-  flown_W_.resize(keep);
+  if (!traj.ok() || (accept && !accept(traj.trajectory))) return std::nullopt;
+  flown_.resize(keep);
   return std::move(traj.trajectory);
 }
 

@@ -275,6 +275,7 @@ double ExplorationManager::verticalMarginAt_m(double t_s) const {
 void ExplorationManager::notifyLoopClosure(double t_s,
                                            const std::function<FlatPose(const FlownViewpoint&)>& corrected) {
   if (!std::isfinite(t_s)) throw std::invalid_argument("ExplorationManager::notifyLoopClosure: t_s must be finite");
+  if (corrected) escapes_.correctHistory(corrected);
   if (!alc_) return;
   pending_.loop_closed = true;
   if (corrected) alc_->correctHistory(corrected);
@@ -472,19 +473,31 @@ bool ExplorationManager::lookSawWay(const MapQuery& map, double t_s) const {
   return seenFree(probe, look_at);
 }
 
-bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const {
-  const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
-  if (t_rel >= t_end) return true;
-  const double dt = riskCheckStep_s(recent.voxelSize());
-  const double r = params_.safety.clearance_m;
-  const Vec3d now = shift_ * trajectory_.sample(t_rel).position_W;
-  for (double t = t_rel;; t += dt) {
-    // Within r of where the vehicle is, only what lies beyond counts: a start closer than r to a
-    // surface (e.g. after an escape) is where the vehicle already is.
-    const Vec3d p = shift_ * trajectory_.sample(std::min(t, t_end)).position_W;
+namespace {
+/// The part of `trajectory` from t_from on (mapped by `shift`) keeps `r` from the recent surfaces,
+/// sampled every `dt`. Within r of its point at t_from, only what lies beyond counts: a start
+/// closer than r to a surface (e.g. after an escape) is where the vehicle already is.
+bool clearOfRecent(const RecentObstacleMap& recent, const Trajectory& trajectory, const Eigen::Isometry3d& shift,
+                   double t_from, double dt, double r) {
+  const double t_end = trajectory.motionDuration();
+  if (t_from >= t_end) return true;
+  const Vec3d now = shift * trajectory.sample(t_from).position_W;
+  for (double t = t_from;; t += dt) {
+    const Vec3d p = shift * trajectory.sample(std::min(t, t_end)).position_W;
     if ((p - now).norm() >= r && recent.nearSurface(p, r)) return false;
     if (t >= t_end) return true;
   }
+}
+}  // namespace
+
+bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const {
+  return clearOfRecent(recent, trajectory_, shift_, t_s - trajectory_t0_, riskCheckStep_s(recent.voxelSize()),
+                       params_.safety.clearance_m);
+}
+
+bool ExplorationManager::retreatClearOfRecent(const Trajectory& back) const {
+  return !recent_map_ || clearOfRecent(*recent_map_, back, Eigen::Isometry3d::Identity(), 0.0,
+                                       riskCheckStep_s(recent_map_->voxelSize()), params_.safety.clearance_m);
 }
 
 ReplanReason ExplorationManager::replanReason(const MapQuery& map, const RecentObstacleMap* recent, double t_s) {
@@ -528,7 +541,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   if (t_s < last_t_) throw std::invalid_argument("ExplorationManager::update: time went backwards");
   last_t_ = t_s;
   ++counters_.updates;
-  if (!escaping(t_s)) escapes_.recordFlown(vehicle.position_W, base_map.voxelSize());  // not an escape's way
+  if (!escaping(t_s)) escapes_.recordFlown(vehicle.position_W, t_s, base_map.voxelSize());  // not an escape's way
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap free_map(base_map, free_boxes_);
   // The map does not change during an update: its voxels are read once per block for the many
@@ -542,6 +555,12 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
                        params_.safety.seen_free_is_free ? recent_.get() : nullptr,
                        int(std::lround(verticalMarginAt_m(t_s) / map.voxelSize())));
   const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;
+  // Retreats read the recent surfaces through recent_map_, for this update only.
+  recent_map_ = recent_map ? &*recent_map : nullptr;
+  struct Forget {
+    const RecentObstacleMap*& recent;
+    ~Forget() { recent = nullptr; }
+  } forget_recent{recent_map_};
   ExplorationStep step;
   const Stopwatch map_update;
   refreshFrontiers(map, dirty);
@@ -815,7 +834,8 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
   // out is narrower, in the map as it reads now, than a path search can find (a corridor behind
   // shelving that thin structure, seen on the way in, narrowed). It goes back the way it came.
   if (tries > 0 && start_was_clear && chained_backtracks_ < params_.max_chained_backtracks) {
-    if (std::optional<Trajectory> back = escapes_.retreat(map, vehicle, /*farthest=*/true)) {
+    if (std::optional<Trajectory> back = escapes_.retreat(
+            map, vehicle, /*farthest=*/true, [this](const Trajectory& back) { return retreatClearOfRecent(back); })) {
       startTrajectory(std::move(*back), t_s, FlightKind::Retreat);
       ++chained_backtracks_;
       ++counters_.retreats;
@@ -958,7 +978,8 @@ ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const Vehic
 }
 
 bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle, double t_s) {
-  if (std::optional<Trajectory> back = escapes_.retreat(map, vehicle, /*farthest=*/false)) {
+  if (std::optional<Trajectory> back = escapes_.retreat(
+          map, vehicle, /*farthest=*/false, [this](const Trajectory& back) { return retreatClearOfRecent(back); })) {
     startTrajectory(std::move(*back), t_s, FlightKind::Retreat);
     ++counters_.retreats;
   } else if (chained_escapes_ >= params_.max_chained_escapes) {

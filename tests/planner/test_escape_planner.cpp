@@ -1,6 +1,7 @@
 // Ways out of a blocked start: a retreat goes back along the way flown to the newest (or the
-// farthest) clear position within reach and forgets what lies beyond; a straight escape moves
-// away from the occupied voxels to a clear point within reach; both refuse when there is none.
+// farthest) clear position within reach and forgets what lies beyond, along the way as the last loop
+// closure corrected it; a straight escape moves away from the occupied voxels to a clear point
+// within reach; both refuse when there is none.
 #include "planner/planner_test_maps.hpp"
 
 #include "vdbmap/planner/escape_planner.hpp"
@@ -25,9 +26,9 @@ EscapeConfig roomEscape() {
   return p;
 }
 
-/// Flown along x at y = z = 1 from x = 0.5 to `to_x`, a position every 0.1 m.
+/// Flown along x at y = z = 1 from x = 0.5 to `to_x`, a position every 0.1 m and 0.1 s (stamp = x).
 void flyAlongX(EscapePlanner& e, double to_x) {
-  for (double x = 0.5; x <= to_x + 1e-9; x += 0.1) e.recordFlown(Vec3d(x, 1.0, 1.0), 0.1);
+  for (double x = 0.5; x <= to_x + 1e-9; x += 0.1) e.recordFlown(Vec3d(x, 1.0, 1.0), x, 0.1);
 }
 }  // namespace
 
@@ -69,6 +70,38 @@ TEST_CASE("A retreat goes back along the way flown to the newest clear position,
   SECTION("nothing flown: no retreat") {
     EscapePlanner fresh(params);
     CHECK_FALSE(fresh.retreat(map, here, true));
+  }
+}
+
+TEST_CASE("A loop closure's history correction moves the way a retreat goes back along", "[planner][escape]") {
+  // Odometry recorded the way at y = 1; the correction says the positions flown before t = 3 s were
+  // at y = 0.5 (the drift the loop closure took out), the later ones where they were recorded.
+  const DenseMap map = room();
+  EscapeConfig params = roomEscape();
+  params.retreat_reach_m = 2.0;
+  EscapePlanner escapes(params);
+  flyAlongX(escapes, 4.0);
+  const auto corrected = [](const FlownViewpoint& v) {
+    return FlatPose{v.stamp_s < 3.0 - 1e-9 ? Vec3d(v.position_W.x(), 0.5, 1.0) : v.position_W, v.yaw_rad};
+  };
+  escapes.correctHistory(corrected);
+  const std::optional<Trajectory> back = escapes.retreat(map, at(Vec3d(4.0, 1.0, 1.0)), /*farthest=*/true);
+  REQUIRE(back);
+  const Vec3d end = back->sample(back->duration()).position_W;
+  CHECK(end.x() < 3.0);                         // beyond the corrected step, 2 m of way back
+  CHECK(end.y() == Approx(0.5).margin(kTolM));  // where the correction put the way, not y = 1
+  CHECK(end.x() > 2.0 - 0.1 - kTolM);
+
+  SECTION("a non-finite correction throws and leaves the way as it was") {
+    EscapePlanner kept(params);
+    flyAlongX(kept, 4.0);
+    const auto bad = [](const FlownViewpoint& v) {
+      return FlatPose{v.stamp_s < 1.0 ? Vec3d::Constant(std::nan("")) : Vec3d(0, 0, 0), 0.0};
+    };
+    CHECK_THROWS_WITH(kept.correctHistory(bad), Catch::Contains("t = "));
+    const std::optional<Trajectory> same = kept.retreat(map, at(Vec3d(4.0, 1.0, 1.0)), true);
+    REQUIRE(same);
+    CHECK(same->sample(same->duration()).position_W.y() == Approx(1.0).margin(kTolM));
   }
 }
 

@@ -628,6 +628,32 @@ TEST_CASE("A start blocked mid-flight retreats along the way flown, and the targ
   CHECK(m.counters().retreats == 1);
 }
 
+TEST_CASE("Without ALC too, a loop closure's history correction moves the way a retreat goes back along",
+          "[planner][exploration]") {
+  // The correction says the way flown before the last 0.3 s lay 0.15 m higher than odometry put it
+  // (a frame shift alone would keep odometry's way, tens of seconds of drift off for an old way).
+  DenseMap map = halfKnownRoom();
+  const Vec3d start(1.0, 3.0, 1.5);
+  REQUIRE_FALSE(roomParams().alc_enabled);
+  ExplorationManager m(roomParams(), at(start), 0.0);
+  const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
+  const Vec3d lift(0.0, 0.0, 0.15);
+  m.notifyLoopClosure(f.t_s, [&](const FlownViewpoint& v) {
+    return FlatPose{v.stamp_s < f.t_s - 0.3 ? Vec3d(v.position_W + lift) : v.position_W, v.yaw_rad};
+  });
+  const double t = f.t_s + 1.0 / 15.0;
+  REQUIRE(m.update(map, f.block, f.vehicle, t).status == ExplorationStatus::Planned);
+  REQUIRE(m.counters().retreats == 1);
+  const Vec3d end = m.command(m.trajectoryStartTime() + m.trajectory().duration()).position_W;
+  double to_corrected = 1e9, to_recorded = 1e9;
+  for (std::size_t i = 1; i < f.flown.size(); ++i) {
+    to_corrected = std::min(to_corrected, test::pointSegmentDistance(end, f.flown[i - 1] + lift, f.flown[i] + lift));
+    to_recorded = std::min(to_recorded, test::pointSegmentDistance(end, f.flown[i - 1], f.flown[i]));
+  }
+  CHECK(to_corrected < kTolM);
+  CHECK(to_recorded > 0.1);  // off the way as recorded (by the lift, less the way's own slope)
+}
+
 TEST_CASE("With the safety layer facing the way, a retreat still moves off at once, holding its yaw",
           "[planner][exploration][safety]") {
   // Facing the way turns a trajectory from rest on the spot first. Back along the way flown that
@@ -654,6 +680,43 @@ TEST_CASE("With the safety layer facing the way, a retreat still moves off at on
   for (double u = 0.0; u <= m.trajectory().duration(); u += 0.02)
     turned = std::max(turned, std::abs(wrapAngle(m.command(t0 + u).yaw_rad - yaw0)));
   CHECK(turned < 1e-6);
+}
+
+TEST_CASE("With the safety layer, a retreat whose way back a recent frame sees blocked is not flown",
+          "[planner][exploration][safety]") {
+  // The way flown is where odometry and the last correction put it; a post a frame sees on it now
+  // (here 0.35 m behind the blocked vehicle, which the map does not hold) is where the vehicle
+  // would fly into: the retreat's end lies clear beyond it, its way does not.
+  const bool post_behind = GENERATE(false, true);
+  INFO("a frame sees a post 0.35 m behind: " << post_behind);
+  DenseMap map = halfKnownRoom();
+  const Vec3d start(1.0, 3.0, 1.5);
+  ExplorationManagerConfig p = roomParams();
+  p.safety.enabled = true;
+  p.safety.odometry = OdometryDrift{};  // no look needed for the flight out (no frames rendered)
+  ExplorationManager m(p, at(start), 0.0);
+  const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
+  const double t = f.t_s + 1.0 / 15.0;
+  const Vec3d back_dir = -f.vehicle.velocity_W.normalized();
+  const Vec3d post = f.vehicle.position_W + 0.35 * back_dir;
+  if (post_behind) {
+    CameraIntrinsics K;  // 90 degrees wide; the post fills its central 2 x 2 pixels
+    K.width = 80;
+    K.height = 60;
+    K.fx = K.fy = 40.0;
+    K.cx = 39.5;
+    K.cy = 29.5;
+    DepthImage depth(K.width, K.height);  // nothing else in view (0: no return)
+    for (int v = 29; v <= 30; ++v)
+      for (int u = 39; u <= 40; ++u) depth.at(u, v) = 0.35f;
+    m.addDepthFrame(t, depth, K, lookingPose(f.vehicle.position_W, std::atan2(back_dir.y(), back_dir.x())));
+  }
+  m.update(map, f.block, f.vehicle, t);
+  CHECK(m.counters().retreats == (post_behind ? 0u : 1u));
+  if (!post_behind) return;
+  // Whatever it does instead keeps the vehicle's 0.2 m clear of the post.
+  for (double u = 0.0; u <= m.trajectory().duration(); u += 0.02)
+    CHECK((m.command(m.trajectoryStartTime() + u).position_W - post).norm() > 0.2);
 }
 
 TEST_CASE("When every target fails from a clear start, the vehicle goes back the way it came, as far as it can",

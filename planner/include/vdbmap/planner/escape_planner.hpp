@@ -7,10 +7,12 @@
 #include "vdbmap/planner/map_query.hpp"
 #include "vdbmap/planner/trajectory.hpp"
 #include "vdbmap/planner/vehicle_state.hpp"
+#include "vdbmap/planner/viewpoint_history.hpp"
 
 #include <Eigen/Geometry>
 
 #include <deque>
+#include <functional>
 #include <optional>
 
 namespace vdbmap::planner {
@@ -39,17 +41,26 @@ class EscapePlanner {
   /// Throws std::invalid_argument for invalid params.
   explicit EscapePlanner(const EscapeConfig& params);
 
-  /// Records the vehicle's position (kept when a voxel or more from the last one recorded).
-  void recordFlown(const Vec3d& p_W, double voxel_m);
+  /// Records the vehicle's position at `stamp_s` (kept when a voxel or more from the last one
+  /// recorded).
+  void recordFlown(const Vec3d& p_W, double stamp_s, double voxel_m);
   /// The estimate frame moved: a position p is now shift * p.
   void shiftFrame(const Eigen::Isometry3d& shift);
+  /// A loop closure corrected the past poses: each flown position becomes `corrected`'s position
+  /// for it (given as a viewpoint with its stamp and a zero yaw). A frame shift alone keeps the way
+  /// as odometry integrated it, which drifts over the tens of seconds a retreat may reach back;
+  /// the corrected way is where the vehicle flew relative to the corrected map. Throws
+  /// std::invalid_argument for a non-finite corrected position, leaving the way as it was.
+  void correctHistory(const std::function<FlatPose(const FlownViewpoint&)>& corrected);
 
   /// A trajectory back along the way flown to the newest flown position at least a voxel away
   /// that keeps the clearance in `map` (with `farthest`, the farthest such), within
   /// retreat_reach_m of way, from rest. The vehicle flew that way, so the way's corridor reads
-  /// free, occupied voxels too; the map only vets the end. On success the positions flown after
-  /// the end are forgotten, so that a retreat from there goes on backwards.
-  std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest);
+  /// free, occupied voxels too; the map only vets the end. A trajectory that `accept` (when given)
+  /// refuses is no retreat: e.g. one whose way what the camera saw since blocks. On success the
+  /// positions flown after the end are forgotten, so that a retreat from there goes on backwards.
+  std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest,
+                                    const std::function<bool(const Trajectory&)>& accept = {});
   /// A trajectory straight away from the occupied voxels within the clearance to the nearest
   /// clear point within escape_reach_m (preferring the away direction) whose straight way
   /// crosses no occupied voxel.
@@ -59,7 +70,11 @@ class EscapePlanner {
   bool inBounds(const Vec3d& p_W) const { return !params_.bounds_W || params_.bounds_W->contains(p_W); }
 
   EscapeConfig params_;
-  std::deque<Vec3d> flown_W_;  ///< one voxel apart, newest last, in the current estimate frame
+  struct Flown {
+    Vec3d p_W;
+    double stamp_s;
+  };
+  std::deque<Flown> flown_;  ///< one voxel apart, newest last, in the current estimate frame
 };
 
 }  // namespace vdbmap::planner

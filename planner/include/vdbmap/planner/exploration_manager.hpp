@@ -405,7 +405,7 @@ class ExplorationManager {
   /// A loop closure was detected at t_s (for ALC: it ends a detour and starts the quiet period at
   /// the next replan). `corrected`, when given, maps a recorded viewpoint (stamped with the t_s of
   /// the update() that fed it) to its corrected pose in the estimate frame after the correction;
-  /// the viewpoint history moves with it. Without ALC, nothing happens.
+  /// the way flown that retreats go back along moves with it, and with ALC the viewpoint history.
   void notifyLoopClosure(double t_s, const std::function<FlatPose(const FlownViewpoint&)>& corrected = {});
 
   /// A depth frame captured at t_s from the sensor pose T_W_S (the estimate frame, as the
@@ -492,6 +492,10 @@ class ExplorationManager {
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
   /// The rest of the trajectory keeps SafetyConfig::clearance_m from the recent surfaces.
   bool remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const;
+  /// Whether a retreat may fly `back`: its way keeps SafetyConfig::clearance_m from the recent
+  /// surfaces of this update beyond its start's own (always, without the safety layer). The way
+  /// flown is where odometry and the last correction put it; what the camera saw since is not.
+  bool retreatClearOfRecent(const Trajectory& back) const;
   /// p_W counts as seen free for flight: a recent frame saw it free, or the whole map is younger
   /// than SafetyConfig::trustedAge_s (at the last update) and `map` holds p_W clear by clearance_m.
   bool seenFree(MapProbe& map, const Vec3d& p_W) const;
@@ -575,6 +579,7 @@ class ExplorationManager {
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
   std::size_t finish_views_flown_ = 0;      ///< flights of the detour before finishing so far
   std::unique_ptr<RecentFrames> recent_;    ///< null without the safety layer
+  const RecentObstacleMap* recent_map_ = nullptr;  ///< the recent surfaces during update(), else null
   double start_t_ = 0.0;                    ///< when the manager started (the map's oldest frame)
 
   // The state machine.
