@@ -39,6 +39,7 @@ struct ExploreOptions {
   double safety_vertical_margin_m = planner::SafetyConfig{}.vertical_margin_m;
   double safety_vertical_sigmas = planner::SafetyConfig{}.vertical_margin_sigmas;
   double safety_vertical_margin_max_m = planner::SafetyConfig{}.max_vertical_margin_m;
+  double safety_look_side_m = planner::SafetyConfig{}.look_side_m;
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
@@ -100,6 +101,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.vertical_margin_m = o.safety_vertical_margin_m;
   config.planner.safety.vertical_margin_sigmas = o.safety_vertical_sigmas;
   config.planner.safety.max_vertical_margin_m = o.safety_vertical_margin_max_m;
+  config.planner.safety.look_side_m = o.safety_look_side_m;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.view_score == "into-unknown";
@@ -129,7 +131,8 @@ void runExplore(const ExploreOptions& o) {
                  " --safety-map-thin " + o.safety_map_thin + " --safety-vertical-margin " +
                  std::to_string(o.safety_vertical_margin_m) + " --safety-vertical-sigmas " +
                  std::to_string(o.safety_vertical_sigmas) + " --safety-vertical-margin-max " +
-                 std::to_string(o.safety_vertical_margin_max_m)
+                 std::to_string(o.safety_vertical_margin_max_m) + " --safety-look-side " +
+                 std::to_string(o.safety_look_side_m)
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -243,6 +246,11 @@ const Registration registration("explore", [](CLI::App& app) {
   sub->add_option("--safety-vertical-margin-max", o->safety_vertical_margin_max_m,
                   "The most the vertical margin grows to (metres); it never falls below --safety-vertical-margin")
       ->check(CLI::Range(0.0, 2.0));
+  sub->add_option("--safety-look-side", o->safety_look_side_m,
+                  "With the safety layer, the points this far to the left and right of the way ahead must have been "
+                  "seen too, not only the way's middle (metres; 0: the middle only): under drift a wall the global "
+                  "map holds elsewhere may stand beside a way seen free")
+      ->check(CLI::Range(0.0, 5.0));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
                   "small unknown pockets of cluttered places (e.g. 50 for shelving)")

@@ -235,6 +235,9 @@ void bindExplorationParams(py::module_& m) {
                      "the rest of the trajectory keeps this from recent surface voxels; [0, 5]")
       .def_readwrite("look_margin_m", &SafetyConfig::look_margin_m,
                      "the way ahead seen free: braking distance plus this; [0, 10]")
+      .def_readwrite("look_side_m", &SafetyConfig::look_side_m,
+                     "how far to the left and right of the way ahead must have been seen too; 0: its middle only; "
+                     "[0, 5]")
       .def_readwrite("max_chained_looks", &SafetyConfig::max_chained_looks,
                      "looks in a row that leave the way unseen before the target gets a failure; [1, 100]")
       .def_readwrite("seen_free_is_free", &SafetyConfig::seen_free_is_free,

@@ -7,6 +7,7 @@
 #include "vdbmap/planner/recent_obstacle_map.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -152,6 +153,7 @@ void SafetyConfig::validate() const {
   const FieldCheck check("SafetyConfig");
   recent.validate();
   check.inRange("look_margin_m", look_margin_m, 0.0, 10.0);
+  check.inRange("look_side_m", look_side_m, 0.0, 5.0);
   check.inRange("clearance_m", clearance_m, 0.0, 5.0);
   if (max_chained_looks < 1 || max_chained_looks > 100) check.fail("max_chained_looks", "[1, 100]", max_chained_looks);
   if (odometry) odometry->validate();
@@ -424,17 +426,22 @@ bool ExplorationManager::seenFree(MapProbe& map, const Vec3d& p_W) const {
   return last_t_ <= map_trusted_until_s_ && map.isClear(p_W, params_.safety.clearance_m);
 }
 
-std::optional<Vec3d> ExplorationManager::unseenWayAhead(const MapQuery& map, const VehicleState& vehicle,
-                                                        double t_s) const {
+bool ExplorationManager::sideSeen(MapProbe& map, const Vec3d& p_W) const {
+  if (recent_->seesFree(p_W)) return true;
+  if (recent_map_ && recent_map_->nearSurface(p_W, params_.safety.clearance_m)) return true;
+  return last_t_ <= map_trusted_until_s_ && map.atWorld(p_W) != Occupancy::Unknown;
+}
+
+std::optional<ExplorationManager::UnseenPoint> ExplorationManager::unseenWayAhead(const MapQuery& map,
+                                                                                  const VehicleState& vehicle,
+                                                                                  double t_s) const {
   const double t_rel = t_s - trajectory_t0_, t_end = trajectory_.motionDuration();
   // Nothing to check while the vehicle is at rest for a while yet (turning to face the way first).
   constexpr double kSoon_s = 0.2;
   if (!recent_ || t_rel >= t_end || t_rel + kSoon_s < trajectory_.motionStart()) return std::nullopt;
   const double v = vehicle.velocity_W.norm();
   const double way_m = v * v / (2.0 * params_.trajectory.a_max_m_s2) + params_.safety.look_margin_m;
-  if (const std::optional<UnseenPoint> u = firstUnseen(map, trajectory_, shift_, t_rel, way_m, vehicle.position_W))
-    return u->p_W;
-  return std::nullopt;
+  return firstUnseen(map, trajectory_, shift_, t_rel, way_m, vehicle.position_W);
 }
 
 std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(const MapQuery& map,
@@ -446,15 +453,33 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   const double dt = riskCheckStep_s(map.voxelSize());
   MapProbe probe(map);
   const double tan_fov_y = params_.viewpoint.camera.tan_half_fov_y;
+  const auto inViewByYaw = [&](const Vec3d& q) {
+    const Vec3d d = q - origin_W;
+    return std::abs(d.z()) <= d.head<2>().norm() * tan_fov_y;
+  };
+  const double side_m = params_.safety.look_side_m, tan_fov_x = params_.viewpoint.camera.tan_half_fov_x;
   Vec3d prev = shift * trajectory.sample(t_from).position_W;
   double along_m = 0.0;
   for (double t = t_from + dt; along_m < way_m; t += dt) {
     const Vec3d p = shift * trajectory.sample(std::min(t, t_end)).position_W;
     along_m += (p - prev).norm();
+    const Eigen::Vector2d travel = (p - prev).head<2>();
     prev = p;
-    const Vec3d d = p - origin_W;
-    const bool in_view_by_yaw = std::abs(d.z()) <= d.head<2>().norm() * tan_fov_y;
-    if (in_view_by_yaw && !seenFree(probe, p)) return UnseenPoint{p, along_m};
+    if (inViewByYaw(p) && !seenFree(probe, p)) return UnseenPoint{p, along_m, false};
+    // Beside the way, side_m to the left and right of the horizontal travel (all four sides when
+    // the way is vertical there): a way seen free down its middle may pass a wall no frame saw.
+    // Only where a camera facing the way from origin_W sees them: nearer, they lie beside the
+    // vehicle, as the surface checks' exemption near the vehicle does.
+    const bool level_travel = travel.norm() > 1e-9;
+    const std::array<Vec3d, 2> lefts{level_travel ? Vec3d(side_m * Vec3d(-travel.y(), travel.x(), 0.0) / travel.norm())
+                                                  : Vec3d(side_m * Vec3d::UnitX()),
+                                     side_m * Vec3d::UnitY()};
+    const std::size_t n_lefts = side_m <= 0.0 || along_m * tan_fov_x < side_m ? 0 : level_travel ? 1 : 2;
+    for (std::size_t k = 0; k < n_lefts; ++k)
+      for (const double sign : {1.0, -1.0}) {
+        const Vec3d q = p + sign * lefts[k];
+        if (inViewByYaw(q) && !sideSeen(probe, q)) return UnseenPoint{q, along_m, true};
+      }
     if (t >= t_end) break;
   }
   return std::nullopt;
@@ -470,7 +495,7 @@ bool ExplorationManager::lookSawWay(const MapQuery& map, double t_s) const {
                                                   params_.trajectory.start_facing_rad;
   if (!facing) return false;
   MapProbe probe(map);
-  return seenFree(probe, look_at);
+  return look_at_side_ ? sideSeen(probe, look_at) : seenFree(probe, look_at);
 }
 
 namespace {
@@ -569,7 +594,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   step.frontier_voxels = frontiers_.frontierVoxelCount();
 
   step.reason = replanReason(flight_base, recent_map ? &*recent_map : nullptr, t_s);
-  std::optional<Vec3d> unseen;
+  std::optional<UnseenPoint> unseen;
   if (step.reason == ReplanReason::None && flight_ != FlightKind::Look && !escaping(t_s)) {
     unseen = unseenWayAhead(map, vehicle, t_s);
     if (unseen)
@@ -928,8 +953,8 @@ bool ExplorationManager::resumeAfterLook(const MapQuery& map, const VehicleState
   return true;
 }
 
-ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const VehicleState& vehicle, const Vec3d& unseen,
-                                                double t_s) {
+ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const VehicleState& vehicle,
+                                                const UnseenPoint& unseen, double t_s) {
   if (++chained_looks_ > params_.safety.max_chained_looks) {
     // Looking did not show the way (hidden behind a corner, or out of reach of the camera): the
     // way to this target counts as failed, as a blocked start does.
@@ -951,7 +976,7 @@ ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const Vehic
   const double brake_m = v * v / (2.0 * tc.a_max_m_s2);
   std::vector<Vec3d> straight{vehicle.position_W};
   if (brake_m > 0.01) straight.push_back(vehicle.position_W + brake_m * moving.velocity_W.normalized());
-  const Eigen::Vector2d toward = (unseen - straight.back()).head<2>();
+  const Eigen::Vector2d toward = (unseen.p_W - straight.back()).head<2>();
   const double yaw = toward.norm() > 1e-3 ? std::atan2(toward.y(), toward.x()) : vehicle.yaw_rad;
   TrajectoryResult look = planTrajectory(straight, moving, yaw, map, tc);
   if (!look.ok()) {
@@ -973,7 +998,8 @@ ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const Vehic
   }
   interrupted_ = Interrupted{trajectory_, shift_, t_rel, flight_};
   startTrajectory(std::move(look.trajectory), t_s, FlightKind::Look);
-  look_at_W_ = unseen;
+  look_at_W_ = unseen.p_W;
+  look_at_side_ = unseen.side;
   return ExplorationStatus::Planned;
 }
 

@@ -719,6 +719,49 @@ TEST_CASE("With the safety layer, a retreat whose way back a recent frame sees b
     CHECK((m.command(m.trajectoryStartTime() + u).position_W - post).norm() > 0.2);
 }
 
+TEST_CASE("With the safety layer, a way seen free down its middle but not beside it makes the vehicle look",
+          "[planner][exploration][safety]") {
+  // A corridor 1 m wide along x (y 2.5-3.5 m), known to x = 8 m: the way runs down its middle.
+  // The one frame, from the start along the way, sees 4.5 m free everywhere, or (left_unseen)
+  // nothing left of a band 6 pixels wide around the middle: the middle of the way stays seen,
+  // a point clearance_m to its left (a wall no frame saw may stand there) does not.
+  const bool left_unseen = GENERATE(false, true);
+  INFO("left of the way unseen: " << left_unseen);
+  DenseMap map(kVoxel, CoordBBox(Coord(-2), Coord(122, 62, 32)));
+  map.fill(CoordBBox(Coord(0), Coord(119, 59, 29)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(1, 25, 1), Coord(79, 34, 28)), Occupancy::Free);
+  map.fill(CoordBBox(Coord(80, 25, 1), Coord(118, 34, 28)), Occupancy::Unknown);
+  ExplorationManagerConfig p = roomParams(12.0);
+  p.safety.enabled = true;  // no odometry declared: the map is never trusted, only the frames
+  const Vec3d start(1.0, 3.0, 1.5);
+  ExplorationManager m(p, at(start, 0.0), 0.0);
+  CameraIntrinsics K;  // 90 degrees wide
+  K.width = 80;
+  K.height = 60;
+  K.fx = K.fy = 40.0;
+  K.cx = 39.5;
+  K.cy = 29.5;
+  DepthImage depth(K.width, K.height, 4.5f);
+  if (left_unseen)
+    for (int v = 0; v < K.height; ++v)
+      for (int u = 0; u < K.width; ++u)
+        if (u < K.cx - 6.0) depth.at(u, v) = 0.0f;  // no return
+  m.addDepthFrame(0.0, depth, K, lookingPose(start, 0.0));
+  REQUIRE(m.update(map, CoordBBox(), at(start, 0.0), 0.0).status == ExplorationStatus::Planned);
+  REQUIRE(m.flight() == FlightKind::ToTarget);
+  const Vec3d goal = m.command(1e9).position_W;
+  REQUIRE(std::abs(goal.y() - 3.0) < 0.15);  // down the middle
+  bool looked = false;
+  double look_yaw = 0.0;
+  for (double t = 1.0 / 15.0; t < 1.5 && !looked; t += 1.0 / 15.0) {
+    const ExplorationStep step = m.update(map, CoordBBox(), onTrajectory(m, t), t);
+    looked = step.reason == ReplanReason::LookAhead;
+    if (looked) look_yaw = m.command(1e9).yaw_rad;
+  }
+  CHECK(looked == left_unseen);
+  if (left_unseen) CHECK(look_yaw > 0.1);  // turning left, toward the unseen side
+}
+
 TEST_CASE("When every target fails from a clear start, the vehicle goes back the way it came, as far as it can",
           "[planner][exploration]") {
   // The vehicle flies 3 m toward the frontier; then a shell of occupied voxels 0.6-0.7 m around it

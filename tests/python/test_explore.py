@@ -278,6 +278,8 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     # It grows with the map's age to 2 sigmas of s3's vertical drift, at most 0.3 m.
     assert float(cli_default("explore", "--safety-vertical-sigmas")) == safety.vertical_margin_sigmas
     assert cli_default("explore", "--safety-vertical-margin-max") == str(safety.max_vertical_margin_m)
+    # The way ahead is seen beside its middle too, a vehicle's clearance to either side.
+    assert cli_default("explore", "--safety-look-side") == str(safety.look_side_m) == str(safety.clearance_m)
     assert safety.effective_vertical_margin_m(60.0) == pytest.approx(2.0 * safety.odometry.axis_displacement_m(60.0))
     assert safety.effective_vertical_margin_m(1000.0) == safety.max_vertical_margin_m == 0.3
     safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s1"))

@@ -214,6 +214,7 @@ class SafetyConfig:
     drift_lever_m: float
     clearance_m: float
     look_margin_m: float
+    look_side_m: float
     max_chained_looks: int
     seen_free_is_free: bool
     map_thin_obstacles: bool

@@ -70,9 +70,10 @@ namespace vdbmap::planner {
 ///    ReplanReason::EmergencyStop);
 ///  - looks where the vehicle flies: the way ahead within its braking distance plus look_margin_m
 ///    must have been seen free by a recent frame (or, while the whole map is younger than
-///    trustedAge_s(), be clear in the map), else the vehicle brakes along its velocity and
-///    turns toward that way (ReplanReason::LookAhead, FlightKind::Look). As soon as it faces that
-///    way and a frame sees it free (ReplanReason::WaySeen), it flies on along the rest of the way
+///    trustedAge_s(), be clear in the map), and the points look_side_m to its left and right must
+///    have been seen (free, or near a recent surface); else the vehicle brakes along its velocity
+///    and turns toward that point (ReplanReason::LookAhead, FlightKind::Look). As soon as it faces
+///    it and a frame sees it (ReplanReason::WaySeen), it flies on along the rest of the way
 ///    it was flying; else it replans at rest. Points that
 ///    lie more steeply above or below the vehicle than the camera's vertical half field of view
 ///    are exempt: no yaw would bring them into view.
@@ -108,6 +109,10 @@ struct SafetyConfig {
   /// The way ahead that must have been seen free: the braking distance v^2 / (2 a_max) plus this
   /// (a frame period of flight, and the vehicle's radius); [0, 10]
   double look_margin_m = 0.5;
+  /// How far to the left and right of the way ahead must have been seen too (free, or near a
+  /// recent surface): a way seen free down its middle may pass a wall no frame saw, under drift
+  /// a wall the global map holds elsewhere; 0: the middle only; [0, 5]
+  double look_side_m = 0.25;
   /// Looks in a row that leave the way ahead unseen before the target gets a failure and the
   /// vehicle holds (the way may be hidden behind a corner); [1, 100]
   int max_chained_looks = 3;
@@ -499,16 +504,22 @@ class ExplorationManager {
   /// p_W counts as seen free for flight: a recent frame saw it free, or the whole map is younger
   /// than SafetyConfig::trustedAge_s (at the last update) and `map` holds p_W clear by clearance_m.
   bool seenFree(MapProbe& map, const Vec3d& p_W) const;
-  /// The first point of the way ahead (SafetyConfig::look_margin_m) not seen free (seenFree);
-  /// nullopt when there is none (or the vehicle is not moving along its trajectory).
-  std::optional<Vec3d> unseenWayAhead(const MapQuery& map, const VehicleState& vehicle, double t_s) const;
+  /// A point beside the way counts as seen when a recent frame saw it free, a recent surface lies
+  /// within SafetyConfig::clearance_m of it (the surface checks guard that side then), or the
+  /// whole map is younger than SafetyConfig::trustedAge_s and `map` knows it.
+  bool sideSeen(MapProbe& map, const Vec3d& p_W) const;
   struct UnseenPoint {
     Vec3d p_W;
     double along_m;  ///< how far along the trajectory from t_from
+    bool side;       ///< beside the way (sideSeen), not on it (seenFree)
   };
+  /// The first point of the way ahead (SafetyConfig::look_margin_m) not seen (firstUnseen);
+  /// nullopt when there is none (or the vehicle is not moving along its trajectory).
+  std::optional<UnseenPoint> unseenWayAhead(const MapQuery& map, const VehicleState& vehicle, double t_s) const;
   /// The first point of `trajectory` (moved by `shift`) after t_from, within way_m along it, not
-  /// seen free (seenFree); points more steeply above or below origin_W than the camera's vertical
-  /// half field of view are exempt.
+  /// seen free (seenFree), or, SafetyConfig::look_side_m to its left or right, not seen
+  /// (sideSeen); points more steeply above or below origin_W than the camera's vertical half field
+  /// of view are exempt.
   std::optional<UnseenPoint> firstUnseen(const MapQuery& map, const Trajectory& trajectory,
                                          const Eigen::Isometry3d& shift, double t_from, double way_m,
                                          const Vec3d& origin_W) const;
@@ -522,7 +533,7 @@ class ExplorationManager {
   TrajectoryResult planFlight(const std::vector<Vec3d>& path_W, const VehicleState& vehicle, double goal_yaw_rad,
                               const MapQuery& map) const;
   /// Brakes along the current trajectory and turns toward `unseen` (FlightKind::Look).
-  ExplorationStatus lookAhead(const MapQuery& map, const VehicleState& vehicle, const Vec3d& unseen, double t_s);
+  ExplorationStatus lookAhead(const MapQuery& map, const VehicleState& vehicle, const UnseenPoint& unseen, double t_s);
   /// The current trajectory is an escape or a retreat still being flown.
   bool escaping(double t_s) const;
   bool trajectoryMoves() const { return trajectory_.motionDuration() > 0.0; }
@@ -591,6 +602,7 @@ class ExplorationManager {
   int chained_backtracks_ = 0;  ///< retreats after every target failed, since the last plan
   int chained_looks_ = 0;       ///< looks since the way ahead was last seen free
   Vec3d look_at_W_ = Vec3d::Zero();  ///< FlightKind::Look: the point of the way it looks for
+  bool look_at_side_ = false;        ///< look_at_W_ lies beside the way (UnseenPoint::side)
   /// FlightKind::Look: the flight it interrupted, from when it was interrupted (resumeAfterLook).
   struct Interrupted {
     Trajectory trajectory;
