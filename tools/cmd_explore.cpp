@@ -40,6 +40,7 @@ struct ExploreOptions {
   double safety_vertical_sigmas = planner::SafetyConfig{}.vertical_margin_sigmas;
   double safety_vertical_margin_max_m = planner::SafetyConfig{}.max_vertical_margin_m;
   double safety_look_side_m = planner::SafetyConfig{}.look_side_m;
+  std::string safety_look_steep = planner::SafetyConfig{}.look_steep ? "on" : "off";
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
@@ -102,6 +103,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.vertical_margin_sigmas = o.safety_vertical_sigmas;
   config.planner.safety.max_vertical_margin_m = o.safety_vertical_margin_max_m;
   config.planner.safety.look_side_m = o.safety_look_side_m;
+  config.planner.safety.look_steep = o.safety_look_steep == "on";
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.view_score == "into-unknown";
@@ -132,7 +134,7 @@ void runExplore(const ExploreOptions& o) {
                  std::to_string(o.safety_vertical_margin_m) + " --safety-vertical-sigmas " +
                  std::to_string(o.safety_vertical_sigmas) + " --safety-vertical-margin-max " +
                  std::to_string(o.safety_vertical_margin_max_m) + " --safety-look-side " +
-                 std::to_string(o.safety_look_side_m)
+                 std::to_string(o.safety_look_side_m) + " --safety-look-steep " + o.safety_look_steep
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -251,6 +253,11 @@ const Registration registration("explore", [](CLI::App& app) {
                   "seen too, not only the way's middle (metres; 0: the middle only): under drift a wall the global "
                   "map holds elsewhere may stand beside a way seen free")
       ->check(CLI::Range(0.0, 5.0));
+  sub->add_option("--safety-look-steep", o->safety_look_steep,
+                  "With the safety layer, a point of the way ahead above or below the camera's view (a steep climb "
+                  "or descent) is checked at the steepest point of its vertical line in view (on), or not at all "
+                  "(off)")
+      ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
                   "small unknown pockets of cluttered places (e.g. 50 for shelving)")

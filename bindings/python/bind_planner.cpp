@@ -238,6 +238,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("look_side_m", &SafetyConfig::look_side_m,
                      "how far to the left and right of the way ahead must have been seen too; 0: its middle only; "
                      "[0, 5]")
+      .def_readwrite("look_steep", &SafetyConfig::look_steep,
+                     "a point of the way ahead above or below the camera's view is checked at the steepest point of "
+                     "its vertical line in view (default True), else exempt")
       .def_readwrite("max_chained_looks", &SafetyConfig::max_chained_looks,
                      "looks in a row that leave the way unseen before the target gets a failure; [1, 100]")
       .def_readwrite("seen_free_is_free", &SafetyConfig::seen_free_is_free,

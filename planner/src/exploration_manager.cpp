@@ -452,11 +452,14 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   const double t_end = trajectory.motionDuration();
   const double dt = riskCheckStep_s(map.voxelSize());
   MapProbe probe(map);
-  const double tan_fov_y = params_.viewpoint.camera.tan_half_fov_y;
-  const auto inViewByYaw = [&](const Vec3d& q) {
-    const Vec3d d = q - origin_W;
-    return std::abs(d.z()) <= d.head<2>().norm() * tan_fov_y;
-  };
+  // What a level camera at origin_W can check of q: q itself when some yaw brings it into view;
+  // above or below the view (look_steep), the steepest point of q's vertical line in view: what
+  // stands beside a climb, walls and door jambs, stands at that height too. None within
+  // clearance_m across, where the vehicle's own clearance lies.
+  const CameraFrustum& camera = params_.viewpoint.camera;
+  const double min_across_m =
+      params_.safety.look_steep ? params_.safety.clearance_m : std::numeric_limits<double>::infinity();
+  const auto checkable = [&](const Vec3d& q) { return camera.nearestInViewOnVertical(origin_W, q, min_across_m); };
   const double side_m = params_.safety.look_side_m, tan_fov_x = params_.viewpoint.camera.tan_half_fov_x;
   Vec3d prev = shift * trajectory.sample(t_from).position_W;
   double along_m = 0.0;
@@ -465,7 +468,7 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     along_m += (p - prev).norm();
     const Eigen::Vector2d travel = (p - prev).head<2>();
     prev = p;
-    if (inViewByYaw(p) && !seenFree(probe, p)) return UnseenPoint{p, along_m, false};
+    if (const std::optional<Vec3d> c = checkable(p); c && !seenFree(probe, *c)) return UnseenPoint{*c, along_m, false};
     // Beside the way, side_m to the left and right of the horizontal travel (all four sides when
     // the way is vertical there): a way seen free down its middle may pass a wall no frame saw.
     // Only where a camera facing the way from origin_W sees them: nearer, they lie beside the
@@ -477,8 +480,8 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     const std::size_t n_lefts = side_m <= 0.0 || along_m * tan_fov_x < side_m ? 0 : level_travel ? 1 : 2;
     for (std::size_t k = 0; k < n_lefts; ++k)
       for (const double sign : {1.0, -1.0}) {
-        const Vec3d q = p + sign * lefts[k];
-        if (inViewByYaw(q) && !sideSeen(probe, q)) return UnseenPoint{q, along_m, true};
+        const std::optional<Vec3d> c = checkable(p + sign * lefts[k]);
+        if (c && !sideSeen(probe, *c)) return UnseenPoint{*c, along_m, true};
       }
     if (t >= t_end) break;
   }

@@ -44,6 +44,15 @@ bool CameraFrustum::contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_
   return frustumContains(*this, eye_W, std::cos(yaw_rad), std::sin(yaw_rad), p_W);
 }
 
+std::optional<Vec3d> CameraFrustum::nearestInViewOnVertical(const Vec3d& eye_W, const Vec3d& p_W,
+                                                            double min_across_m) const {
+  const Vec3d d = p_W - eye_W;
+  const double across_m = d.head<2>().norm(), rise_m = across_m * tan_half_fov_y;
+  if (std::abs(d.z()) <= rise_m) return p_W;
+  if (across_m < min_across_m || across_m == 0.0) return std::nullopt;
+  return Vec3d(p_W.x(), p_W.y(), eye_W.z() + std::copysign(rise_m, d.z()));
+}
+
 void ViewpointFallback::validate() const {
   if (!(ring_radius_min_m > 0.0)) fail("ViewpointFallback", "ring_radius_min_m", "(0, ring_radius_max_m]");
   if (!(ring_radius_max_m >= ring_radius_min_m && ring_radius_max_m <= 100.0))

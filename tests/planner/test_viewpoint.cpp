@@ -90,6 +90,27 @@ TEST_CASE("CameraFrustum::contains follows the pinhole frustum, range and yaw", 
   CHECK_FALSE(cam.contains(eye, M_PI / 2, Vec3d(2, 0, 0)));
 }
 
+TEST_CASE("The nearest point of a vertical line that a level camera turns to see", "[planner][viewpoint]") {
+  const CameraFrustum cam;  // tan y 0.620: 1.24 m up or down at 2 m across
+  const Vec3d eye(1, 1, 1);
+  const double tan_y = cam.tan_half_fov_y;
+  // Within the vertical half field of view, at any bearing: the point itself.
+  CHECK(*cam.nearestInViewOnVertical(eye, Vec3d(3, 1, 2.2), 0.25) == Vec3d(3, 1, 2.2));
+  CHECK(*cam.nearestInViewOnVertical(eye, Vec3d(1, -1, 0), 0.25) == Vec3d(1, -1, 0));
+  // Above or below it: the steepest point of its vertical line in view.
+  const std::optional<Vec3d> above = cam.nearestInViewOnVertical(eye, Vec3d(1.6, 1.8, 3.0), 0.25);
+  REQUIRE(above);
+  CHECK(above->head<2>() == Eigen::Vector2d(1.6, 1.8));
+  CHECK(above->z() == Approx(1.0 + 1.0 * tan_y).epsilon(1e-12));  // 1 m across
+  const std::optional<Vec3d> below = cam.nearestInViewOnVertical(eye, Vec3d(1.0, 0.5, -1.0), 0.25);
+  REQUIRE(below);
+  CHECK(below->z() == Approx(1.0 - 0.5 * tan_y).epsilon(1e-12));
+  // Less than min_across_m across (or straight above): none.
+  CHECK_FALSE(cam.nearestInViewOnVertical(eye, Vec3d(1.2, 1, 2.0), 0.25));
+  CHECK_FALSE(cam.nearestInViewOnVertical(eye, Vec3d(1, 1, 2.0), 0.0));
+  CHECK(cam.nearestInViewOnVertical(eye, Vec3d(1.2, 1, 2.0), 0.1));
+}
+
 TEST_CASE("Occupied and unknown voxels occlude; free space does not", "[planner][viewpoint]") {
   DenseMap map(0.1, CoordBBox(Coord(-5), Coord(40, 5, 5)));
   map.fill(map.extent(), Occupancy::Free);

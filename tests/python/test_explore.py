@@ -280,6 +280,7 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     assert cli_default("explore", "--safety-vertical-margin-max") == str(safety.max_vertical_margin_m)
     # The way ahead is seen beside its middle too, a vehicle's clearance to either side.
     assert cli_default("explore", "--safety-look-side") == str(safety.look_side_m) == str(safety.clearance_m)
+    assert safety.look_steep and cli_default("explore", "--safety-look-steep") == "on"
     assert safety.effective_vertical_margin_m(60.0) == pytest.approx(2.0 * safety.odometry.axis_displacement_m(60.0))
     assert safety.effective_vertical_margin_m(1000.0) == safety.max_vertical_margin_m == 0.3
     safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s1"))

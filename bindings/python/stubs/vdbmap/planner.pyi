@@ -215,6 +215,7 @@ class SafetyConfig:
     clearance_m: float
     look_margin_m: float
     look_side_m: float
+    look_steep: bool
     max_chained_looks: int
     seen_free_is_free: bool
     map_thin_obstacles: bool

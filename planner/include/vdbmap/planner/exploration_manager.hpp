@@ -74,9 +74,11 @@ namespace vdbmap::planner {
 ///    have been seen (free, or near a recent surface); else the vehicle brakes along its velocity
 ///    and turns toward that point (ReplanReason::LookAhead, FlightKind::Look). As soon as it faces
 ///    it and a frame sees it (ReplanReason::WaySeen), it flies on along the rest of the way
-///    it was flying; else it replans at rest. Points that
-///    lie more steeply above or below the vehicle than the camera's vertical half field of view
-///    are exempt: no yaw would bring them into view.
+///    it was flying; else it replans at rest. A point more steeply above or below the vehicle
+///    than the camera's vertical half field of view, which no yaw brings into view, is checked
+///    at the steepest point of its vertical line in view (look_steep: walls and door jambs beside
+///    a climb are vertical); within clearance_m across, where the vehicle's own clearance lies,
+///    it is exempt.
 /// Paths and trajectories are planned with the recent surfaces as obstacles too (and, with
 /// seen_free_is_free, the space recent frames saw free as free), and (face_travel) their yaw faces
 /// the way while moving.
@@ -113,6 +115,10 @@ struct SafetyConfig {
   /// recent surface): a way seen free down its middle may pass a wall no frame saw, under drift
   /// a wall the global map holds elsewhere; 0: the middle only; [0, 5]
   double look_side_m = 0.25;
+  /// A point of the way ahead more steeply above or below the vehicle than the camera's vertical
+  /// half field of view is checked at the steepest point of its vertical line in view (true), or
+  /// exempt (false, as before stop 62)
+  bool look_steep = true;
   /// Looks in a row that leave the way ahead unseen before the target gets a failure and the
   /// vehicle holds (the way may be hidden behind a corner); [1, 100]
   int max_chained_looks = 3;
@@ -518,8 +524,9 @@ class ExplorationManager {
   std::optional<UnseenPoint> unseenWayAhead(const MapQuery& map, const VehicleState& vehicle, double t_s) const;
   /// The first point of `trajectory` (moved by `shift`) after t_from, within way_m along it, not
   /// seen free (seenFree), or, SafetyConfig::look_side_m to its left or right, not seen
-  /// (sideSeen); points more steeply above or below origin_W than the camera's vertical half field
-  /// of view are exempt.
+  /// (sideSeen). A point more steeply above or below origin_W than the camera's vertical half
+  /// field of view is checked at the steepest point of its vertical line in view
+  /// (SafetyConfig::look_steep), unless it lies within SafetyConfig::clearance_m across.
   std::optional<UnseenPoint> firstUnseen(const MapQuery& map, const Trajectory& trajectory,
                                          const Eigen::Isometry3d& shift, double t_from, double way_m,
                                          const Vec3d& origin_W) const;

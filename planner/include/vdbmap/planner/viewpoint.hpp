@@ -37,6 +37,11 @@ struct CameraFrustum {
 
   /// True when p_W is inside the frustum of a camera at `eye_W` looking along `yaw_rad`.
   bool contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_W) const;
+  /// The point of p_W's vertical line nearest p_W within the vertical half field of view from
+  /// `eye_W` (which a level camera there turns to see, range aside): p_W itself when it lies
+  /// within it; nullopt when p_W lies less than min_across_m from eye_W horizontally (or at no
+  /// horizontal distance) and outside it.
+  std::optional<Vec3d> nearestInViewOnVertical(const Vec3d& eye_W, const Vec3d& p_W, double min_across_m) const;
   void validate() const;
 };
 
