@@ -460,7 +460,7 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   const double min_across_m =
       params_.safety.look_steep ? params_.safety.clearance_m : std::numeric_limits<double>::infinity();
   const auto checkable = [&](const Vec3d& q) { return camera.nearestInViewOnVertical(origin_W, q, min_across_m); };
-  const double side_m = params_.safety.look_side_m, tan_fov_x = params_.viewpoint.camera.tan_half_fov_x;
+  const double side_m = params_.safety.look_side_m;
   Vec3d prev = shift * trajectory.sample(t_from).position_W;
   double along_m = 0.0;
   for (double t = t_from + dt; along_m < way_m; t += dt) {
@@ -477,7 +477,7 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     const std::array<Vec3d, 2> lefts{level_travel ? Vec3d(side_m * Vec3d(-travel.y(), travel.x(), 0.0) / travel.norm())
                                                   : Vec3d(side_m * Vec3d::UnitX()),
                                      side_m * Vec3d::UnitY()};
-    const std::size_t n_lefts = side_m <= 0.0 || along_m * tan_fov_x < side_m ? 0 : level_travel ? 1 : 2;
+    const std::size_t n_lefts = side_m <= 0.0 || along_m * camera.tan_half_fov_x < side_m ? 0 : level_travel ? 1 : 2;
     for (std::size_t k = 0; k < n_lefts; ++k)
       for (const double sign : {1.0, -1.0}) {
         const std::optional<Vec3d> c = checkable(p + sign * lefts[k]);
