@@ -117,7 +117,7 @@ struct SafetyConfig {
   double look_side_m = 0.25;
   /// A point of the way ahead more steeply above or below the vehicle than the camera's vertical
   /// half field of view is checked at the steepest point of its vertical line in view (true), or
-  /// exempt (false, as before stop 62)
+  /// exempt (false)
   bool look_steep = true;
   /// Looks in a row that leave the way ahead unseen before the target gets a failure and the
   /// vehicle holds (the way may be hidden behind a corner); [1, 100]
