@@ -523,9 +523,11 @@ bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMa
                        params_.safety.clearance_m);
 }
 
-bool ExplorationManager::retreatClearOfRecent(const Trajectory& back) const {
-  return !recent_map_ || clearOfRecent(*recent_map_, back, Eigen::Isometry3d::Identity(), 0.0,
-                                       riskCheckStep_s(recent_map_->voxelSize()), params_.safety.clearance_m);
+std::optional<Trajectory> ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest) {
+  return escapes_.retreat(map, vehicle, farthest, [this](const Trajectory& back) {
+    return !recent_map_ || clearOfRecent(*recent_map_, back, Eigen::Isometry3d::Identity(), 0.0,
+                                         riskCheckStep_s(recent_map_->voxelSize()), params_.safety.clearance_m);
+  });
 }
 
 ReplanReason ExplorationManager::replanReason(const MapQuery& map, const RecentObstacleMap* recent, double t_s) {
@@ -862,8 +864,7 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
   // out is narrower, in the map as it reads now, than a path search can find (a corridor behind
   // shelving that thin structure, seen on the way in, narrowed). It goes back the way it came.
   if (tries > 0 && start_was_clear && chained_backtracks_ < params_.max_chained_backtracks) {
-    if (std::optional<Trajectory> back = escapes_.retreat(
-            map, vehicle, /*farthest=*/true, [this](const Trajectory& back) { return retreatClearOfRecent(back); })) {
+    if (std::optional<Trajectory> back = retreat(map, vehicle, /*farthest=*/true)) {
       startTrajectory(std::move(*back), t_s, FlightKind::Retreat);
       ++chained_backtracks_;
       ++counters_.retreats;
@@ -1007,8 +1008,7 @@ ExplorationStatus ExplorationManager::lookAhead(const MapQuery& map, const Vehic
 }
 
 bool ExplorationManager::escape(const MapQuery& map, const VehicleState& vehicle, double t_s) {
-  if (std::optional<Trajectory> back = escapes_.retreat(
-          map, vehicle, /*farthest=*/false, [this](const Trajectory& back) { return retreatClearOfRecent(back); })) {
+  if (std::optional<Trajectory> back = retreat(map, vehicle, /*farthest=*/false)) {
     startTrajectory(std::move(*back), t_s, FlightKind::Retreat);
     ++counters_.retreats;
   } else if (chained_escapes_ >= params_.max_chained_escapes) {
