@@ -154,8 +154,10 @@ void runExplore(const ExploreOptions& o) {
               s.finished ? "finished" : "time limit reached", s.exploration_time_s, s.path_length_m, s.coverage,
               s.collisions, s.loop_closures);
   if (s.finished && !s.complete)
-    std::printf("incomplete: the planner found nothing more it could reach at coverage %.3f, below %.2f\n", s.coverage,
-                sim::kCompleteCoverage);
+    std::printf(
+        "incomplete: the planner found nothing more it could reach at coverage %.3f, below %.2f "
+        "(the camera saw %.3f of the observable surface)\n",
+        s.coverage, sim::kCompleteCoverage, s.coverage_seen);
   if (s.alc_enabled)
     std::printf("active loop closure: %zu detours (%zu closed a loop, %zu given up), %.1f s on detours\n",
                 s.alc_detours, s.alc_detour_loops, s.alc_give_ups, s.alc_time_s);

@@ -156,6 +156,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     CoverageSample c;
     c.t_s = t_s;
     c.coverage = options.observable->coverage(planner::TsdfMapQuery(volume));
+    c.coverage_seen = options.observable->coverage(*result.seen);
     c.path_length_m = vehicle.pathLength();
     c.clusters = clusters;
     c.loop_closures = result.loop_closures;
@@ -164,8 +165,10 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     c.activity = activity;
     result.coverage_timeline.push_back(c);
   };
+  if (options.observable) result.seen = std::make_unique<SeenSurface>(mc.tsdf.voxel_size_m);
   const auto onFrame = [&](SimFrame& frame) {
     if (recorder) recorder->record(frame);
+    if (result.seen) result.seen->addFrame(frame.depth, *K, frame.T_W_S_true, mc.integrator.max_range_m);
     result.trajectory_true.push_back({frame.t_s, frame.T_W_S_true});
     result.trajectory_estimate.push_back({frame.t_s, frame.T_W_S_estimate});
     frame_times.push_back(frame.t_s);
@@ -384,6 +387,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["exploration_time_s"] = s.exploration_time_s;
   j["path_length_m"] = s.path_length_m;
   j["coverage"] = s.coverage;
+  j["coverage_seen"] = s.coverage_seen;
   j["loop_closures"] = s.loop_closures;
   j["collisions"] = s.collisions;
   j["planner_ms_median"] = s.planner_ms_median;
@@ -497,11 +501,11 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
 
 void writeCoverageCsv(const std::filesystem::path& path, const std::vector<CoverageSample>& timeline) {
   vdbmap::writeFileAtomically(path, [&](std::ostream& os) {
-    os << "t_s,coverage,path_length_m,clusters,loop_closures,estimate_error_m,activity\n";
+    os << "t_s,coverage,coverage_seen,path_length_m,clusters,loop_closures,estimate_error_m,activity\n";
     for (const CoverageSample& c : timeline)
-      os << format("%.4f", c.t_s) << ',' << format("%.6f", c.coverage) << ',' << format("%.3f", c.path_length_m) << ','
-         << c.clusters << ',' << c.loop_closures << ',' << format("%.4f", c.estimate_error_m) << ','
-         << toString(c.activity) << '\n';
+      os << format("%.4f", c.t_s) << ',' << format("%.6f", c.coverage) << ',' << format("%.6f", c.coverage_seen) << ','
+         << format("%.3f", c.path_length_m) << ',' << c.clusters << ',' << c.loop_closures << ','
+         << format("%.4f", c.estimate_error_m) << ',' << toString(c.activity) << '\n';
   });
 }
 
@@ -552,6 +556,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   s.exploration_time_s = r.exploration_time_s;
   s.path_length_m = r.path_length_m;
   s.coverage = observable.coverage(planner::TsdfMapQuery(volume));
+  s.coverage_seen = observable.coverage(*r.seen);
   s.loop_closures = r.loop_closures;
   s.collisions = r.collisions;
   s.planner_ms_median = r.planner_ms_median;

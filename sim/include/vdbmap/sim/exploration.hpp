@@ -37,6 +37,7 @@
 #include "vdbmap/planner/exploration_manager.hpp"
 #include "vdbmap/sim/flight.hpp"
 #include "vdbmap/sim/simulator.hpp"
+#include "vdbmap/sim/seen_surface.hpp"
 #include "vdbmap/sim/surface_coverage.hpp"
 #include "vdbmap/sim/world.hpp"
 
@@ -120,6 +121,9 @@ struct ExplorationEvent {
 struct CoverageSample {
   double t_s = 0.0;
   double coverage = 0.0;          ///< of the observable surface, by the map as it is at t_s
+  /// Of the observable surface, by what the camera saw up to t_s at the true poses
+  /// (seen_surface.hpp): the exploration's progress, whatever drift did to the map.
+  double coverage_seen = 0.0;
   double path_length_m = 0.0;     ///< TRUE path flown so far
   std::size_t clusters = 0;       ///< live frontier clusters
   std::size_t loop_closures = 0;  ///< so far
@@ -179,6 +183,8 @@ struct ExplorationResult {
   std::vector<io::StampedPose> trajectory_true, trajectory_estimate;
   FlightResult flight;              ///< the log's statistics (when a log was recorded)
   std::unique_ptr<Mapper> mapper;   ///< the final map (re-integration queue drained)
+  /// What the camera saw at the true poses (when ExplorationRecordConfig::observable is set).
+  std::unique_ptr<SeenSurface> seen;
   double wall_s = 0.0;
 };
 
@@ -244,6 +250,10 @@ struct ExplorationSummary {
   double exploration_time_s = 0.0;
   double path_length_m = 0.0;
   double coverage = 0.0;  ///< surface_coverage.hpp
+  /// The part of the observable surface the camera saw at the true poses (seen_surface.hpp).
+  /// coverage well below it: drift put what was seen elsewhere in the map; both low: the
+  /// exploration did not go there.
+  double coverage_seen = 0.0;
   std::size_t loop_closures = 0;
   std::size_t collisions = 0;
   bool alc_enabled = false;
