@@ -59,7 +59,8 @@ void EscapePlanner::correctHistory(const std::function<FlatPose(const FlownViewp
 }
 
 std::optional<Trajectory> EscapePlanner::retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest,
-                                                 const std::function<bool(const Trajectory&)>& accept) {
+                                                 const std::function<bool(const Trajectory&)>& accept,
+                                                 double flown_since_s) {
   const double vs = map.voxelSize(), r = params_.clearance_m;
   MapProbe probe(map);
   std::vector<Vec3d> way{vehicle.position_W};
@@ -67,6 +68,7 @@ std::optional<Trajectory> EscapePlanner::retreat(const MapQuery& map, const Vehi
   std::size_t keep = 0;     // flown positions left once back at the end: those flown before it
   std::size_t way_end = 0;  // the end's index in `way`
   for (std::size_t i = flown_.size(); i-- > 0;) {
+    if (flown_[i].stamp_s < flown_since_s) break;
     const Vec3d& q = flown_[i].p_W;
     const double step = (q - way.back()).norm();
     if (length + step > params_.retreat_reach_m) break;

@@ -427,8 +427,11 @@ bool ExplorationManager::seenFree(MapProbe& map, const Vec3d& p_W) const {
 }
 
 bool ExplorationManager::sideSeen(MapProbe& map, const Vec3d& p_W) const {
+  // Near a recent surface: within clearance_m of the surface itself, wherever in its voxel it
+  // lies (seesFree covers what lies farther in front of it). Asked first, as the cheaper test.
+  const double near_m = params_.safety.clearance_m + 0.5 * std::sqrt(3.0) * map.voxelSize();
+  if (recent_map_ && recent_map_->nearSurface(p_W, near_m)) return true;
   if (recent_->seesFree(p_W)) return true;
-  if (recent_map_ && recent_map_->nearSurface(p_W, params_.safety.clearance_m)) return true;
   return last_t_ <= map_trusted_until_s_ && map.atWorld(p_W) != Occupancy::Unknown;
 }
 
@@ -524,10 +527,14 @@ bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMa
 }
 
 std::optional<Trajectory> ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest) {
-  return escapes_.retreat(map, vehicle, farthest, [this](const Trajectory& back) {
-    return !recent_map_ || clearOfRecent(*recent_map_, back, Eigen::Isometry3d::Identity(), 0.0,
-                                         riskCheckStep_s(recent_map_->voxelSize()), params_.safety.clearance_m);
-  });
+  if (!recent_map_) return escapes_.retreat(map, vehicle, farthest);
+  const auto clear_of_recent = [this](const Trajectory& back) {
+    return clearOfRecent(*recent_map_, back, Eigen::Isometry3d::Identity(), 0.0,
+                         riskCheckStep_s(recent_map_->voxelSize()), params_.safety.clearance_m);
+  };
+  // The way flown within the recent window: its drift relative to now is what the recent frames
+  // bear; older, it may pass a wall the recent frames no longer hold.
+  return escapes_.retreat(map, vehicle, farthest, clear_of_recent, last_t_ - params_.safety.recent.window_s);
 }
 
 ReplanReason ExplorationManager::replanReason(const MapQuery& map, const RecentObstacleMap* recent, double t_s) {

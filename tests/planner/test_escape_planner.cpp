@@ -67,6 +67,16 @@ TEST_CASE("A retreat goes back along the way flown to the newest clear position,
     flyAlongX(blocked, 4.0);
     CHECK_FALSE(blocked.retreat(map, here, true));
   }
+  SECTION("only the way flown since flown_since_s") {
+    // Stamps equal x: since t = 3.5 s the way reaches back to x = 3.5 m, not the 2 m of reach.
+    EscapePlanner recent(params);
+    flyAlongX(recent, 4.0);
+    const std::optional<Trajectory> back = recent.retreat(map, here, /*farthest=*/true, {}, /*flown_since_s=*/3.5);
+    REQUIRE(back);
+    CHECK(back->sample(back->duration()).position_W.x() == Approx(3.5).margin(kTolM));
+    // Nothing flown a voxel or more away since then: no retreat.
+    CHECK_FALSE(recent.retreat(map, here, true, {}, /*flown_since_s=*/3.95));
+  }
   SECTION("nothing flown: no retreat") {
     EscapePlanner fresh(params);
     CHECK_FALSE(fresh.retreat(map, here, true));

@@ -719,6 +719,26 @@ TEST_CASE("With the safety layer, a retreat whose way back a recent frame sees b
     CHECK((m.command(m.trajectoryStartTime() + u).position_W - post).norm() > 0.2);
 }
 
+TEST_CASE("With the safety layer, a retreat goes back only along the way flown within the recent window",
+          "[planner][exploration][safety]") {
+  // A way flown longer ago than the recent frames are trusted sits off by the drift since, beside
+  // walls those frames no longer hold. With a window shorter than a frame period nothing flown
+  // within it lies a voxel away: no retreat, a straight escape instead.
+  const bool short_window = GENERATE(false, true);
+  INFO("window 0.05 s: " << short_window);
+  DenseMap map = halfKnownRoom();
+  const Vec3d start(1.0, 3.0, 1.5);
+  ExplorationManagerConfig p = roomParams();
+  p.safety.enabled = true;
+  p.safety.odometry = OdometryDrift{};  // no look needed for the flight out (no frames rendered)
+  if (short_window) p.safety.recent.window_s = p.safety.max_window_s = 0.05;
+  ExplorationManager m(p, at(start), 0.0);
+  const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
+  REQUIRE(m.update(map, f.block, f.vehicle, f.t_s + 1.0 / 15.0).status == ExplorationStatus::Planned);
+  CHECK(m.counters().escapes == 1);
+  CHECK(m.counters().retreats == (short_window ? 0u : 1u));
+}
+
 TEST_CASE("With the safety layer, a way seen free down its middle but not beside it makes the vehicle look",
           "[planner][exploration][safety]") {
   // A corridor 1 m wide along x (y 2.5-3.5 m), known to x = 8 m: the way runs down its middle.

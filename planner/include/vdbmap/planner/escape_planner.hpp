@@ -13,6 +13,7 @@
 
 #include <deque>
 #include <functional>
+#include <limits>
 #include <optional>
 
 namespace vdbmap::planner {
@@ -55,12 +56,15 @@ class EscapePlanner {
 
   /// A trajectory back along the way flown to the newest flown position at least a voxel away
   /// that keeps the clearance in `map` (with `farthest`, the farthest such), within
-  /// retreat_reach_m of way, from rest. The vehicle flew that way, so the way's corridor reads
-  /// free, occupied voxels too; the map only vets the end. A trajectory that `accept` (when given)
-  /// refuses is no retreat: e.g. one whose way what the camera saw since blocks. On success the
-  /// positions flown after the end are forgotten, so that a retreat from there goes on backwards.
+  /// retreat_reach_m of way and among the positions flown at `flown_since_s` or later, from rest.
+  /// The vehicle flew that way, so the way's corridor reads free, occupied voxels too; the map
+  /// only vets the end. A way flown long ago sits where odometry put it then, off by the drift
+  /// since (what flown_since_s bounds). A trajectory that `accept` (when given) refuses is no
+  /// retreat: e.g. one whose way what the camera saw since blocks. On success the positions
+  /// flown after the end are forgotten, so that a retreat from there goes on backwards.
   std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest,
-                                    const std::function<bool(const Trajectory&)>& accept = {});
+                                    const std::function<bool(const Trajectory&)>& accept = {},
+                                    double flown_since_s = -std::numeric_limits<double>::infinity());
   /// A trajectory straight away from the occupied voxels within the clearance to the nearest
   /// clear point within escape_reach_m (preferring the away direction) whose straight way
   /// crosses no occupied voxel.

@@ -503,16 +503,18 @@ class ExplorationManager {
   bool remainingTrajectoryClear(const MapQuery& map, double t_s) const;
   /// The rest of the trajectory keeps SafetyConfig::clearance_m from the recent surfaces.
   bool remainingTrajectoryClearOfRecent(const RecentObstacleMap& recent, double t_s) const;
-  /// EscapePlanner::retreat, refusing a way back that passes within SafetyConfig::clearance_m of
-  /// this update's recent surfaces beyond its start's own (no such check without the safety
-  /// layer): the way flown is where odometry and the last correction put it; what the camera saw
-  /// since is where the walls are.
+  /// EscapePlanner::retreat; with the safety layer, back along the way flown within the recent
+  /// window only (SafetyConfig::window_s()), refusing a way back that passes within
+  /// SafetyConfig::clearance_m of this update's recent surfaces beyond its start's own: the way
+  /// flown is where odometry and the last correction put it; what the camera saw since is where
+  /// the walls are.
   std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest);
   /// p_W counts as seen free for flight: a recent frame saw it free, or the whole map is younger
   /// than SafetyConfig::trustedAge_s (at the last update) and `map` holds p_W clear by clearance_m.
   bool seenFree(MapProbe& map, const Vec3d& p_W) const;
   /// A point beside the way counts as seen when a recent frame saw it free, a recent surface lies
-  /// within SafetyConfig::clearance_m of it (the surface checks guard that side then), or the
+  /// within SafetyConfig::clearance_m of it (of the voxel's centre, plus half its diagonal; the
+  /// surface checks guard that side then), or the
   /// whole map is younger than SafetyConfig::trustedAge_s and `map` knows it.
   bool sideSeen(MapProbe& map, const Vec3d& p_W) const;
   struct UnseenPoint {
