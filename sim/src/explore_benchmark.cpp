@@ -49,6 +49,7 @@ nlohmann::json toJson(const ExploreBenchmarkRun& r) {
           {"exploration_time_s", s.exploration_time_s},
           {"time_to_coverage_s", to_coverage},
           {"coverage", s.coverage},
+          {"coverage_seen", s.coverage_seen},
           {"path_length_m", s.path_length_m},
           {"mean_speed_mps", s.mean_speed_mps},
           {"activity_time_s", activities},

@@ -40,7 +40,7 @@ TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed",
   std::set<std::string> arms;
   for (const auto& r : runs) {
     for (const char* key : {"arm", "seed", "exploration_time_s", "loop_closures", "accuracy_rmse_m", "completeness",
-                            "finished", "coverage", "alc_detours", "alc_time_s", "collisions"})
+                            "finished", "coverage", "coverage_seen", "alc_detours", "alc_time_s", "collisions"})
       CHECK(r.contains(key));
     CHECK(r.at("seed") == 1);
     CHECK(r.at("exploration_time_s").get<double>() > 0.0);

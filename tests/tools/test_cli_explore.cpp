@@ -68,6 +68,9 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   // edges; keyframe pruning (coarse cells of 2 voxels) releases some of those voxels. The coverage
   // goal itself (>= 0.95) is asserted on two rooms in tests/sim/test_exploration.cpp.
   CHECK(s.at("coverage").get<double>() >= 0.85);
+  // What the camera saw at the true poses: in this small room nearly all of it, drift or not.
+  CHECK(s.at("coverage_seen").get<double>() >= 0.85);
+  CHECK(s.at("coverage_seen").get<double>() <= 1.0);
   // Complete exactly when finished at 0.95 coverage or more; an incomplete finish is said.
   CHECK(s.at("complete") == (s.at("coverage").get<double>() >= 0.95));
   CHECK((slurp(out).find("incomplete:") != std::string::npos) == (s.at("complete") == false));
@@ -101,6 +104,8 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
     std::string line, last;
     while (std::getline(in, line)) last = line;
     CHECK(std::stod(last.substr(last.find(',') + 1)) == Approx(s.at("coverage").get<double>()).margin(1e-6));
+    const std::string seen = last.substr(last.find(',', last.find(',') + 1) + 1);  // the third column
+    CHECK(std::stod(seen) == Approx(s.at("coverage_seen").get<double>()).margin(1e-6));
   }
   double activity_s = 0.0;
   for (const auto& [name, t] : s.at("activity_time_s").items()) activity_s += t.get<double>();
