@@ -309,6 +309,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("collision_radius_m", &ExplorationManagerConfig::collision_radius_m,
                      "known-free space kept around the rest of the trajectory; [0, path.clearance_m]")
       .def_readwrite("max_failures", &ExplorationManagerConfig::max_failures, "failures before a target is blacklisted")
+      .def_readwrite("all_failed_spacing_s", &ExplorationManagerConfig::all_failed_spacing_s,
+                     "when every target tried fails from a clear start, their failures count only this long after "
+                     "the last such replan whose failures counted; [0, 60]")
       .def_readwrite("revisit_rounds", &ExplorationManagerConfig::revisit_rounds,
                      "times per run that blacklisted clusters get one more try and viewpoints are recomputed when "
                      "only blacklisted clusters or clusters without a viewpoint are left; [0, 100]")

@@ -210,6 +210,7 @@ void ExplorationManagerConfig::validate() const {
   if (!(collision_radius_m >= 0.0 && collision_radius_m <= path.clearance_m))
     check.fail("collision_radius_m", "[0, path.clearance_m]");
   if (max_failures < 1 || max_failures > 100) check.fail("max_failures", "[1, 100]");
+  check.inRange("all_failed_spacing_s", all_failed_spacing_s, 0.0, 60.0);
   if (revisit_rounds < 0 || revisit_rounds > 100) check.fail("revisit_rounds", "[0, 100]");
   if (final_min_cluster_size < 0 || final_min_cluster_size > 100000000)
     check.fail("final_min_cluster_size", "[0, 1e8]");
@@ -837,6 +838,15 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
   // Fly to the refined viewpoint of the first cluster; if that fails, to the next clusters' best.
   const std::size_t tries = std::min<std::size_t>(choice.order.size(), std::size_t(params_.max_targets_per_replan));
   bool start_was_clear = true;
+  // Failures are counted once the replan's outcome is known (all_failed_spacing_s).
+  std::vector<const FrontierCluster*> failed;
+  const auto countFailures = [&](bool all_failed) {
+    if (all_failed && t_s - last_all_failed_t_ < params_.all_failed_spacing_s) return;
+    if (all_failed) last_all_failed_t_ = t_s;
+    for (const FrontierCluster* cluster : failed) book_.addFailure(*cluster);
+    step.path_failures += failed.size();
+    counters_.path_failures += failed.size();
+  };
   for (std::size_t k = 0; k < tries; ++k) {
     const Target& t = targets[choice.order[k]];
     const FrontierCluster* cluster = frontiers_.find(t.cluster);
@@ -844,6 +854,7 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
     const Viewpoint& view = refined_here ? choice.layers[0][choice.refined.choice[0]] : t.views->front();
     const PlanOutcome outcome = planTo(map, vehicle, view, t_s, FlightKind::ToTarget);
     if (outcome == PlanOutcome::Ok) {
+      countFailures(false);
       MapProbe probe(map.sightMap());
       // Pockets are visited (marked) only with PocketsOnce.
       target_pockets_ =
@@ -859,14 +870,16 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
       // for that, so that a target whose approach keeps getting blocked is given up.
       book_.addTargetFailure();
       start_was_clear = false;
+      countFailures(false);
       if (!escape(map, vehicle, t_s)) break;
       book_.clearTarget();
       return ExplorationStatus::Planned;
     }
-    book_.addFailure(*cluster);
-    ++step.path_failures;
-    ++counters_.path_failures;
+    failed.push_back(cluster);
   }
+  // (A blocked start counted them already; from a clear start every target tried failed.)
+  const bool all_failed = tries > 0 && start_was_clear;
+  if (start_was_clear) countFailures(all_failed);
   // Every target failed from a clear start: the vehicle may have squeezed into a place whose way
   // out is narrower, in the map as it reads now, than a path search can find (a corridor behind
   // shelving that thin structure, seen on the way in, narrowed). It goes back the way it came.

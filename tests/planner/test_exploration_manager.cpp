@@ -300,21 +300,32 @@ TEST_CASE("A frontier that cannot be reached is retried, blacklisted, and explor
   ExplorationManagerConfig p = roomParams();
   p.path.time_limit_s = 0.02;
   p.revisit_rounds = GENERATE(0, 1, 2);
+  // Retries every all_failed_spacing_s, or at 15 Hz (as a robot's frames come).
+  const double dt = GENERATE(1.0, 1.0 / 15.0);
+  INFO("revisit rounds " << p.revisit_rounds << ", retries every " << dt << " s");
+  REQUIRE(p.all_failed_spacing_s == 1.0);
   const Vec3d start(1.5, 3, 1.5);
   ExplorationManager m(p, at(start), 0.0);
   double t = 0.0;
   ExplorationStep step = m.update(map, CoordBBox(), at(start), t);
   REQUIRE(step.targets >= 1);
   int failed = 0;
-  while (step.status == ExplorationStatus::Failed && failed < 20) {
+  while (step.status == ExplorationStatus::Failed && failed < 200) {
     ++failed;
     CHECK(m.target() == 0);
-    t += 0.1;
+    t += dt;
     step = m.update(map, CoordBBox(), at(start), t);
     if (step.status == ExplorationStatus::Failed) CHECK(step.reason == ReplanReason::Retry);
   }
-  // One failure per target per replan, the last one blacklists; each revisit round gives one more try.
-  CHECK(failed == p.max_failures + p.revisit_rounds);
+  // One failure per target per replan that fails them all, at most one such replan counted per
+  // all_failed_spacing_s: the last one blacklists; each revisit round gives one more try.
+  const int counted = p.max_failures + p.revisit_rounds;
+  if (dt == 1.0) {
+    CHECK(failed == counted);
+  } else {  // counted at t = 0, then once a spacing (to within a frame) has gone by since
+    CHECK(t >= (counted - 1) * p.all_failed_spacing_s);
+    CHECK(t <= (counted - 1) * (p.all_failed_spacing_s + dt) + dt + 1e-9);
+  }
   CHECK(m.counters().revisit_rounds == std::size_t(p.revisit_rounds));
   CHECK(step.status == ExplorationStatus::Finished);
   CHECK(m.counters().blacklisted == step.clusters);

@@ -259,6 +259,7 @@ class ExplorationManagerConfig:
     covered_fraction: float
     collision_radius_m: float
     max_failures: int
+    all_failed_spacing_s: float
     revisit_rounds: int
     final_min_cluster_size: int
     final_sweep: FinalSweepScope

@@ -222,6 +222,12 @@ struct ExplorationManagerConfig {
   /// Failures of a target (failed path or trajectory, or a visit that did not observe it) before
   /// it is blacklisted; [1, 100]
   int max_failures = 3;
+  /// When every target tried at a replan fails from a clear start, their failures count only if
+  /// the last such replan whose failures counted is at least this long ago. A failed replan is retried
+  /// at the next frame: in a map still being corrected around the vehicle (a loop closure's
+  /// re-integration), fifteen such retries a second are one piece of evidence, and would
+  /// otherwise blacklist every target within a second and end the run; [0, 60]
+  double all_failed_spacing_s = 1.0;
   /// Times per run that, when no target is left but frontier clusters are (blacklisted, or with
   /// no viewpoint when they were last computed), every blacklisted cluster gets one more try
   /// (its failures drop to max_failures - 1) and every cluster's viewpoints are computed again
@@ -609,6 +615,7 @@ class ExplorationManager {
   Pending pending_;
   int turns_left_ = 0;          ///< parts of the initial turn still to plan
   int chained_escapes_ = 0;     ///< escapes since the last plan that started clear
+  double last_all_failed_t_ = -std::numeric_limits<double>::infinity();  ///< counted; all_failed_spacing_s
   int chained_backtracks_ = 0;  ///< retreats after every target failed, since the last plan
   int chained_looks_ = 0;       ///< looks since the way ahead was last seen free
   Vec3d look_at_W_ = Vec3d::Zero();  ///< FlightKind::Look: the point of the way it looks for
