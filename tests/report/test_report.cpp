@@ -115,7 +115,7 @@ fs::path writeExploreRun(const std::string& name) {
   fs::remove_all(dir);
   fs::create_directories(dir / "log");
   std::vector<vdbmap::io::StampedPose> truth, odom;
-  std::string coverage = "t_s,coverage,path_length_m,clusters,loop_closures,estimate_error_m,activity\n";
+  std::string coverage = "t_s,coverage,coverage_seen,path_length_m,clusters,loop_closures,estimate_error_m,activity\n";
   std::string cycles = "t_s,mapper_ms,planner_ms,frame_wall_ms,queued_frames,activity\n";
   for (int i = 0; i <= 100; ++i) {
     const double t = 0.1 * i;
@@ -126,7 +126,9 @@ fs::path writeExploreRun(const std::string& name) {
     odom.push_back({t, T});
     cycles += std::to_string(t) + ",5.0," + (i % 10 == 0 ? "40.0" : "0") + ",20.0," + std::to_string(i % 7) + "," +
               (i >= 70 && i < 80 ? "loop_detour" : "to_target") + "\n";
-    if (i % 10 == 0) coverage += std::to_string(t) + "," + std::to_string(0.09 * t) + "," + std::to_string(t) + ",3,0,0.0,to_target\n";
+    if (i % 10 == 0)
+      coverage += std::to_string(t) + "," + std::to_string(0.09 * t) + "," + std::to_string(0.095 * t) + "," +
+                  std::to_string(t) + ",3,0,0.0,to_target\n";
   }
   vdbmap::io::writeTumTrajectory(dir / "trajectory_true.txt", truth);
   vdbmap::io::writeTumTrajectory(dir / "trajectory_odom.txt", odom);
@@ -200,6 +202,18 @@ TEST_CASE("an explore run's report holds its trajectories, events, time series a
   const json& cov = byId(data.at("plots"), "coverage");
   CHECK(cov.at("series")[0].at("y").back().get<double>() == Approx(0.9));
   CHECK(cov.at("series")[0].at("x").size() == 11);
+  REQUIRE(cov.at("series").size() == 2);  // and what the camera saw
+  CHECK(cov.at("series")[1].at("name") == "seen by the camera");
+  CHECK(cov.at("series")[1].at("y").back().get<double>() == Approx(0.95));
+  {  // a run written before coverage_seen: the map's coverage alone
+    const fs::path old_run = writeExploreRun("vdbmap_report_explore_old");
+    writeText(old_run / "coverage.csv",
+              "t_s,coverage,path_length_m,clusters,loop_closures,estimate_error_m,activity\n"
+              "0.0,0.1,0,1,0,0,to_target\n1.0,0.2,1,1,0,0,to_target\n");
+    const json old_cov = byId(vdbmap::report::collectReportData(old_run, {}).at("plots"), "coverage");
+    REQUIRE(old_cov.at("series").size() == 1);
+    CHECK(old_cov.at("series")[0].at("y").back().get<double>() == Approx(0.2));
+  }
   CHECK(cov.at("marks").size() == 1);
   CHECK(cov.at("marks")[0].at("x").get<double>() == Approx(6.0));
   const json& planner = byId(data.at("plots"), "planner_ms");

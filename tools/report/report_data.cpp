@@ -449,10 +449,15 @@ json exploreRun(const fs::path& dir, const ReportConfig& config, ReportStats& st
   const fs::path coverage_csv = dir / "coverage.csv";
   if (fs::is_regular_file(coverage_csv)) {
     const Csv c = readCsv(coverage_csv, {"activity"});
-    plots.push_back(plot("coverage", "Coverage of the observable surface", "time (s)", "coverage",
-                         json::array({series("coverage", column(c, coverage_csv, "t_s"), column(c, coverage_csv, "coverage"),
-                                             config.max_plot_points)}),
-                         loop_marks));
+    const std::vector<double>& t = column(c, coverage_csv, "t_s");
+    json lines = json::array({series("coverage", t, column(c, coverage_csv, "coverage"), config.max_plot_points)});
+    // What the camera saw at the true poses (runs before stop 63 lack the column): the gap
+    // between the two lines is what drift put elsewhere in the map.
+    if (c.numbers.count("coverage_seen"))
+      lines.push_back(
+          series("seen by the camera", t, column(c, coverage_csv, "coverage_seen"), config.max_plot_points));
+    plots.push_back(
+        plot("coverage", "Coverage of the observable surface", "time (s)", "coverage", std::move(lines), loop_marks));
   } else {
     stats.notes.push_back("no coverage.csv (a run made before it was written): no coverage plot");
   }
