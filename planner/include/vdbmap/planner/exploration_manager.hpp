@@ -223,10 +223,10 @@ struct ExplorationManagerConfig {
   /// it is blacklisted; [1, 100]
   int max_failures = 3;
   /// When every target tried at a replan fails from a clear start, their failures count only if
-  /// the last such replan whose failures counted is at least this long ago. A failed replan is retried
-  /// at the next frame: in a map still being corrected around the vehicle (a loop closure's
-  /// re-integration), fifteen such retries a second are one piece of evidence, and would
-  /// otherwise blacklist every target within a second and end the run; [0, 60]
+  /// the last such replan whose failures counted is at least this long ago. A failed replan is
+  /// retried at the next frame: in a map still being corrected around the vehicle (a loop
+  /// closure's re-integration), fifteen such retries a second are one piece of evidence, and
+  /// would otherwise blacklist every target within a second and end the run; [0, 60]
   double all_failed_spacing_s = 1.0;
   /// Times per run that, when no target is left but frontier clusters are (blacklisted, or with
   /// no viewpoint when they were last computed), every blacklisted cluster gets one more try
@@ -519,9 +519,9 @@ class ExplorationManager {
   /// than SafetyConfig::trustedAge_s (at the last update) and `map` holds p_W clear by clearance_m.
   bool seenFree(MapProbe& map, const Vec3d& p_W) const;
   /// A point beside the way counts as seen when a recent frame saw it free, a recent surface lies
-  /// within SafetyConfig::clearance_m of it (of the voxel's centre, plus half its diagonal; the
-  /// surface checks guard that side then), or the
-  /// whole map is younger than SafetyConfig::trustedAge_s and `map` knows it.
+  /// within SafetyConfig::clearance_m of it (of its voxel's centre, plus half the voxel's
+  /// diagonal; the surface checks guard that side then), or the whole map is younger than
+  /// SafetyConfig::trustedAge_s and `map` knows it.
   bool sideSeen(MapProbe& map, const Vec3d& p_W) const;
   struct UnseenPoint {
     Vec3d p_W;

@@ -36,8 +36,8 @@
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/planner/exploration_manager.hpp"
 #include "vdbmap/sim/flight.hpp"
-#include "vdbmap/sim/simulator.hpp"
 #include "vdbmap/sim/seen_surface.hpp"
+#include "vdbmap/sim/simulator.hpp"
 #include "vdbmap/sim/surface_coverage.hpp"
 #include "vdbmap/sim/world.hpp"
 
