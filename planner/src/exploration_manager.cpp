@@ -883,7 +883,7 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
   // Every target failed from a clear start: the vehicle may have squeezed into a place whose way
   // out is narrower, in the map as it reads now, than a path search can find (a corridor behind
   // shelving that thin structure, seen on the way in, narrowed). It goes back the way it came.
-  if (tries > 0 && start_was_clear && chained_backtracks_ < params_.max_chained_backtracks) {
+  if (all_failed && chained_backtracks_ < params_.max_chained_backtracks) {
     if (std::optional<Trajectory> back = retreat(map, vehicle, /*farthest=*/true)) {
       startTrajectory(std::move(*back), t_s, FlightKind::Retreat);
       ++chained_backtracks_;
