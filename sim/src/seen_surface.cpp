@@ -28,22 +28,20 @@ SeenSurface::SeenSurface(double voxel_size_m) : voxel_size_m_(voxel_size_m), gri
 
 void SeenSurface::addFrame(const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S,
                            double max_range_m) {
-  K.validate();
-  if (depth.width != K.width || depth.height != K.height || depth.depth_m.size() != std::size_t(K.width) * K.height)
-    throw std::invalid_argument("SeenSurface::addFrame: the depth image is " + std::to_string(depth.width) + " x " +
-                                std::to_string(depth.height) + ", the camera " + std::to_string(K.width) + " x " +
-                                std::to_string(K.height));
+  checkDepthImageSize(depth, K);
   if (!(std::isfinite(max_range_m) && max_range_m > 0.0))
     throw std::invalid_argument("SeenSurface::addFrame: max_range_m must be finite and > 0");
   // A pixel spans max_range_m / f metres at the far end of the range.
   const double f = std::min(std::abs(K.fx), std::abs(K.fy));
   const int stride = std::max(1, int(std::floor(0.5 * voxel_size_m_ * f / max_range_m)));
+  const double inv_fx = 1.0 / K.fx, inv_fy = 1.0 / K.fy;
   openvdb::BoolGrid::Accessor acc = grid_->getAccessor();
   for (int v = 0; v < depth.height; v += stride)
     for (int u = 0; u < depth.width; u += stride) {
-      const double z = depth.at(u, v);
-      if (!(z > 0.0 && z <= max_range_m)) continue;  // NaN fails too
-      const Vec3d p_S((u - K.cx) * z / K.fx, (v - K.cy) * z / K.fy, z);
+      const float z = depth.at(u, v);
+      if (!(z > 0.0f && double(z) <= max_range_m)) continue;  // NaN fails too
+      // The point the mapper integrates for this pixel (camera.hpp).
+      const Vec3d p_S = backProjectPixel(u, v, z, K, inv_fx, inv_fy).cast<double>();
       acc.setValueOn(planner::voxelOf(T_W_S * p_S, voxel_size_m_), true);
     }
 }

@@ -17,21 +17,16 @@ namespace {
 constexpr double kVoxel = 0.1;
 constexpr double kMaxRange = 4.5;
 
-/// A camera at (1, 2, 1.5) looking along +x (optical z = world x, x = -y, y = -z).
-Pose3d facingX() {
-  Pose3d T = Pose3d::Identity();
-  T.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  T.translation() = Vec3d(1.0, 2.0, 1.5);
-  return T;
-}
+/// A camera at (1, 2, 1.5) looking along +x.
+Pose3d facingX() { return lookingPose(Vec3d(1.0, 2.0, 1.5), 0.0); }
 
 std::set<std::tuple<int, int, int>> everyPixelsVoxel(const DepthImage& d, const CameraIntrinsics& K, const Pose3d& T) {
   std::set<std::tuple<int, int, int>> out;
   for (int v = 0; v < d.height; ++v)
     for (int u = 0; u < d.width; ++u) {
-      const double z = d.at(u, v);
-      if (!(z > 0.0 && z <= kMaxRange)) continue;
-      const Coord c = planner::voxelOf(T * Vec3d((u - K.cx) * z / K.fx, (v - K.cy) * z / K.fy, z), kVoxel);
+      const float z = d.at(u, v);
+      if (!(z > 0.0f && z <= kMaxRange)) continue;
+      const Coord c = planner::voxelOf(T * backProjectPixel(u, v, z, K, 1.0 / K.fx, 1.0 / K.fy).cast<double>(), kVoxel);
       out.emplace(c.x(), c.y(), c.z());
     }
   return out;
@@ -92,8 +87,7 @@ TEST_CASE("SeenSurface leaves out invalid returns and those beyond the range, an
   CHECK_THROWS_WITH(SeenSurface(0.0), Catch::Contains("voxel_size_m"));
   CHECK_THROWS_WITH(SeenSurface(std::nan("")), Catch::Contains("voxel_size_m"));
   const DepthImage wrong(K.width + 1, K.height);
-  CHECK_THROWS_WITH(seen.addFrame(wrong, K, facingX(), kMaxRange),
-                    Catch::Contains("9 x 6") && Catch::Contains("8 x 6"));
+  CHECK_THROWS_WITH(seen.addFrame(wrong, K, facingX(), kMaxRange), Catch::Contains("9x6") && Catch::Contains("8x6"));
   CHECK_THROWS_WITH(seen.addFrame(depth, K, facingX(), 0.0), Catch::Contains("max_range_m"));
   CHECK(seen.seenVoxels() == 1);  // the refused frames changed nothing
 }

@@ -20,6 +20,14 @@ void CameraIntrinsics::validate() const {
   check.inRange("cy", cy, -1e7, 1e7);
 }
 
+void checkDepthImageSize(const DepthImage& depth, const CameraIntrinsics& K) {
+  K.validate();
+  if (depth.width != K.width || depth.height != K.height ||
+      depth.depth_m.size() != std::size_t(K.width) * std::size_t(K.height))
+    throw std::invalid_argument("depth image is " + std::to_string(depth.width) + "x" + std::to_string(depth.height) +
+                                " but the camera is " + std::to_string(K.width) + "x" + std::to_string(K.height));
+}
+
 DepthImage depthFromRaw(int width, int height, const std::uint16_t* raw, double depth_scale,
                         std::uint16_t invalid_raw) {
   if (width < 0 || height < 0)

@@ -510,22 +510,13 @@ struct View {
   }
 };
 
-void checkImageSize(const DepthImage& depth_m, const CameraIntrinsics& K) {
-  K.validate();
-  if (depth_m.width != K.width || depth_m.height != K.height ||
-      depth_m.depth_m.size() != std::size_t(K.width) * std::size_t(K.height))
-    throw std::invalid_argument("depth image is " + std::to_string(depth_m.width) + "x" +
-                                std::to_string(depth_m.height) + " but the camera is " + std::to_string(K.width) + "x" +
-                                std::to_string(K.height));
-}
-
 }  // namespace
 
 void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
                          const std::vector<ImagePlacement>& placements, const TsdfConfig& tsdf,
                          const IntegratorConfig& integrator, openvdb::Int64Grid& weight_q, openvdb::Int64Grid& wsdf_q,
                          openvdb::Int64Grid* hits, IntegrationStats& stats, VoxelFootprint* footprint) {
-  checkImageSize(depth_m, K);
+  checkDepthImageSize(depth_m, K);
   if (footprint) footprint->clear();
   const PixelTableLease lease;
   const PixelTable& px = *lease;
@@ -628,7 +619,7 @@ void integrateProjective(const DepthImage& depth_m, const CameraIntrinsics& K,
 
 VoxelFootprint projectiveFootprint(const DepthImage& depth_m, const CameraIntrinsics& K, const Pose3d& T_W_S,
                                                const TsdfConfig& tsdf, const IntegratorConfig& integrator) {
-  checkImageSize(depth_m, K);
+  checkDepthImageSize(depth_m, K);
   IntegrationStats stats;
   const PixelTableLease lease;
   const PixelTable& px = *lease;

@@ -40,6 +40,10 @@ struct DepthImage {
   float at(int u, int v) const { return depth_m[std::size_t(v) * width + u]; }
 };
 
+/// Throws std::invalid_argument when K is invalid (CameraIntrinsics::validate) or `depth` is not
+/// an image of K's size (naming both sizes).
+void checkDepthImageSize(const DepthImage& depth, const CameraIntrinsics& K);
+
 /// Depth in metres from raw sensor units (e.g. a 16-bit PNG or a uint16 array): depth_m = raw *
 /// depth_scale, with depth_scale in metres per unit, computed in float as readDepthPng does, so
 /// both give bit-identical images. Raw 0, and `invalid_raw` when it is non-zero (7-Scenes marks

@@ -28,7 +28,7 @@ class SeenSurface : public planner::MapQuery {
   /// keeps the returns at most half a voxel apart at max_range_m: each voxel a skipped pixel's
   /// return fell in lies within a voxel of a marked one (ObservableSurface's known radius), at a
   /// sixteenth of the cost for the simulator's camera at 0.1 m. Throws std::invalid_argument when
-  /// the image does not match K or max_range_m is not finite and > 0.
+  /// the image does not match K (checkDepthImageSize) or max_range_m is not finite and > 0.
   void addFrame(const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S, double max_range_m);
 
   double voxelSize() const override { return voxel_size_m_; }
