@@ -109,6 +109,15 @@ const char* toString(ExplorationActivity a) {
   return "?";
 }
 
+const char* toString(PathFailure f) {
+  switch (f) {
+    case PathFailure::GoalBlocked: return "goal_blocked";
+    case PathFailure::NoPath: return "no_path";
+    case PathFailure::NoTrajectory: return "no_trajectory";
+  }
+  return "?";
+}
+
 const char* toString(ReplanReason r) {
   switch (r) {
     case ReplanReason::None: return "none";
@@ -839,11 +848,14 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
   const std::size_t tries = std::min<std::size_t>(choice.order.size(), std::size_t(params_.max_targets_per_replan));
   bool start_was_clear = true;
   // Failures are counted once the replan's outcome is known (all_failed_spacing_s).
-  std::vector<const FrontierCluster*> failed;
+  std::vector<std::pair<const FrontierCluster*, FailedPath>> failed;
   const auto countFailures = [&](bool all_failed) {
     if (all_failed && t_s - last_all_failed_t_ < params_.all_failed_spacing_s) return;
     if (all_failed) last_all_failed_t_ = t_s;
-    for (const FrontierCluster* cluster : failed) book_.addFailure(*cluster);
+    for (const auto& [cluster, why] : failed) {
+      book_.addFailure(*cluster);
+      step.failed_paths.push_back(why);
+    }
     step.path_failures += failed.size();
     counters_.path_failures += failed.size();
   };
@@ -875,7 +887,10 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
       book_.clearTarget();
       return ExplorationStatus::Planned;
     }
-    failed.push_back(cluster);
+    const PathFailure why = outcome == PlanOutcome::GoalBlocked ? PathFailure::GoalBlocked
+                            : outcome == PlanOutcome::NoPath    ? PathFailure::NoPath
+                                                                : PathFailure::NoTrajectory;
+    failed.push_back({cluster, {t.cluster, vehicle.position_W, view.position_W, why}});
   }
   // (A blocked start counted them already; from a clear start every target tried failed.)
   const bool all_failed = tries > 0 && start_was_clear;
@@ -913,9 +928,10 @@ ExplorationManager::PlanOutcome ExplorationManager::planTo(const MapQuery& map, 
     path = PathPlanner(*plan_map, params_.path).plan(vehicle.position_W, view.position_W, query_seed);
     if (path.status == PathStatus::StartInvalid) return PlanOutcome::StartBlocked;
   }
-  if (!path.ok()) return PlanOutcome::Failed;
+  if (path.status == PathStatus::GoalInvalid) return PlanOutcome::GoalBlocked;
+  if (!path.ok()) return PlanOutcome::NoPath;
   TrajectoryResult traj = planFlight(path.waypoints, vehicle, view.yaw_rad, *plan_map);
-  if (!traj.ok()) return PlanOutcome::Failed;
+  if (!traj.ok()) return PlanOutcome::NoTrajectory;
   startTrajectory(std::move(traj.trajectory), t_s, kind);
   if (!start_free) chained_escapes_ = 0;
   chained_backtracks_ = 0;

@@ -208,7 +208,8 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
     if (manager.alcStats().detours > alc_before.detours) result.events.push_back({frame.t_s, "alc_detour"});
     if (step.reason == planner::ReplanReason::EmergencyStop) result.events.push_back({frame.t_s, "emergency_stop"});
     if (step.visit_failed) result.events.push_back({frame.t_s, "visit_failed", step.failed_visit});
-    for (std::size_t i = 0; i < step.path_failures; ++i) result.events.push_back({frame.t_s, "path_failed"});
+    for (const planner::FailedPath& failed : step.failed_paths)
+      result.events.push_back({frame.t_s, "path_failed", std::nullopt, failed});
     map_ms.push_back(step.map_update_ms);
     const bool replanned = step.reason != planner::ReplanReason::None;
     if (replanned) result.planner_ms.push_back(step.map_update_ms + step.replan_ms);
@@ -492,6 +493,12 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
       event["view_W"] = {e.visit->view_W.x(), e.visit->view_W.y(), e.visit->view_W.z()};
       event["judged_voxels"] = e.visit->judged_voxels;
       event["gone_fraction"] = e.visit->gone_fraction;
+    }
+    if (e.path) {
+      event["cluster"] = e.path->cluster;
+      event["from_W"] = {e.path->from_W.x(), e.path->from_W.y(), e.path->from_W.z()};
+      event["view_W"] = {e.path->view_W.x(), e.path->view_W.y(), e.path->view_W.z()};
+      event["why"] = toString(e.path->why);
     }
     events.push_back(std::move(event));
   }

@@ -309,6 +309,16 @@ TEST_CASE("A frontier that cannot be reached is retried, blacklisted, and explor
   double t = 0.0;
   ExplorationStep step = m.update(map, CoordBBox(), at(start), t);
   REQUIRE(step.targets >= 1);
+  // Each failure names its target, where the vehicle was, and why: the viewpoints beyond the wall
+  // are clear, and no path reaches them.
+  REQUIRE(step.path_failures >= 1);
+  REQUIRE(step.failed_paths.size() == step.path_failures);
+  for (const FailedPath& f : step.failed_paths) {
+    CHECK(m.frontiers().find(f.cluster) != nullptr);
+    CHECK(f.from_W == start);
+    CHECK(f.view_W.x() > 4.0);
+    CHECK(f.why == PathFailure::NoPath);
+  }
   int failed = 0;
   while (step.status == ExplorationStatus::Failed && failed < 200) {
     ++failed;

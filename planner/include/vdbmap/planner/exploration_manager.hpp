@@ -355,6 +355,22 @@ struct FailedVisit {
   double gone_fraction = 0.0;     ///< of them, no longer frontier (at most covered_fraction)
 };
 
+/// Why a target's path failed from a clear start.
+enum class PathFailure {
+  GoalBlocked,   ///< the viewpoint is not clear (PathStatus::GoalInvalid)
+  NoPath,        ///< no path within the search's budget (PathStatus::NoPath)
+  NoTrajectory,  ///< a path, but no collision-free trajectory along it
+};
+const char* toString(PathFailure f);
+
+/// A target whose path failed, for diagnosis.
+struct FailedPath {
+  ClusterId cluster = 0;
+  Vec3d from_W = Vec3d::Zero();  ///< the vehicle's position (the estimate's world frame)
+  Vec3d view_W = Vec3d::Zero();  ///< the viewpoint it tried to reach
+  PathFailure why = PathFailure::NoPath;
+};
+
 /// What one update() did.
 struct ExplorationStep {
   ExplorationStatus status = ExplorationStatus::Continue;
@@ -367,6 +383,7 @@ struct ExplorationStep {
   bool visit_failed = false;                 ///< the visit judged at this replan did not see its target
   FailedVisit failed_visit;                  ///< which visit, when visit_failed
   std::size_t path_failures = 0;             ///< targets whose path or trajectory failed at this replan
+  std::vector<FailedPath> failed_paths;      ///< which, and why (path_failures of them)
   std::size_t frontier_voxels = 0;
   double map_update_ms = 0.0;  ///< frontier and viewpoint refresh
   double replan_ms = 0.0;      ///< tour, refinement, path and trajectory (0 without a replan)
@@ -473,7 +490,7 @@ class ExplorationManager {
     std::vector<std::vector<Viewpoint>> layers;
     RefinementResult refined;
   };
-  enum class PlanOutcome { Ok, Failed, StartBlocked };
+  enum class PlanOutcome { Ok, StartBlocked, GoalBlocked, NoPath, NoTrajectory };
   /// Events that wait for the next update.
   struct Pending {
     bool frame_shift = false;  ///< shiftFrame() was called: replan

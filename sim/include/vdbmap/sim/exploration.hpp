@@ -110,11 +110,12 @@ using ExplorationOptions [[deprecated("renamed ExplorationRecordConfig")]] = Exp
 /// event began in the flight up to this frame), "emergency_stop" (the safety layer found the
 /// trajectory blocked, planner::ReplanReason::EmergencyStop), "visit_failed" (a visit ended without
 /// seeing its target, with which visit), "path_failed" (one per target without a path or
-/// trajectory at a replan).
+/// trajectory at a replan, with which target, from where and why).
 struct ExplorationEvent {
   double t_s = 0.0;
   std::string what;
   std::optional<planner::FailedVisit> visit = std::nullopt;  ///< visit_failed: the target, its viewpoint, the judgement
+  std::optional<planner::FailedPath> path = std::nullopt;    ///< path_failed: the target, from where, to where, why
 };
 
 /// The run at one moment (coverage.csv).
