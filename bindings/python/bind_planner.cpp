@@ -83,7 +83,13 @@ void bindCostsAndPaths(py::module_& m) {
       .def_readwrite("unreachable_cost_s", &CostConfig::unreachable_cost_s, "cost of a pair without a path; (0, 1e9]")
       .def("validate", &CostConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
-  py::class_<PathConfig> p(m, "PathConfig", "Collision-free paths in the map (straight line or OMPL RRTConnect).");
+  py::enum_<PathSearch>(m, "PathSearch", "How a path is searched when the straight segment is blocked.")
+      .value("Sampling", PathSearch::Sampling, "OMPL's RRTConnect and simplifier")
+      .value("Grid", PathSearch::Grid, "A* on a lattice of voxel centres, complete at its resolution")
+      .value("SamplingThenGrid", PathSearch::SamplingThenGrid, "RRTConnect; the lattice where it finds nothing");
+
+  py::class_<PathConfig> p(
+      m, "PathConfig", "Collision-free paths in the map (straight line, else OMPL RRTConnect or a lattice search).");
   addStructProtocol(p);
   p.def_readwrite("clearance_m", &PathConfig::clearance_m, "known-free distance around the path; [0, 5]")
       .def_readwrite("check_step_m", &PathConfig::check_step_m, "OMPL's validity-check resolution; 0 = half a voxel")
@@ -93,6 +99,7 @@ void bindCostsAndPaths(py::module_& m) {
       .def_readwrite("rrt_range_m", &PathConfig::rrt_range_m, "RRTConnect's extension length; 0 = OMPL's default")
       .def_readwrite("simplify_rounds", &PathConfig::simplify_rounds, "shortcutting rounds; [0, 100]")
       .def_readwrite("seed", &PathConfig::seed, "OMPL's seed")
+      .def_readwrite("search", &PathConfig::search, "PathSearch: how a blocked straight segment is searched around")
       .def("validate", &PathConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<TourConfig> t(m, "TourConfig", "The global tour's ATSP solver.");
@@ -280,7 +287,8 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("frontier", &ExplorationManagerConfig::frontier, "FrontierConfig")
       .def_readwrite("viewpoint", &ExplorationManagerConfig::viewpoint, "ViewpointConfig")
       .def_readwrite("cost", &ExplorationManagerConfig::cost, "CostConfig")
-      .def_readwrite("path", &ExplorationManagerConfig::path, "PathConfig of the flown paths (0.1 s OMPL budget)")
+      .def_readwrite("path", &ExplorationManagerConfig::path,
+                     "PathConfig of the flown paths (0.1 s OMPL budget, the lattice where RRTConnect finds nothing)")
       .def_readwrite("cost_path", &ExplorationManagerConfig::cost_path, "PathConfig of paths only measured (0.01 s)")
       .def_readwrite("tour", &ExplorationManagerConfig::tour, "TourConfig")
       .def_readwrite("refinement", &ExplorationManagerConfig::refinement, "RefinementConfig")

@@ -140,6 +140,7 @@ const char* toString(ReplanReason r) {
 PathConfig ExplorationManagerConfig::flightPathDefaults() {
   PathConfig p;
   p.time_limit_s = 0.1;
+  p.search = PathSearch::SamplingThenGrid;
   return p;
 }
 

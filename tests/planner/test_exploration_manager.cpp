@@ -342,6 +342,39 @@ TEST_CASE("A frontier that cannot be reached is retried, blacklisted, and explor
   for (const FrontierCluster& c : m.frontiers().clusters()) CHECK(m.isBlacklisted(c));
 }
 
+TEST_CASE("A flight path through a door too narrow for RRTConnect's budget comes from the lattice",
+          "[planner][exploration]") {
+  // The vehicle's room (x < 3 m) opens to the other only through a door 0.8 m wide, off the line
+  // from the vehicle to the frontier (y 0.8-1.6 m), in a wall 1.5 m thick (a door whose frame
+  // drift has smeared): with 0.3 m clearance from voxel centres, a tunnel 0.3 m across. The other
+  // room has an unknown hole in its far wall, so its frontier can be reached only through it.
+  DenseMap map = test::makeRoom(Eigen::Vector3i(80, 60, 30));
+  map.fill(CoordBBox(Coord(30, 0, 0), Coord(44, 59, 29)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(30, 8, 8), Coord(44, 15, 20)), Occupancy::Free);
+  map.fill(CoordBBox(Coord(79, 20, 8), Coord(79, 40, 22)), Occupancy::Unknown);
+  ExplorationManagerConfig p = roomParams();
+  p.path.time_limit_s = 10.0;  // the iteration cap binds: the same search on any machine
+  p.path.max_iterations = 100;
+  const PathSearch search = GENERATE(PathSearch::Sampling, ExplorationManagerConfig().path.search);
+  p.path.search = search;
+  INFO("search " << toString(search));
+  const Vec3d start(1.5, 4.5, 1.5);
+  ExplorationManager m(p, at(start), 0.0);
+  const ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.targets >= 1);
+  if (search == PathSearch::Sampling) {  // RRTConnect alone does not find the door in 100 iterations
+    CHECK(step.status == ExplorationStatus::Failed);
+    REQUIRE(!step.failed_paths.empty());
+    for (const FailedPath& f : step.failed_paths) CHECK(f.why == PathFailure::NoPath);
+  } else {  // the default falls back to the lattice, which does
+    CHECK(search == PathSearch::SamplingThenGrid);
+    REQUIRE(step.status == ExplorationStatus::Planned);
+    CHECK(m.target() != 0);
+    CHECK(m.trajectory().sample(m.trajectory().duration()).position_W.x() > 4.5);  // beyond the wall
+    CHECK(trajectoryClear(m, map, p.path.clearance_m - 1e-9));
+  }
+}
+
 TEST_CASE("A frontier that stays unobserved after visits is blacklisted, then exploration finishes",
           "[planner][exploration]") {
   // The map never changes (nothing integrates what the vehicle would see): every arrival leaves the

@@ -237,6 +237,9 @@ def test_exploration_config_defaults_and_shortcuts(room):
     # ... visiting each pocket left when it begins once, as `vdbmap explore --final-sweep once`.
     assert config.planner.final_sweep == vdbmap.planner.FinalSweepScope.PocketsOnce
     assert cli_default("explore", "--final-sweep") == "once"
+    # Flown paths fall back to the lattice where RRTConnect finds nothing; priced legs do not.
+    assert config.planner.path.search == vdbmap.planner.PathSearch.SamplingThenGrid
+    assert config.planner.cost_path.search == vdbmap.planner.PathSearch.Sampling
     # The fallback viewpoint search is on by default and reachable as a nested struct.
     fallback = config.planner.viewpoint.fallback
     assert fallback.enabled is True and fallback.min_visible_fraction == 0.5

@@ -87,8 +87,15 @@ class CostConfig:
     def __copy__(self) -> CostConfig: ...
     def __deepcopy__(self, memo: dict[Any, Any]) -> CostConfig: ...
 
+class PathSearch(_Enum):
+    """How a path is searched when the straight segment is blocked."""
+    Sampling: ClassVar[PathSearch]
+    Grid: ClassVar[PathSearch]
+    SamplingThenGrid: ClassVar[PathSearch]
+    def __init__(self, value: int) -> None: ...
+
 class PathConfig:
-    """Collision-free paths in the map (straight line or OMPL RRTConnect)."""
+    """Collision-free paths in the map (straight line, else OMPL RRTConnect or a lattice search)."""
     clearance_m: float
     check_step_m: float
     time_limit_s: float
@@ -96,6 +103,7 @@ class PathConfig:
     rrt_range_m: float
     simplify_rounds: int
     seed: int
+    search: PathSearch
     def __init__(self, **kwargs: Any) -> None: ...
     def validate(self) -> None: ...
     def __copy__(self) -> PathConfig: ...

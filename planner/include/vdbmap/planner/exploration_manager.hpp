@@ -187,7 +187,8 @@ struct ExplorationManagerConfig {
   FrontierConfig frontier;
   ViewpointConfig viewpoint;
   CostConfig cost;
-  /// Paths the vehicle flies (a longer OMPL budget than the cost paths).
+  /// Paths the vehicle flies: a longer OMPL budget than the cost paths, and the lattice where
+  /// RRTConnect finds nothing (a door narrowed by drift; docs/exploration.md, "Stop 64").
   PathConfig path = flightPathDefaults();
   /// Paths only measured for costs (pair table, legs from the vehicle, refinement).
   PathConfig cost_path = costPathDefaults();
@@ -273,7 +274,8 @@ struct ExplorationManagerConfig {
   bool alc_enabled = false;
   AlcConfig alc;
 
-  /// The defaults of `path` and `cost_path` (0.1 s and 0.01 s OMPL budgets).
+  /// The defaults of `path` and `cost_path` (0.1 s and 0.01 s OMPL budgets; `path` falls back
+  /// to the lattice).
   static PathConfig flightPathDefaults();
   static PathConfig costPathDefaults();
   /// The default of `tour`: at most 32 pairs of targets planned per replan (TourConfig::max_planned_pairs).
