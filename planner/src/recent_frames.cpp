@@ -25,9 +25,7 @@ RecentFrames::RecentFrames(const RecentFramesConfig& config) : config_(config) {
 void RecentFrames::add(double t_s, const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S) {
   if (!std::isfinite(t_s) || (!frames_.empty() && t_s < frames_.back().t_s))
     throw std::invalid_argument("RecentFrames::add: frame times must be finite and not go back in time");
-  if (depth.width != K.width || depth.height != K.height ||
-      depth.depth_m.size() != std::size_t(depth.width) * std::size_t(depth.height))
-    throw std::invalid_argument("RecentFrames::add: the depth image's size differs from the intrinsics'");
+  checkDepthImageSize(depth, K, "RecentFrames::add");
   if (!T_W_S.matrix().allFinite()) throw std::invalid_argument("RecentFrames::add: the pose is not finite");
 
   while (!frames_.empty() && frames_.front().t_s < t_s - config_.window_s) {

@@ -5,7 +5,6 @@
 #include "planner/planner_test_maps.hpp"
 
 #include "vdbmap/planner/path_planner.hpp"
-#include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
 #include "vdbmap/planner/recent_obstacle_map.hpp"
 
@@ -84,6 +83,18 @@ TEST_CASE("RecentFramesConfig::validate names the field", "[planner][safety]") {
   c = {};
   c.sparse_period_s = -0.5;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("RecentFramesConfig.sparse_period_s"));
+}
+
+TEST_CASE("A depth image not of the camera's size is refused, naming both sizes, and nothing is kept",
+          "[planner][safety][hostile]") {
+  const CameraIntrinsics K = quarterCamera();
+  RecentFrames frames;
+  frames.add(0.0, DepthImage(K.width, K.height, 2.0f), K, Pose3d::Identity());
+  const DepthImage wrong(K.width + 1, K.height, 2.0f);
+  const std::string sizes = std::to_string(K.width + 1) + "x" + std::to_string(K.height);
+  CHECK_THROWS_WITH(frames.add(0.1, wrong, K, Pose3d::Identity()),
+                    Catch::Contains("RecentFrames::add") && Catch::Contains(sizes));
+  CHECK(frames.frameTimes() == std::vector<double>{0.0});
 }
 
 TEST_CASE("A wall 3 m ahead is seen free up to free_margin_m before it, never behind it or outside the view",

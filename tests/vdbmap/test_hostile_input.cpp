@@ -16,6 +16,7 @@
 #include "vdbmap/io/mesh_io.hpp"
 #include "vdbmap/io/png_io.hpp"
 #include "vdbmap/io/point_cloud_io.hpp"
+#include "vdbmap/keyframe_store.hpp"
 #include "vdbmap/map_file.hpp"
 #include "vdbmap/mapper.hpp"
 #include "vdbmap/openvdb.hpp"
@@ -423,6 +424,22 @@ TEST_CASE("a process stopped by a signal during a write removes its temporary an
     for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
       CHECK(entry.path().filename().string().find(".tmp.") == std::string::npos);
   }
+}
+
+TEST_CASE("a depth image not of the camera's size is refused by each reader of it, naming who and both sizes",
+          "[camera][hostile]") {
+  auto K = std::make_shared<CameraIntrinsics>();  // 640 x 480
+  const DepthImage small(320, 240, 1.0f);
+  // (Catch2 v2 matchers combined with && hold references: each is written where it is used.)
+  CHECK_THROWS_WITH(backProject(small, *K),
+                    Catch::Contains("backProject") && Catch::Contains("320x240") && Catch::Contains("640x480"));
+  CHECK_THROWS_WITH(EncodedFrame::fromDepth(small, K), Catch::Contains("EncodedFrame::fromDepth") &&
+                                                           Catch::Contains("320x240") && Catch::Contains("640x480"));
+  // The right width and height over too few pixels (a truncated buffer) is refused, not read past.
+  DepthImage truncated(K->width, K->height, 1.0f);
+  truncated.depth_m.resize(truncated.depth_m.size() / 2);
+  CHECK_THROWS_WITH(backProject(truncated, *K), Catch::Contains("backProject") && Catch::Contains("640x480"));
+  CHECK_THROWS_AS(EncodedFrame::fromDepth(truncated, K), std::invalid_argument);
 }
 
 TEST_CASE("a voxel size far too small for a frame is refused before any work, naming the memory estimate",

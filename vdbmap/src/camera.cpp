@@ -20,11 +20,12 @@ void CameraIntrinsics::validate() const {
   check.inRange("cy", cy, -1e7, 1e7);
 }
 
-void checkDepthImageSize(const DepthImage& depth, const CameraIntrinsics& K) {
+void checkDepthImageSize(const DepthImage& depth, const CameraIntrinsics& K, const char* who) {
   K.validate();
   if (depth.width != K.width || depth.height != K.height ||
       depth.depth_m.size() != std::size_t(K.width) * std::size_t(K.height))
-    throw std::invalid_argument("depth image is " + std::to_string(depth.width) + "x" + std::to_string(depth.height) +
+    throw std::invalid_argument(std::string(who ? who : "") + (who ? ": " : "") + "depth image is " +
+                                std::to_string(depth.width) + "x" + std::to_string(depth.height) +
                                 " but the camera is " + std::to_string(K.width) + "x" + std::to_string(K.height));
 }
 
@@ -45,11 +46,7 @@ DepthImage depthFromRaw(int width, int height, const std::uint16_t* raw, double 
 }
 
 PointCloud backProject(const DepthImage& depth, const CameraIntrinsics& K, int stride) {
-  K.validate();
-  if (depth.width != K.width || depth.height != K.height)
-    throw std::invalid_argument("backProject: depth image is " + std::to_string(depth.width) + "x" +
-                                std::to_string(depth.height) + " but the camera is " +
-                                std::to_string(K.width) + "x" + std::to_string(K.height));
+  checkDepthImageSize(depth, K, "backProject");
   if (stride < 1) throw std::invalid_argument("backProject: stride must be >= 1, got " + std::to_string(stride));
   const float nan = std::numeric_limits<float>::quiet_NaN();
   PointCloud points_S;

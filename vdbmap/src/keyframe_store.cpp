@@ -79,9 +79,7 @@ void checkDepthEncoding(const char* who, const DepthImage& depth, const CameraIn
                         int stride) {
   const auto fail = [who](const std::string& what) { throw std::invalid_argument(std::string(who) + ": " + what); };
   if (!K) fail("intrinsics are required");
-  if (depth.width != K->width || depth.height != K->height)
-    fail("image is " + std::to_string(depth.width) + "x" + std::to_string(depth.height) + " but the camera is " +
-         std::to_string(K->width) + "x" + std::to_string(K->height));
+  checkDepthImageSize(depth, *K, who);
   if (!(depth_unit_m > 0.0)) fail("depth_unit_m must be > 0");
   if (stride < 1) fail("stride must be >= 1");
 }

@@ -41,8 +41,8 @@ struct DepthImage {
 };
 
 /// Throws std::invalid_argument when K is invalid (CameraIntrinsics::validate) or `depth` is not
-/// an image of K's size (naming both sizes).
-void checkDepthImageSize(const DepthImage& depth, const CameraIntrinsics& K);
+/// an image of K's size (naming both sizes, after "who: " when `who` is given).
+void checkDepthImageSize(const DepthImage& depth, const CameraIntrinsics& K, const char* who = nullptr);
 
 /// Depth in metres from raw sensor units (e.g. a 16-bit PNG or a uint16 array): depth_m = raw *
 /// depth_scale, with depth_scale in metres per unit, computed in float as readDepthPng does, so
