@@ -49,6 +49,15 @@ ExplorationManagerConfig roomParams(double length_m = 8.0) {
   return p;
 }
 
+/// roomParams with the safety layer on and a declared odometry that does not drift: the map
+/// counts as seen, so a flight needs no look (these tests render no frames).
+ExplorationManagerConfig driftFreeLayerParams() {
+  ExplorationManagerConfig p = roomParams();
+  p.safety.enabled = true;
+  p.safety.odometry = OdometryDrift{};
+  return p;
+}
+
 /// The vehicle as the manager commands it at t (exactly on its trajectory).
 VehicleState onTrajectory(const ExplorationManager& m, double t) {
   const VehicleState c = m.command(t);
@@ -715,11 +724,8 @@ TEST_CASE("With the safety layer facing the way, a retreat still moves off at on
   // run at s3 sat 2.6 s so, and came 0.185 m from a wall for its 0.2 m radius).
   DenseMap map = halfKnownRoom();
   const Vec3d start(1.0, 3.0, 1.5);
-  ExplorationManagerConfig p = roomParams();
-  p.safety.enabled = true;
+  const ExplorationManagerConfig p = driftFreeLayerParams();
   REQUIRE(p.safety.face_travel);
-  // No drift: the map counts as seen, so the flight out needs no look (no frames are rendered).
-  p.safety.odometry = OdometryDrift{};
   ExplorationManager m(p, at(start), 0.0);
   REQUIRE(m.params().trajectory.yaw_along_travel);
   const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
@@ -745,10 +751,7 @@ TEST_CASE("With the safety layer, a retreat whose way back a recent frame sees b
   INFO("a frame sees a post 0.35 m behind: " << post_behind);
   DenseMap map = halfKnownRoom();
   const Vec3d start(1.0, 3.0, 1.5);
-  ExplorationManagerConfig p = roomParams();
-  p.safety.enabled = true;
-  p.safety.odometry = OdometryDrift{};  // no look needed for the flight out (no frames rendered)
-  ExplorationManager m(p, at(start), 0.0);
+  ExplorationManager m(driftFreeLayerParams(), at(start), 0.0);
   const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
   const double t = f.t_s + 1.0 / 15.0;
   const Vec3d back_dir = -f.vehicle.velocity_W.normalized();
@@ -782,9 +785,7 @@ TEST_CASE("With the safety layer, a retreat goes back only along the way flown w
   INFO("window 0.05 s: " << short_window);
   DenseMap map = halfKnownRoom();
   const Vec3d start(1.0, 3.0, 1.5);
-  ExplorationManagerConfig p = roomParams();
-  p.safety.enabled = true;
-  p.safety.odometry = OdometryDrift{};  // no look needed for the flight out (no frames rendered)
+  ExplorationManagerConfig p = driftFreeLayerParams();
   if (short_window) p.safety.recent.window_s = p.safety.max_window_s = 0.05;
   ExplorationManager m(p, at(start), 0.0);
   const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
