@@ -849,14 +849,12 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
   const std::size_t tries = std::min<std::size_t>(choice.order.size(), std::size_t(params_.max_targets_per_replan));
   bool start_was_clear = true;
   // Failures are counted once the replan's outcome is known (all_failed_spacing_s).
-  std::vector<std::pair<const FrontierCluster*, FailedPath>> failed;
+  std::vector<FailedPath> failed;
   const auto countFailures = [&](bool all_failed) {
     if (all_failed && t_s - last_all_failed_t_ < params_.all_failed_spacing_s) return;
     if (all_failed) last_all_failed_t_ = t_s;
-    for (const auto& [cluster, why] : failed) {
-      book_.addFailure(*cluster);
-      step.failed_paths.push_back(why);
-    }
+    for (const FailedPath& f : failed) book_.addFailure(*frontiers_.find(f.cluster));
+    step.failed_paths.insert(step.failed_paths.end(), failed.begin(), failed.end());
     step.path_failures += failed.size();
     counters_.path_failures += failed.size();
   };
@@ -891,7 +889,7 @@ ExplorationStatus ExplorationManager::flyToTargets(const MapQuery& map, const Ve
     const PathFailure why = outcome == PlanOutcome::GoalBlocked ? PathFailure::GoalBlocked
                             : outcome == PlanOutcome::NoPath    ? PathFailure::NoPath
                                                                 : PathFailure::NoTrajectory;
-    failed.push_back({cluster, {t.cluster, vehicle.position_W, view.position_W, why}});
+    failed.push_back({t.cluster, vehicle.position_W, view.position_W, why});
   }
   // (A blocked start counted them already; from a clear start every target tried failed.)
   const bool all_failed = tries > 0 && start_was_clear;

@@ -28,7 +28,7 @@ SeenSurface::SeenSurface(double voxel_size_m) : voxel_size_m_(voxel_size_m), gri
 
 void SeenSurface::addFrame(const DepthImage& depth, const CameraIntrinsics& K, const Pose3d& T_W_S,
                            double max_range_m) {
-  checkDepthImageSize(depth, K);
+  checkDepthImageSize(depth, K, "SeenSurface::addFrame");
   if (!(std::isfinite(max_range_m) && max_range_m > 0.0))
     throw std::invalid_argument("SeenSurface::addFrame: max_range_m must be finite and > 0");
   // A pixel spans max_range_m / f metres at the far end of the range.
