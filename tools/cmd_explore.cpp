@@ -36,6 +36,7 @@ struct ExploreOptions {
   double safety_max_window_s = planner::SafetyConfig{}.max_window_s;
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
+  std::string safety_free_clears = planner::RecentFramesConfig{}.newer_free_clears ? "on" : "off";
   double safety_vertical_margin_m = planner::SafetyConfig{}.vertical_margin_m;
   double safety_vertical_sigmas = planner::SafetyConfig{}.vertical_margin_sigmas;
   double safety_vertical_margin_max_m = planner::SafetyConfig{}.max_vertical_margin_m;
@@ -99,6 +100,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.max_window_s = o.safety_max_window_s;
   config.planner.safety.seen_free_is_free = o.safety_seen_free == "on";
   config.planner.safety.map_thin_obstacles = o.safety_map_thin == "on";
+  config.planner.safety.recent.newer_free_clears = o.safety_free_clears == "on";
   config.planner.safety.vertical_margin_m = o.safety_vertical_margin_m;
   config.planner.safety.vertical_margin_sigmas = o.safety_vertical_sigmas;
   config.planner.safety.max_vertical_margin_m = o.safety_vertical_margin_max_m;
@@ -130,11 +132,12 @@ void runExplore(const ExploreOptions& o) {
       (config.planner.safety.enabled
            ? " --safety-window-s " + std::to_string(o.safety_window_s) + " --safety-max-window-s " +
                  std::to_string(o.safety_max_window_s) + " --safety-seen-free " + o.safety_seen_free +
-                 " --safety-map-thin " + o.safety_map_thin + " --safety-vertical-margin " +
-                 std::to_string(o.safety_vertical_margin_m) + " --safety-vertical-sigmas " +
-                 std::to_string(o.safety_vertical_sigmas) + " --safety-vertical-margin-max " +
-                 std::to_string(o.safety_vertical_margin_max_m) + " --safety-look-side " +
-                 std::to_string(o.safety_look_side_m) + " --safety-look-steep " + o.safety_look_steep
+                 " --safety-map-thin " + o.safety_map_thin + " --safety-free-clears " + o.safety_free_clears +
+                 " --safety-vertical-margin " + std::to_string(o.safety_vertical_margin_m) +
+                 " --safety-vertical-sigmas " + std::to_string(o.safety_vertical_sigmas) +
+                 " --safety-vertical-margin-max " + std::to_string(o.safety_vertical_margin_max_m) +
+                 " --safety-look-side " + std::to_string(o.safety_look_side_m) + " --safety-look-steep " +
+                 o.safety_look_steep
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -236,6 +239,10 @@ const Registration registration("explore", [](CLI::App& app) {
                   "With the safety layer, paths also read the global map's thin structure as obstacles (on); off (the "
                   "default): only the recent frames' surfaces stand for it (under drift, end points of a surface "
                   "seen at another drift stay where they landed, and read as a wall in free space)")
+      ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--safety-free-clears", o->safety_free_clears,
+                  "With the safety layer, a recent frame's surface voxel that a newer frame saw free is no longer an "
+                  "obstacle (the newest observation wins: within the window drift still moves what older frames saw)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--safety-vertical-margin", o->safety_vertical_margin_m,
                   "With the safety layer under drift (s2-s4), paths keep this much more from the global map's "

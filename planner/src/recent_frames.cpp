@@ -32,6 +32,11 @@ void RecentFrames::add(double t_s, const DepthImage& depth, const CameraIntrinsi
     uncount(frames_.front());
     frames_.pop_front();
   }
+  if (!cleared_.empty()) {  // a clearing time matters while a frame at or before it is kept
+    const std::uint64_t oldest = frames_.empty() ? next_seq_ : frames_.front().seq;
+    for (auto it = cleared_.begin(); it != cleared_.end();)
+      it = it->second <= oldest ? cleared_.erase(it) : std::next(it);
+  }
   // Older than dense_s: each frame kept is at least sparse_period_s after the one kept before it
   // (walked from the oldest, so a frame kept once stays kept).
   double kept_t = -std::numeric_limits<double>::infinity();
@@ -50,6 +55,7 @@ void RecentFrames::add(double t_s, const DepthImage& depth, const CameraIntrinsi
   const int p = config_.pool_px;
   Frame f;
   f.t_s = t_s;
+  f.seq = next_seq_++;
   f.T_W_S = T_W_S;
   f.T_S_W = T_W_S.inverse();
   f.width = (depth.width + p - 1) / p;
@@ -84,12 +90,11 @@ void RecentFrames::add(double t_s, const DepthImage& depth, const CameraIntrinsi
 
 void RecentFrames::shift(const Eigen::Isometry3d& shift) {
   if (!shift.matrix().allFinite()) throw std::invalid_argument("RecentFrames::shift: the shift is not finite");
-  for (Frame& f : frames_) {  // counts add up per frame, so each frame is taken out and put back
-    uncount(f);
+  for (Frame& f : frames_) {
     f.T_W_S = shift * f.T_W_S;
     f.T_S_W = f.T_W_S.inverse();
-    if (voxel_size_m_ > 0.0) count(f);
   }
+  if (voxel_size_m_ > 0.0) recount();
 }
 
 std::vector<double> RecentFrames::frameTimes() const {
@@ -102,19 +107,22 @@ std::vector<double> RecentFrames::frameTimes() const {
 void RecentFrames::clear() {
   frames_.clear();
   voxels_.clear();
+  cleared_.clear();
+}
+
+bool RecentFrames::frameSeesFree(const Frame& f, const Vec3d& p_W) const {
+  const Vec3d p = f.T_S_W * p_W;
+  if (!(p.z() > 0.0 && p.z() <= config_.max_range_m)) return false;
+  const double u = f.fx * p.x() / p.z() + f.cx, v = f.fy * p.y() / p.z() + f.cy;
+  const double bu = std::floor(u + 0.5), bv = std::floor(v + 0.5);
+  if (bu < 0.0 || bv < 0.0 || bu >= f.width || bv >= f.height) return false;
+  const float d = f.depth_m[std::size_t(bv) * std::size_t(f.width) + std::size_t(bu)];
+  return d > 0.0f && p.z() + config_.free_margin_m <= double(d);
 }
 
 bool RecentFrames::seesFree(const Vec3d& p_W) const {
-  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it) {  // the newest first
-    const Frame& f = *it;
-    const Vec3d p = f.T_S_W * p_W;
-    if (!(p.z() > 0.0 && p.z() <= config_.max_range_m)) continue;
-    const double u = f.fx * p.x() / p.z() + f.cx, v = f.fy * p.y() / p.z() + f.cy;
-    const double bu = std::floor(u + 0.5), bv = std::floor(v + 0.5);
-    if (bu < 0.0 || bv < 0.0 || bu >= f.width || bv >= f.height) continue;
-    const float d = f.depth_m[std::size_t(bv) * std::size_t(f.width) + std::size_t(bu)];
-    if (d > 0.0f && p.z() + config_.free_margin_m <= double(d)) return true;
-  }
+  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it)  // the newest first
+    if (frameSeesFree(*it, p_W)) return true;
   return false;
 }
 
@@ -132,16 +140,32 @@ const SurfaceVoxels& RecentFrames::surfaceVoxels(double voxel_size_m) {
   if (!(voxel_size_m > 0.0 && std::isfinite(voxel_size_m)))
     throw std::invalid_argument("RecentFrames::surfaceVoxels: voxel_size_m must be finite and > 0");
   if (voxel_size_m != voxel_size_m_) {
-    voxels_.clear();
-    for (Frame& f : frames_) f.counted = false;
     voxel_size_m_ = voxel_size_m;
-    for (Frame& f : frames_) count(f);
+    recount();
   }
   return voxels_;
 }
 
+void RecentFrames::recount() {
+  voxels_.clear();
+  cleared_.clear();
+  for (Frame& f : frames_) f.counted = false;
+  for (Frame& f : frames_) count(f);
+}
+
 void RecentFrames::count(Frame& frame) {
   if (frame.counted) return;
+  if (config_.newer_free_clears) {
+    for (auto it = voxels_.begin(); it != voxels_.end();) {
+      const openvdb::Coord& c = it->first;
+      if (frameSeesFree(frame, voxelCenterOf(c, voxel_size_m_))) {
+        cleared_[c] = frame.seq;
+        it = voxels_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  }
   frame.voxels.clear();
   frame.voxels.reserve(frame.surface_S.size());
   for (const Vec3f& s : frame.surface_S) frame.voxels.push_back(voxelOf(frame.T_W_S * s.cast<double>(), voxel_size_m_));
@@ -154,6 +178,8 @@ void RecentFrames::count(Frame& frame) {
 void RecentFrames::uncount(Frame& frame) {
   if (!frame.counted) return;
   for (const openvdb::Coord& c : frame.voxels) {
+    if (const auto cleared = cleared_.find(c); cleared != cleared_.end() && frame.seq < cleared->second)
+      continue;  // no longer counted there
     const auto it = voxels_.find(c);
     if (--it->second == 0) voxels_.erase(it);
   }

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -178,6 +179,7 @@ TEST_CASE("A long window keeps every frame of the last dense_s and older ones sp
   c.window_s = 20.0;
   c.dense_s = 4.0;
   c.sparse_period_s = 0.5;
+  c.newer_free_clears = false;  // the kept frames' counts alone (clearing: the next test)
   RecentFrames recent(c);
   const double period_s = 1.0 / 15.0;  // the simulator's camera rate
   std::vector<DepthImage> images;
@@ -213,6 +215,99 @@ TEST_CASE("A long window keeps every frame of the last dense_s and older ones sp
       reference.add(f * period_s, images[std::size_t(f)], K, poses[std::size_t(f)]);
   REQUIRE(reference.size() == kept.size());
   CHECK(recent.surfaceVoxels(0.1) == reference.surfaceVoxels(0.1));
+}
+
+TEST_CASE("A surface voxel counts each kept frame that saw it until a newer frame, kept or thinned, saw it free",
+          "[planner][safety]") {
+  const CameraIntrinsics K = quarterCamera();
+  RecentFramesConfig c;
+  c.window_s = 12.0;
+  c.dense_s = 3.0;
+  c.sparse_period_s = 0.5;
+  RecentFrames recent(c);
+  recent.surfaceVoxels(0.1);  // counted from the first frame on
+  const double period_s = 1.0 / 15.0;
+  constexpr int kFrames = 300;  // 20 s: frames expire and are thinned
+  // Brute force, per frame alone: its surface voxels, and what it sees free.
+  RecentFramesConfig alone = c;
+  alone.window_s = alone.dense_s = 600.0;
+  alone.newer_free_clears = false;
+  std::vector<RecentFrames> frames(kFrames, RecentFrames(alone));
+  for (int f = 0; f < kFrames; ++f) {
+    const DepthImage depth = randomDepth(K, std::uint32_t(f % 5));
+    const Pose3d pose = lookingPose(Vec3d(0.03 * f, 0.01 * f, 1.0), 0.02 * f);
+    recent.add(f * period_s, depth, K, pose);
+    frames[std::size_t(f)].add(f * period_s, depth, K, pose);
+  }
+  // A voxel's count: the kept frames that saw a surface in it after the last frame that saw it
+  // free (a frame's own free view of a voxel it saw a surface in does not clear it).
+  const std::vector<double> kept = recent.frameTimes();
+  SurfaceVoxels expected, all_kept;
+  std::map<Coord, int> last_free;
+  for (int f = 0; f < kFrames; ++f) {
+    if (std::find(kept.begin(), kept.end(), f * period_s) == kept.end()) continue;
+    for (const auto& [ijk, n] : frames[std::size_t(f)].surfaceVoxels(0.1)) {
+      ++all_kept[ijk];
+      if (!last_free.count(ijk)) {
+        last_free[ijk] = -1;
+        for (int g = kFrames - 1; g >= 0; --g)
+          if (frames[std::size_t(g)].seesFree(voxelCenterOf(ijk, 0.1))) {
+            last_free[ijk] = g;
+            break;
+          }
+      }
+      if (f >= last_free[ijk]) ++expected[ijk];
+    }
+  }
+  CHECK(recent.surfaceVoxels(0.1) == expected);
+  CHECK(expected.size() + 100 < all_kept.size());  // clearing took effect
+}
+
+TEST_CASE(
+    "A door jamb kept where an earlier frame's drift put it no longer narrows the door once a newer frame "
+    "sees through it",
+    "[planner][safety]") {
+  // A wall at x = 2 m with a door 1 m wide (|y| < 0.5 m, up to z = 2 m), a far wall at x = 4 m.
+  // The camera stands at (0, 0, 1) looking along +x; its second frame is the same image under an
+  // estimate that drifted 0.6 m in y since the first (about 15 s at s3).
+  const CameraIntrinsics K = quarterCamera();
+  const Pose3d truth = lookingPose(Vec3d(0.0, 0.0, 1.0), 0.0);
+  DepthImage depth(K.width, K.height);
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u) {
+      const Vec3d ray = truth.linear() * Vec3d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);  // depth 1 along it
+      const Vec3d at_wall = truth.translation() + ray * (2.0 / ray.x());
+      const bool door = std::abs(at_wall.y()) < 0.5 && at_wall.z() < 2.0;
+      depth.at(u, v) = float((door ? 4.0 : 2.0) / ray.x());
+    }
+  Pose3d drifted = truth;
+  drifted.translation().y() += 0.6;
+  // Only the space in front of the wall, y in [-0.6, 1.4], is free in the base map: a path from
+  // the room to the far side must pass the door.
+  DenseMap base(0.1, CoordBBox(Coord(-5, -10, -5), Coord(45, 20, 25)));
+  base.fillWorld(Eigen::AlignedBox3d(Vec3d(0.0, -0.6, 0.2), Vec3d(3.5, 1.4, 2.4)), Occupancy::Free);
+  const Vec3d start(0.5, 0.6, 1.0), goal(3.0, 0.6, 1.0);  // through the door as the newest frame sees it
+  for (const bool clears : {false, true}) {
+    CAPTURE(clears);
+    RecentFramesConfig c;
+    c.newer_free_clears = clears;
+    RecentFrames recent(c);
+    recent.add(0.0, depth, K, truth);
+    recent.add(0.5, depth, K, drifted);
+    const SurfaceVoxels& surface = recent.surfaceVoxels(0.1);
+    // The first frame's jamb, 0.5-0.8 m in y, lies in the door the newest frame sees (0.1 to 1.1 m).
+    std::size_t in_door = 0;
+    for (const auto& [ijk, n] : surface) in_door += ijk.x() == 20 && ijk.y() >= 5 && ijk.y() <= 8 && ijk.z() <= 18;
+    if (clears)
+      CHECK(in_door == 0);
+    else
+      CHECK(in_door > 10);
+    const RecentObstacleMap flight(base, surface);
+    CHECK(PathPlanner(flight).plan(start, goal, 1).ok() == clears);
+    // The newest frame's own jambs stay: the wall beside the door is no way through.
+    CHECK(surface.count(Coord(20, -2, 10)));
+    CHECK(surface.count(Coord(20, 12, 10)));
+  }
 }
 
 TEST_CASE("Surface voxels hold exactly each block's nearest point within range, and move with shift()",

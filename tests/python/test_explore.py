@@ -267,6 +267,9 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     # defaults say.
     assert vdbmap.planner.SafetyConfig().seen_free_is_free and cli_default("explore", "--safety-seen-free") == "on"
     assert not vdbmap.planner.SafetyConfig().map_thin_obstacles and cli_default("explore", "--safety-map-thin") == "off"
+    # A recent surface that a newer frame saw free is cleared, in the library and the CLI.
+    assert vdbmap.planner.RecentFramesConfig().newer_free_clears
+    assert cli_default("explore", "--safety-free-clears") == "on"
     # No drift declared: the base window; s1's drift (none) declared: the longest; s3's: the base.
     safety = vdbmap.planner.SafetyConfig()
     assert safety.odometry is None and safety.window_s() == safety.recent.window_s

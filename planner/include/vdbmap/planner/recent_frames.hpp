@@ -3,11 +3,16 @@
 // The global map holds every surface where the pose estimate put it when it was seen: under
 // drift, a wall seen a minute ago may sit half a metre from where it is now relative to the
 // vehicle, and the map reads the space in between as free. Frames from the last window_s seconds
-// agree with the vehicle's current estimate (drift over a few seconds is millimetres to
-// centimetres), so they tell what is really near the vehicle now:
+// agree far better with the vehicle's current estimate, so they tell what is really near the
+// vehicle now:
 //  - surfaces: every recent frame's surface points, as the voxels that hold them
 //    (surfaceVoxels()); a voxel a recent frame saw a surface in is an obstacle, whatever the
-//    global map says (recent_obstacle_map.hpp);
+//    global map says (recent_obstacle_map.hpp). With newer_free_clears, the newest observation
+//    of a voxel wins, as free-space ray casting clears an occupancy grid: a surface voxel whose
+//    centre a newer frame saw free (seesFree's test, that frame alone) is no longer one. Within
+//    a window drift still moves: at s3 a biased velocity of about 4 cm/s shifts the frames of 10 s
+//    by some 0.4 m, and a door jamb seen early in the window, kept where that frame put it,
+//    narrowed a door that the newest frames saw open (docs/exploration.md, "Stop 65");
 //  - free space: a point is seen free when a recent frame's ray through it ends on a surface at
 //    least free_margin_m beyond it, within max_range_m (seesFree()); a point no recent frame saw
 //    free is not trusted for flight near the vehicle, even where the global map calls it free.
@@ -31,6 +36,7 @@
 #include <Eigen/Geometry>
 
 #include <cstddef>
+#include <cstdint>
 #include <deque>
 #include <unordered_map>
 #include <vector>
@@ -57,11 +63,15 @@ struct RecentFramesConfig {
   /// A point is seen free when the surface behind it along the ray is at least this much farther
   /// (the vehicle's radius: its body, not only its centre, must fit in front of the surface); [0, 10]
   double free_margin_m = 0.15;
+  /// A surface voxel whose centre a newer frame saw free is no longer a surface (the header
+  /// comment); false: every kept frame's surface voxels count.
+  bool newer_free_clears = true;
 
   void validate() const;
 };
 
-/// Voxels holding a recent surface point, with the number of recent frames that saw one there.
+/// Voxels holding a recent surface point, with the number of recent frames that saw one there
+/// (since a newer frame last saw the voxel free, RecentFramesConfig::newer_free_clears).
 using SurfaceVoxels = std::unordered_map<openvdb::Coord, int, CoordHash>;
 
 class RecentFrames {
@@ -95,13 +105,17 @@ class RecentFrames {
   Eigen::AlignedBox3d reach_W() const;
 
   /// The voxels (of size voxel_size_m, OpenVDB's convention) that hold a surface point of a recent
-  /// frame. Kept up to date incrementally between calls with the same voxel size; valid until the
-  /// next non-const call.
+  /// frame, with newer_free_clears those that no frame added after it saw free (the header
+  /// comment). Kept up to date incrementally between calls with the same voxel size, the first
+  /// call (or a new size, or shift()) counting the kept frames oldest first; valid until the next
+  /// non-const call. With newer_free_clears a frame dropped by thinning (dense_s) still cleared
+  /// what it saw free while it was the newest, until the next recount.
   const SurfaceVoxels& surfaceVoxels(double voxel_size_m);
 
  private:
   struct Frame {
     double t_s = 0.0;
+    std::uint64_t seq = 0;  ///< the order frames were added in
     Pose3d T_W_S = Pose3d::Identity();
     Pose3d T_S_W = Pose3d::Identity();
     int width = 0, height = 0;                      ///< in blocks
@@ -111,12 +125,23 @@ class RecentFrames {
     std::vector<openvdb::Coord> voxels;             ///< distinct voxels of surface_S (when counted)
     bool counted = false;                           ///< voxels are in voxels_
   };
+  /// seesFree's test for one frame.
+  bool frameSeesFree(const Frame& frame, const Vec3d& p_W) const;
+  /// Counts the frame's surface voxels, after (newer_free_clears) clearing those counted so far
+  /// that it sees free: the frame must be newer than every frame counted.
   void count(Frame& frame);
   void uncount(Frame& frame);
+  /// Counts every kept frame afresh, oldest first.
+  void recount();
 
   RecentFramesConfig config_;
   std::deque<Frame> frames_;  ///< oldest first
+  /// Voxel -> the number of counted frames that saw a surface in it after its clearing time.
   SurfaceVoxels voxels_;
+  /// Voxel -> the seq of the newest frame that saw it free while it held a surface; a frame added
+  /// before that one no longer counts there. Forgotten once no such frame is kept.
+  std::unordered_map<openvdb::Coord, std::uint64_t, CoordHash> cleared_;
+  std::uint64_t next_seq_ = 0;
   double voxel_size_m_ = 0.0;  ///< of voxels_ (0: none counted yet)
 };
 
