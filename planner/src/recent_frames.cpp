@@ -120,6 +120,15 @@ bool RecentFrames::frameSeesFree(const Frame& f, const Vec3d& p_W) const {
   return d > 0.0f && p.z() + config_.free_margin_m <= double(d);
 }
 
+bool RecentFrames::frameSeesVoxelFree(const Frame& f, const openvdb::Coord& ijk) const {
+  const Vec3d centre = voxelCenterOf(ijk, voxel_size_m_);
+  if (!frameSeesFree(f, centre)) return false;
+  const double h = 0.5 * voxel_size_m_;
+  for (int corner = 0; corner < 8; ++corner)
+    if (!frameSeesFree(f, centre + Vec3d(corner & 1 ? h : -h, corner & 2 ? h : -h, corner & 4 ? h : -h))) return false;
+  return true;
+}
+
 bool RecentFrames::seesFree(const Vec3d& p_W) const {
   for (auto it = frames_.rbegin(); it != frames_.rend(); ++it)  // the newest first
     if (frameSeesFree(*it, p_W)) return true;
@@ -158,7 +167,7 @@ void RecentFrames::count(Frame& frame) {
   if (config_.newer_free_clears) {
     for (auto it = voxels_.begin(); it != voxels_.end();) {
       const openvdb::Coord& c = it->first;
-      if (frameSeesFree(frame, voxelCenterOf(c, voxel_size_m_))) {
+      if (frameSeesVoxelFree(frame, c)) {
         cleared_[c] = frame.seq;
         it = voxels_.erase(it);
       } else {

@@ -240,7 +240,17 @@ TEST_CASE("A surface voxel counts each kept frame that saw it until a newer fram
     frames[std::size_t(f)].add(f * period_s, depth, K, pose);
   }
   // A voxel's count: the kept frames that saw a surface in it after the last frame that saw it
-  // free (a frame's own free view of a voxel it saw a surface in does not clear it).
+  // free, its centre and its eight corners (a frame's own free view of a voxel it saw a surface
+  // in does not clear it).
+  const auto seesWhole = [](const RecentFrames& frame, const Coord& ijk) {
+    for (int corner = -1; corner < 8; ++corner) {
+      const Vec3d offset = corner < 0
+                               ? Vec3d::Zero()
+                               : Vec3d(corner & 1 ? 0.05 : -0.05, corner & 2 ? 0.05 : -0.05, corner & 4 ? 0.05 : -0.05);
+      if (!frame.seesFree(voxelCenterOf(ijk, 0.1) + offset)) return false;
+    }
+    return true;
+  };
   const std::vector<double> kept = recent.frameTimes();
   SurfaceVoxels expected, all_kept;
   std::map<Coord, int> last_free;
@@ -251,7 +261,7 @@ TEST_CASE("A surface voxel counts each kept frame that saw it until a newer fram
       if (!last_free.count(ijk)) {
         last_free[ijk] = -1;
         for (int g = kFrames - 1; g >= 0; --g)
-          if (frames[std::size_t(g)].seesFree(voxelCenterOf(ijk, 0.1))) {
+          if (seesWhole(frames[std::size_t(g)], ijk)) {
             last_free[ijk] = g;
             break;
           }
@@ -295,9 +305,11 @@ TEST_CASE(
     recent.add(0.0, depth, K, truth);
     recent.add(0.5, depth, K, drifted);
     const SurfaceVoxels& surface = recent.surfaceVoxels(0.1);
-    // The first frame's jamb, 0.5-0.8 m in y, lies in the door the newest frame sees (0.1 to 1.1 m).
+    // The first frame's jamb, 0.5-0.8 m in y, lies in the door the newest frame sees (0.1 to 1.1 m),
+    // from z = 0 (the lowest voxels the camera sees whole) to 1.8 m.
     std::size_t in_door = 0;
-    for (const auto& [ijk, n] : surface) in_door += ijk.x() == 20 && ijk.y() >= 5 && ijk.y() <= 8 && ijk.z() <= 18;
+    for (const auto& [ijk, n] : surface)
+      in_door += ijk.x() == 20 && ijk.y() >= 5 && ijk.y() <= 8 && ijk.z() >= 0 && ijk.z() <= 18;
     if (clears)
       CHECK(in_door == 0);
     else
@@ -308,6 +320,43 @@ TEST_CASE(
     CHECK(surface.count(Coord(20, -2, 10)));
     CHECK(surface.count(Coord(20, 12, 10)));
   }
+}
+
+TEST_CASE("A ceiling seen at a grazing angle is not cleared by a newer frame that sees it so too",
+          "[planner][safety]") {
+  // A ceiling at z = 2.23 m, just above a camera at 2.2 m looking along +x at a wall 4.4 m away:
+  // the ceiling's voxels (2.15-2.25 m) have their centres level with the camera, so near it the
+  // camera sees their centres free (a level ray never meets the ceiling, and the pixel block
+  // around it meets the ceiling farther out), while their upper corners lie behind the ceiling.
+  // The second frame is taken 0.3 m further back: it keeps each block's nearest point, so it
+  // does not hit every voxel the first one hit.
+  const CameraIntrinsics K = quarterCamera();
+  const auto render = [&](const Pose3d& pose) {
+    DepthImage depth(K.width, K.height);
+    for (int v = 0; v < K.height; ++v)
+      for (int u = 0; u < K.width; ++u) {
+        const Vec3d ray = pose.linear() * Vec3d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);  // depth 1 along it
+        const double to_wall = (4.4 - pose.translation().x()) / ray.x();
+        const double to_ceiling = ray.z() > 0.0 ? 0.03 / ray.z() : to_wall;
+        depth.at(u, v) = float(std::min(to_wall, to_ceiling));
+      }
+    return depth;
+  };
+  const Pose3d near = lookingPose(Vec3d(0.0, 0.0, 2.2), 0.0), back = lookingPose(Vec3d(-0.3, 0.0, 2.2), 0.0);
+  RecentFrames first, second, both;
+  first.add(0.0, render(near), K, near);
+  second.add(0.1, render(back), K, back);
+  both.add(0.0, render(near), K, near);
+  both.add(0.1, render(back), K, back);
+  const SurfaceVoxels &seen_first = first.surfaceVoxels(0.1), &seen_second = second.surfaceVoxels(0.1);
+  const SurfaceVoxels& seen_both = both.surfaceVoxels(0.1);
+  std::size_t centre_seen_free = 0, kept = 0;
+  for (const auto& [ijk, n] : seen_first) {
+    centre_seen_free += !seen_second.count(ijk) && second.seesFree(voxelCenterOf(ijk, 0.1));
+    kept += seen_both.count(ijk);
+  }
+  CHECK(centre_seen_free >= 5);  // a rule on the centre alone would clear these
+  CHECK(kept == seen_first.size());
 }
 
 TEST_CASE("Surface voxels hold exactly each block's nearest point within range, and move with shift()",

@@ -9,10 +9,11 @@
 //    (surfaceVoxels()); a voxel a recent frame saw a surface in is an obstacle, whatever the
 //    global map says (recent_obstacle_map.hpp). With newer_free_clears, the newest observation
 //    of a voxel wins, as free-space ray casting clears an occupancy grid: a surface voxel whose
-//    centre a newer frame saw free (seesFree's test, that frame alone) is no longer one. Within
-//    a window drift still moves: at s3 a biased velocity of about 4 cm/s shifts the frames of 10 s
-//    by some 0.4 m, and a door jamb seen early in the window, kept where that frame put it,
-//    narrowed a door that the newest frames saw open (docs/exploration.md, "Stop 65");
+//    centre and eight corners a newer frame saw free (seesFree's test, that frame alone) is no
+//    longer one. Within a window drift still moves: at s3 a biased velocity of about 4 cm/s
+//    shifts the frames of 10 s by some 0.4 m, and a door jamb seen early in the window, kept
+//    where that frame put it, narrowed a door that the newest frames saw open
+//    (docs/exploration.md, "Stop 65");
 //  - free space: a point is seen free when a recent frame's ray through it ends on a surface at
 //    least free_margin_m beyond it, within max_range_m (seesFree()); a point no recent frame saw
 //    free is not trusted for flight near the vehicle, even where the global map calls it free.
@@ -63,8 +64,8 @@ struct RecentFramesConfig {
   /// A point is seen free when the surface behind it along the ray is at least this much farther
   /// (the vehicle's radius: its body, not only its centre, must fit in front of the surface); [0, 10]
   double free_margin_m = 0.15;
-  /// A surface voxel whose centre a newer frame saw free is no longer a surface (the header
-  /// comment); false: every kept frame's surface voxels count.
+  /// A surface voxel that a newer frame saw free, centre and corners, is no longer a surface (the
+  /// header comment); false: every kept frame's surface voxels count.
   bool newer_free_clears = true;
 
   void validate() const;
@@ -127,6 +128,11 @@ class RecentFrames {
   };
   /// seesFree's test for one frame.
   bool frameSeesFree(const Frame& frame, const Vec3d& p_W) const;
+  /// The frame sees the voxel's centre and its eight corners free: the whole voxel lies in front of
+  /// what the frame saw. (Its centre alone is seen free along a surface seen at a grazing angle:
+  /// a ray through a centre 5 cm in front of a ceiling seen 11 degrees off it runs 0.25 m further
+  /// before it meets the ceiling.)
+  bool frameSeesVoxelFree(const Frame& frame, const openvdb::Coord& ijk) const;
   /// Counts the frame's surface voxels, after (newer_free_clears) clearing those counted so far
   /// that it sees free: the frame must be newer than every frame counted.
   void count(Frame& frame);
