@@ -200,7 +200,7 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("free_margin_m", &RecentFramesConfig::free_margin_m,
                      "seen free: the surface behind lies at least this much farther; [0, 10]")
       .def_readwrite("newer_free_clears", &RecentFramesConfig::newer_free_clears,
-                     "a surface voxel whose centre a newer frame saw free is no longer a surface")
+                     "a surface voxel that a newer frame saw free, centre and corners, is no longer a surface")
       .def("validate", &RecentFramesConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
   py::class_<OdometryDrift> od(m, "OdometryDrift",
