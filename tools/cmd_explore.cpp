@@ -46,6 +46,7 @@ struct ExploreOptions {
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
   double w_dir = planner::CostConfig{}.w_dir;
+  std::string lead_in = planner::TrajectoryConfig{}.lead_in_at_speed ? "at-speed" : "straight";
   int min_cluster_size = planner::FrontierConfig{}.min_cluster_size;
   int revisit_rounds = planner::ExplorationManagerConfig{}.revisit_rounds;
   int final_min_cluster_size = planner::ExplorationManagerConfig{}.final_min_cluster_size;
@@ -95,6 +96,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.alc.epsilon = o.epsilon;
   config.planner.alc.finish_loop_age_s = o.finish_loop_age_s;
   config.planner.cost.w_dir = o.w_dir;
+  config.planner.trajectory.lead_in_at_speed = o.lead_in == "at-speed";
   config.planner.safety.enabled = o.safety == "on";
   config.planner.safety.recent.window_s = o.safety_window_s;
   config.planner.safety.max_window_s = o.safety_max_window_s;
@@ -123,8 +125,8 @@ void runExplore(const ExploreOptions& o) {
       "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " + std::to_string(o.seed) +
       " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
       std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " + o.view_score +
-      " --revisit-rounds " + std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --budgets " +
-      o.budgets + " --alc " + o.alc +
+      " --revisit-rounds " + std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --lead-in " +
+      o.lead_in + " --budgets " + o.budgets + " --alc " + o.alc +
       (config.planner.alc_enabled
            ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
            : std::string()) +
@@ -296,6 +298,11 @@ const Registration registration("explore", [](CLI::App& app) {
                   "(FUEL's w_dir: larger values turn back toward targets behind less often, e.g. 3 reached 0.95 "
                   "coverage sooner at s1 but closed fewer loops at s3 with --alc on)")
       ->check(CLI::Range(0.0, 1000.0));
+  sub->add_option("--lead-in", o->lead_in,
+                  "How a replan while flying turns onto a path that leaves across the velocity: at-speed (an arc "
+                  "from the vehicle at its speed where that arc is clear, else as straight) or straight (lead-ins "
+                  "along the velocity that brake into a tighter turn)")
+      ->check(CLI::IsMember({"at-speed", "straight"}));
   sub->add_option("--budgets", o->budgets,
                   "How path searches, tours and re-integration cycles are limited: counted (iterations and "
                   "frames: the same command gives the same run on any machine) or wall-clock (time limits, as on "

@@ -146,6 +146,9 @@ void bindCostsAndPaths(py::module_& m) {
       .def_readwrite("free_way_m", &TrajectoryConfig::free_way_m,
                      "with yaw_along_travel: the way from the start that needs no facing; the stopping point stays "
                      "within it until the vehicle faces the way; >= 0")
+      .def_readwrite("lead_in_at_speed", &TrajectoryConfig::lead_in_at_speed,
+                     "a moving start turns onto a path across its velocity on an arc from the vehicle at its "
+                     "speed where that arc is clear (off: straight lead-ins that brake into a tighter turn)")
       .def("validate", &TrajectoryConfig::validate, "Raises ValueError naming the field and its allowed range.");
 }
 

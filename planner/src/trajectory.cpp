@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace vdbmap::planner {
 
@@ -180,15 +182,21 @@ class TrajectoryBuilder {
     const double along = pts.size() > 1 ? std::max(0.0, v0.dot((pts[1] - pts[0]).normalized())) : 0.0;
     Trajectory best = assemble(pts, along);
     if (!matches(best)) {
+      const Vec3d u = v0 / speed0;
       const double brake_m = speed0 * speed0 / (2.0 * p_.a_max_m_s2);
-      for (const double f : {0.6, 1.2, 2.0, 3.0}) {
-        const Vec3d q = pts.front() + v0 / speed0 * std::max(f * brake_m, 2.0 * step_);
+      // Lead-in lengths, and whether the lead-in corner's arc may start at the vehicle.
+      std::vector<std::pair<double, bool>> leads;
+      if (p_.lead_in_at_speed && pts.size() > 1)
+        if (const std::optional<double> lead = leadInAtSpeed(pts[0], u, speed0, pts[1])) leads.push_back({*lead, true});
+      for (const double f : {0.6, 1.2, 2.0, 3.0}) leads.push_back({f * brake_m, false});
+      for (const auto& [length, arc_from_start] : leads) {
+        const Vec3d q = pts.front() + u * std::max(length, 2.0 * step_);
         std::vector<Vec3d> with_lead = pts.size() == 1 ? std::vector<Vec3d>{pts[0], q, pts[0]} : pts;
         if (pts.size() > 1) with_lead.insert(with_lead.begin() + 1, q);
         if (!probe_.isSegmentClear(with_lead[0], with_lead[1], p_.clearance_m) ||
             !probe_.isSegmentClear(with_lead[1], with_lead[2], p_.clearance_m))
           continue;
-        Trajectory t = assemble(cleanPolyline(with_lead), speed0);
+        Trajectory t = assemble(cleanPolyline(with_lead), speed0, arc_from_start);
         if (mismatch(t) < mismatch(best)) best = std::move(t);
         if (matches(best)) break;
       }
@@ -221,6 +229,23 @@ class TrajectoryBuilder {
     return out;
   }
 
+  /// TrajectoryConfig::lead_in_at_speed: the lead-in length L along the unit velocity `u` from
+  /// `start` whose corner, rounded by an arc from `start` tangent to u, turns toward `next` at
+  /// `speed` (radius speed^2 / a_n, 1 % wider): L = R tan(theta / 2), where the turn theta at the
+  /// lead-in point grows with L (fixed-point steps to 1 mm). None near a reversal.
+  std::optional<double> leadInAtSpeed(const Vec3d& start, const Vec3d& u, double speed, const Vec3d& next) const {
+    const double radius = 1.01 * speed * speed / (p_.normal_acc_share * p_.a_max_m_s2);
+    double lead = 0.0;
+    for (int k = 0; k < 50 && lead < 1e3; ++k) {
+      const Vec3d out = next - (start + u * lead);
+      const double turn = std::acos(std::clamp(u.dot(out.normalized()), -1.0, 1.0));
+      const double longer = radius * std::tan(0.5 * turn);
+      if (std::abs(longer - lead) < 1e-3) return longer;
+      lead = longer;
+    }
+    return std::nullopt;
+  }
+
   bool arcClear(const Trajectory::Piece& arc) {
     const int n = std::max(1, int(std::ceil(arc.length / step_)));
     for (int k = 0; k <= n; ++k) {
@@ -246,7 +271,8 @@ class TrajectoryBuilder {
   }
 
   /// Geometry (rounded corners, checked) and the time-optimal speed profile from speed v0.
-  Trajectory assemble(const std::vector<Vec3d>& pts, double v0) {
+  /// With `arc_from_start`, the first corner's arc may begin at pts[0] (a lead-in's whole length).
+  Trajectory assemble(const std::vector<Vec3d>& pts, double v0, bool arc_from_start = false) {
     Trajectory traj;
     traj.corners_ = pts;
     traj.end_W_ = pts.back();
@@ -261,7 +287,8 @@ class TrajectoryBuilder {
       const double theta = std::acos(std::clamp(u_in.dot(u_out), -1.0, 1.0));
       corners[i].stop = true;
       if (theta >= kReversal_rad) continue;
-      double T = p_.corner_fraction * std::min(d_in.norm(), d_out.norm());
+      double T = arc_from_start && i == 1 ? std::min(d_in.norm(), p_.corner_fraction * d_out.norm())
+                                          : p_.corner_fraction * std::min(d_in.norm(), d_out.norm());
       for (int attempt = 0; attempt <= p_.corner_shrink_steps; ++attempt, T *= 0.5) {
         const Trajectory::Piece arc = makeArc(pts[i], u_in, u_out, theta, T);
         if (arcClear(arc)) {

@@ -319,3 +319,39 @@ TEST_CASE("TrajectoryConfig::validate names yaw_lead_s", "[planner][trajectory]"
   tp.yaw_lead_s = 0.0;
   CHECK_THROWS_WITH(tp.validate(), Catch::Contains("TrajectoryConfig.yaw_lead_s"));
 }
+
+TEST_CASE(
+    "A moving start turns onto a path across its velocity at its speed where the arc is clear, sooner "
+    "than through a straight lead-in",
+    "[planner][trajectory]") {
+  DenseMap map = test::makeRoom(Eigen::Vector3i(140, 80, 30));
+  TrajectoryConfig at_speed;
+  TrajectoryConfig straight = at_speed;
+  straight.lead_in_at_speed = false;
+  VehicleState start;
+  start.position_W = Vec3d(4, 2, 1.5);
+  start.velocity_W = Vec3d(1.5, 0, 0);
+  const std::vector<Vec3d> path{start.position_W, Vec3d(4, 7, 1.5)};  // 5 m across the velocity
+  const TrajectoryResult wide = planTrajectory(path, start, 0.0, map, at_speed);
+  const TrajectoryResult tight = planTrajectory(path, start, 0.0, map, straight);
+  REQUIRE(wide.status == TrajectoryStatus::Ok);
+  REQUIRE(tight.status == TrajectoryStatus::Ok);
+  checkTrajectory(wide.trajectory, at_speed, &map);
+  checkTrajectory(tight.trajectory, straight, &map);
+  // The arc starts at the vehicle with its velocity and a radius of v^2 / a_n (1 % wider): no
+  // braking on it; the straight lead-ins brake into a tighter corner.
+  const double turn_radius = 1.01 * 1.5 * 1.5 / (at_speed.normal_acc_share * at_speed.a_max_m_s2);
+  double slowest_wide = 1e9, slowest_tight = 1e9;
+  for (double t = 0.0; t < 1.0; t += 1e-3) {
+    slowest_wide = std::min(slowest_wide, wide.trajectory.sample(t).velocity_W.norm());
+    slowest_tight = std::min(slowest_tight, tight.trajectory.sample(t).velocity_W.norm());
+  }
+  CHECK(slowest_wide >= 1.5 * (1.0 - 1e-9));
+  CHECK(slowest_tight < 1.2);
+  // Turning from the start: at 0.05 s the vehicle is on the arc at its speed cap, v^2 / R = a_n.
+  const VehicleState early = wide.trajectory.sample(0.05);
+  CHECK(early.velocity_W.norm() ==
+        Approx(std::sqrt(at_speed.normal_acc_share * at_speed.a_max_m_s2 * turn_radius)).epsilon(1e-3));
+  CHECK(early.acceleration_W.norm() == Approx(at_speed.normal_acc_share * at_speed.a_max_m_s2));
+  CHECK(wide.trajectory.duration() < tight.trajectory.duration() - 0.2);
+}

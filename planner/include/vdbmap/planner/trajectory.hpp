@@ -20,7 +20,9 @@
 //
 // Start state: when the vehicle is moving, the trajectory starts with exactly its velocity when it
 // can: along the path if the velocity points along it and there is room to brake, else through a
-// short lead-in along the current velocity (if clear), curving onto the path. When neither works
+// lead-in along the current velocity (if clear), curving onto the path: first one whose arc starts
+// at the vehicle and turns at its speed (lead_in_at_speed), then short straight ones that brake
+// into a tighter arc, shortest first. When neither works
 // (e.g. flying at a wall) the status says the start velocity was reduced. The trajectory ends at
 // rest at the last waypoint.
 //
@@ -76,6 +78,10 @@ struct TrajectoryConfig {
   /// that allows (0 = it turns on the spot first); moving, it cruises over this length at the
   /// highest speed that allows it, when it can stop within it at all; >= 0
   double free_way_m = 0.0;
+  /// A moving start whose velocity leaves the path first tries a lead-in whose arc starts at the
+  /// vehicle and turns onto the path at the current speed (radius v^2 / (normal_acc_share
+  /// a_max)), where that arc is clear, before straight lead-ins that brake into a tighter turn.
+  bool lead_in_at_speed = true;
 
   void validate() const;
 };
