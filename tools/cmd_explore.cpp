@@ -42,6 +42,7 @@ struct ExploreOptions {
   double safety_vertical_margin_max_m = planner::SafetyConfig{}.max_vertical_margin_m;
   double safety_look_side_m = planner::SafetyConfig{}.look_side_m;
   std::string safety_look_steep = planner::SafetyConfig{}.look_steep ? "on" : "off";
+  std::string safety_seen_until_arrival = planner::SafetyConfig{}.seen_until_arrival ? "on" : "off";
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
@@ -108,6 +109,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.max_vertical_margin_m = o.safety_vertical_margin_max_m;
   config.planner.safety.look_side_m = o.safety_look_side_m;
   config.planner.safety.look_steep = o.safety_look_steep == "on";
+  config.planner.safety.seen_until_arrival = o.safety_seen_until_arrival == "on";
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.view_score == "into-unknown";
@@ -139,7 +141,7 @@ void runExplore(const ExploreOptions& o) {
                  " --safety-vertical-sigmas " + std::to_string(o.safety_vertical_sigmas) +
                  " --safety-vertical-margin-max " + std::to_string(o.safety_vertical_margin_max_m) +
                  " --safety-look-side " + std::to_string(o.safety_look_side_m) + " --safety-look-steep " +
-                 o.safety_look_steep
+                 o.safety_look_steep + " --safety-seen-until-arrival " + o.safety_seen_until_arrival
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -268,6 +270,10 @@ const Registration registration("explore", [](CLI::App& app) {
                   "With the safety layer, a point of the way ahead above or below the camera's view (a steep climb "
                   "or descent) is checked at the steepest point of its vertical line in view (on), or not at all "
                   "(off)")
+      ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--safety-seen-until-arrival", o->safety_seen_until_arrival,
+                  "With the safety layer, a point of the way counts as seen only by frames still in the recent "
+                  "window when the vehicle gets there (on), or by any frame in it (off)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "

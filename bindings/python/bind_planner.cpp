@@ -243,6 +243,8 @@ void bindExplorationParams(py::module_& m) {
                      "the drift a recent frame may carry at drift_lever_m from the camera; [0, 10]")
       .def_readwrite("drift_lever_m", &SafetyConfig::drift_lever_m, "[0, 100]")
       .def("window_s", &SafetyConfig::window_s, "how long the recent frames are trusted")
+      .def("seen_age_s", &SafetyConfig::seenAge_s,
+           "how old, when the vehicle gets to a point of its way, a frame may be and still count as having seen it")
       .def_readwrite("clearance_m", &SafetyConfig::clearance_m,
                      "the rest of the trajectory keeps this from recent surface voxels; [0, 5]")
       .def_readwrite("look_margin_m", &SafetyConfig::look_margin_m,
@@ -253,6 +255,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("look_steep", &SafetyConfig::look_steep,
                      "a point of the way ahead above or below the camera's view is checked at the steepest point of "
                      "its vertical line in view (default True), else exempt")
+      .def_readwrite("seen_until_arrival", &SafetyConfig::seen_until_arrival,
+                     "a point of a way counts as seen only by frames still in the recent window when the vehicle "
+                     "gets there (default True), else by any frame in it")
       .def_readwrite("max_chained_looks", &SafetyConfig::max_chained_looks,
                      "looks in a row that leave the way unseen before the target gets a failure; [1, 100]")
       .def_readwrite("seen_free_is_free", &SafetyConfig::seen_free_is_free,

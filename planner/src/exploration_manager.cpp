@@ -194,6 +194,11 @@ double SafetyConfig::window_s() const {
   return std::clamp(trustedAge_s(), recent.window_s, std::max(recent.window_s, max_window_s));
 }
 
+double SafetyConfig::seenAge_s() const {
+  const double window = window_s();
+  return odometry ? std::min(window, std::max(kMinSeenAge_s, trustedAge_s())) : window;
+}
+
 void ExplorationManagerConfig::validate() const {
   const FieldCheck check("ExplorationManagerConfig");
   if (box_W.isEmpty() || !box_W.min().allFinite() || !box_W.max().allFinite())
@@ -432,17 +437,17 @@ bool ExplorationManager::remainingTrajectoryClear(const MapQuery& map, double t_
   }
 }
 
-bool ExplorationManager::seenFree(MapProbe& map, const Vec3d& p_W) const {
-  if (recent_->seesFree(p_W)) return true;
+bool ExplorationManager::seenFree(MapProbe& map, const Vec3d& p_W, double since_t_s) const {
+  if (recent_->seesFree(p_W, since_t_s)) return true;
   return last_t_ <= map_trusted_until_s_ && map.isClear(p_W, params_.safety.clearance_m);
 }
 
-bool ExplorationManager::sideSeen(MapProbe& map, const Vec3d& p_W) const {
+bool ExplorationManager::sideSeen(MapProbe& map, const Vec3d& p_W, double since_t_s) const {
   // Near a recent surface: within clearance_m of the surface itself, wherever in its voxel it
   // lies (seesFree covers what lies farther in front of it). Asked first, as the cheaper test.
   const double near_m = params_.safety.clearance_m + 0.5 * std::sqrt(3.0) * map.voxelSize();
   if (recent_map_ && recent_map_->nearSurface(p_W, near_m)) return true;
-  if (recent_->seesFree(p_W)) return true;
+  if (recent_->seesFree(p_W, since_t_s)) return true;
   return last_t_ <= map_trusted_until_s_ && map.atWorld(p_W) != Occupancy::Unknown;
 }
 
@@ -477,12 +482,20 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   const double side_m = params_.safety.look_side_m;
   Vec3d prev = shift * trajectory.sample(t_from).position_W;
   double along_m = 0.0;
+  // The frames that count at a point (seen_until_arrival): those young enough when the trajectory
+  // gets there.
+  const double seen_age_s = params_.safety.seenAge_s();
+  const auto since = [&](double t) {
+    return params_.safety.seen_until_arrival ? last_t_ + (std::min(t, t_end) - t_from) - seen_age_s
+                                             : -std::numeric_limits<double>::infinity();
+  };
   for (double t = t_from + dt; along_m < way_m; t += dt) {
     const Vec3d p = shift * trajectory.sample(std::min(t, t_end)).position_W;
     along_m += (p - prev).norm();
     const Eigen::Vector2d travel = (p - prev).head<2>();
     prev = p;
-    if (const std::optional<Vec3d> c = checkable(p); c && !seenFree(probe, *c)) return UnseenPoint{*c, along_m, false};
+    if (const std::optional<Vec3d> c = checkable(p); c && !seenFree(probe, *c, since(t)))
+      return UnseenPoint{*c, along_m, false};
     // Beside the way, side_m to the left and right of the horizontal travel (all four sides when
     // the way is vertical there): a way seen free down its middle may pass a wall no frame saw.
     // Only where a camera facing the way from origin_W sees them: nearer, they lie beside the
@@ -495,7 +508,7 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     for (std::size_t k = 0; k < n_lefts; ++k)
       for (const double sign : {1.0, -1.0}) {
         const std::optional<Vec3d> c = checkable(p + sign * lefts[k]);
-        if (c && !sideSeen(probe, *c)) return UnseenPoint{*c, along_m, true};
+        if (c && !sideSeen(probe, *c, since(t))) return UnseenPoint{*c, along_m, true};
       }
     if (t >= t_end) break;
   }
@@ -512,7 +525,8 @@ bool ExplorationManager::lookSawWay(const MapQuery& map, double t_s) const {
                                                   params_.trajectory.start_facing_rad;
   if (!facing) return false;
   MapProbe probe(map);
-  return look_at_side_ ? sideSeen(probe, look_at) : seenFree(probe, look_at);
+  const double any = -std::numeric_limits<double>::infinity();
+  return look_at_side_ ? sideSeen(probe, look_at, any) : seenFree(probe, look_at, any);
 }
 
 namespace {

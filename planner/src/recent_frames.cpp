@@ -129,8 +129,8 @@ bool RecentFrames::frameSeesVoxelFree(const Frame& f, const openvdb::Coord& ijk)
   return true;
 }
 
-bool RecentFrames::seesFree(const Vec3d& p_W) const {
-  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it)  // the newest first
+bool RecentFrames::seesFree(const Vec3d& p_W, double since_t_s) const {
+  for (auto it = frames_.rbegin(); it != frames_.rend() && it->t_s >= since_t_s; ++it)  // the newest first
     if (frameSeesFree(*it, p_W)) return true;
   return false;
 }

@@ -117,7 +117,8 @@ TEST_CASE("A wall 3 m ahead is seen free up to free_margin_m before it, never be
   CHECK_FALSE(far.seesFree(Vec3d(4.6, 0.0, 0.0)));
 }
 
-TEST_CASE("seesFree equals a brute force over the full-resolution pixels of each frame", "[planner][safety]") {
+TEST_CASE("seesFree equals a brute force over the full-resolution pixels of each frame, and of the frames since a time",
+          "[planner][safety]") {
   const CameraIntrinsics K = quarterCamera();
   for (const int pool : {1, 3, 4, 7}) {
     RecentFramesConfig c;
@@ -136,11 +137,16 @@ TEST_CASE("seesFree equals a brute force over the full-resolution pixels of each
     int free = 0;
     for (int i = 0; i < 20000; ++i) {
       const Vec3d p(coord(rng), coord(rng), 1.0 + 0.3 * coord(rng));
-      bool expected = false;
-      for (int f = 0; f < 3; ++f) expected = expected || bruteSeesFree(images[f], K, poses[f], c, p);
+      bool expected = false, expected_since_1 = false;  // by every frame; by those captured at t >= 1 s
+      for (int f = 0; f < 3; ++f) {
+        const bool sees = bruteSeesFree(images[f], K, poses[f], c, p);
+        expected = expected || sees;
+        expected_since_1 = expected_since_1 || (f >= 1 && sees);
+      }
       free += expected;
       INFO("pool " << pool << " point " << p.transpose());
       REQUIRE(recent.seesFree(p) == expected);
+      REQUIRE(recent.seesFree(p, 1.0) == expected_since_1);
     }
     CHECK(free > 1000);  // the comparison covered both answers
   }

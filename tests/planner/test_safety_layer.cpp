@@ -274,8 +274,10 @@ TEST_CASE("The manager keeps the margin for a map as old as its flight, and none
   CHECK_THROWS(on.verticalMarginAt_m(49.0));
 }
 
-TEST_CASE("The recent frames are trusted for as long as the declared drift allows, never less than recent.window_s",
-          "[planner][safety]") {
+TEST_CASE(
+    "The recent frames are trusted for as long as the declared drift allows, never less than recent.window_s; "
+    "a way counts as seen by frames as old as the drift bears",
+    "[planner][safety]") {
   ExplorationManagerConfig p;
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5));
   p.safety.enabled = true;
@@ -295,8 +297,18 @@ TEST_CASE("The recent frames are trusted for as long as the declared drift allow
   CHECK(windowOf(walk) == Approx(expected));
   CHECK(expected > 10.0);
   CHECK(expected < 60.0);
+  CHECK(p.safety.seenAge_s() == Approx(expected));  // a way counts as seen by all of the window
   walk.position_m_per_sqrt_s = 0.05;  // drift beyond the tolerance within the base window: the base window
   CHECK(windowOf(walk) == 10.0);
+  // ... but a way counts as seen only by frames as old as the drift bears: 0.2 m at 2 m.
+  const double bearable = std::pow(0.2 / (std::sqrt(3.0) * 0.05 + 2.0 * 0.01), 2);
+  CHECK(bearable < 10.0);
+  CHECK(p.safety.seenAge_s() == Approx(bearable).margin(1e-3));
+  walk.position_m_per_sqrt_s = 0.5;  // never below a couple of seconds: the way ahead is a second's flight
+  p.safety.odometry = walk;
+  CHECK(p.safety.seenAge_s() == SafetyConfig::kMinSeenAge_s);
+  p.safety.odometry.reset();
+  CHECK(p.safety.seenAge_s() == 10.0);  // unknown drift: the window
   p.safety.max_window_s = 5.0;  // shorter than the base window: no widening
   CHECK(windowOf(OdometryDrift{}) == 10.0);
 }
@@ -485,4 +497,43 @@ TEST_CASE(
   CHECK(through.x() > 5.0);
   // A wall the camera sees 2.5 m ahead (x = 4.5 m, across the door's approach) blocks it again.
   CHECK(firstFlightEnd(false, 2.5f).x() < 4.5);
+}
+
+TEST_CASE("A way seen only by frames that leave the window before the vehicle gets there counts as unseen",
+          "[planner][safety]") {
+  // The corridor without drift, seen at t = 0 by a frame looking along it from x = 0.2 m; at
+  // t = 9 s the vehicle faces away (its newest frame sees the wall behind it) and plans to the
+  // frontier ahead. The old frame leaves the 10 s window at t = 10 s, so the way beyond where the
+  // vehicle gets by then is unseen (seen_until_arrival), and it turns to face the way before it
+  // flies there. Counting every frame in the window, the way is all seen: it flies off looking
+  // back, its yaw spread over the motion, and 1 m out, as the old frame leaves the window, the way
+  // ahead is unseen at speed.
+  const CameraIntrinsics K = quarterCamera();
+  const DenseMap map = driftedMap(Vec3d::Zero());
+  const Vec3d start(1.0, 1.3, 1.2);
+  const double t_plan = 9.0;
+  // The angle between the yaw and the direction of travel (toward where the vehicle is 0.5 s
+  // later, as TrajectoryConfig::yaw_along_travel faces it) when the first trajectory has flown
+  // 1 m from the start.
+  const auto yawOffTravel = [&](bool until_arrival) {
+    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
+    p.safety.enabled = true;
+    p.safety.seen_until_arrival = until_arrival;
+    ExplorationManager m(p, planner::test::at(start, M_PI), 0.0);
+    const Pose3d ahead = lookingPose(Vec3d(0.2, 1.3, 1.2), 0.0), behind = lookingPose(start, M_PI);
+    m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
+    m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
+    const ExplorationStep step = m.update(map, CoordBBox(), planner::test::at(start, M_PI), t_plan);
+    REQUIRE(step.status == ExplorationStatus::Planned);
+    REQUIRE(m.command(1e9).position_W.x() > 3.0);  // past the block, toward the frontier at x = 6 m
+    double s = t_plan;
+    while ((m.command(s).position_W - start).norm() < 1.0) s += 0.01;
+    REQUIRE(s < m.trajectoryStartTime() + m.trajectory().motionDuration());
+    const VehicleState c = m.command(s);
+    const Eigen::Vector2d travel = (m.command(s + 0.5).position_W - c.position_W).head<2>();
+    return std::abs(wrapAngle(std::atan2(travel.y(), travel.x()) - c.yaw_rad));
+  };
+  const double facing_rad = TrajectoryConfig{}.start_facing_rad;
+  CHECK(yawOffTravel(true) <= facing_rad);
+  CHECK(yawOffTravel(false) > M_PI / 2);  // flies off looking back
 }

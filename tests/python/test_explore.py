@@ -287,6 +287,12 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     # The way ahead is seen beside its middle too, a vehicle's clearance to either side.
     assert cli_default("explore", "--safety-look-side") == str(safety.look_side_m) == str(safety.clearance_m)
     assert safety.look_steep and cli_default("explore", "--safety-look-steep") == "on"
+    assert safety.seen_until_arrival and cli_default("explore", "--safety-seen-until-arrival") == "on"
+    # A way counts as seen by frames as old as the window, or as the declared drift bears (s3: 9.4 s, s4: 6 s).
+    assert safety.window_s() == 10.0 and safety.seen_age_s() == pytest.approx(9.4, abs=0.05)
+    s4 = vdbmap.planner.SafetyConfig()
+    s4.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s4"))
+    assert s4.window_s() == 10.0 and s4.seen_age_s() == pytest.approx(6.0, abs=0.05)
     assert safety.effective_vertical_margin_m(60.0) == pytest.approx(2.0 * safety.odometry.axis_displacement_m(60.0))
     assert safety.effective_vertical_margin_m(1000.0) == safety.max_vertical_margin_m == 0.3
     safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s1"))

@@ -119,6 +119,13 @@ struct SafetyConfig {
   /// half field of view is checked at the steepest point of its vertical line in view (true), or
   /// exempt (false)
   bool look_steep = true;
+  /// A point of a way counts as seen only by frames at most seenAge_s() old when the vehicle gets
+  /// there (flying the trajectory as planned). A way seen only by frames about to leave the window
+  /// is unseen by the time it is flown (a look stop then finds it unseen within the braking
+  /// distance, at speed, the camera turned away); and where the window is longer than the
+  /// declared drift bears (s4), what its older frames saw free may lie a wall's clearance off.
+  /// False: any frame in the window counts.
+  bool seen_until_arrival = true;
   /// Looks in a row that leave the way ahead unseen before the target gets a failure and the
   /// vehicle holds (the way may be hidden behind a corner); [1, 100]
   int max_chained_looks = 3;
@@ -164,6 +171,13 @@ struct SafetyConfig {
   /// says (OdometryDrift::longestWithin up to 1e9 s, i.e. always without drift); 0 when no
   /// odometry is declared. While the whole map is younger, it counts as seen by recent frames.
   double trustedAge_s() const;
+  /// How old, when the vehicle gets to a point of its way, a frame may be and still count as
+  /// having seen it (seen_until_arrival): window_s(), or shorter where the declared drift of that
+  /// age exceeds drift_tolerance_m (trustedAge_s(); s4: 6 s of its 10 s window), never below
+  /// kMinSeenAge_s (the way ahead at v_max is a second's flight). Throws std::invalid_argument for
+  /// an invalid config.
+  double seenAge_s() const;
+  static constexpr double kMinSeenAge_s = 2.0;
 };
 
 /// Which small clusters the final sweep visits (ExplorationManagerConfig::final_sweep). A pocket
@@ -534,14 +548,16 @@ class ExplorationManager {
   /// flown is where odometry and the last correction put it; what the camera saw since is where
   /// the walls are.
   std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest);
-  /// p_W counts as seen free for flight: a recent frame saw it free, or the whole map is younger
+  /// p_W counts as seen free for flight: a recent frame (captured at or after since_t_s) saw it
+  /// free, or the whole map is younger
   /// than SafetyConfig::trustedAge_s (at the last update) and `map` holds p_W clear by clearance_m.
-  bool seenFree(MapProbe& map, const Vec3d& p_W) const;
-  /// A point beside the way counts as seen when a recent frame saw it free, a recent surface lies
+  bool seenFree(MapProbe& map, const Vec3d& p_W, double since_t_s) const;
+  /// A point beside the way counts as seen when a recent frame (at or after since_t_s) saw it
+  /// free, a recent surface lies
   /// within SafetyConfig::clearance_m of it (of its voxel's centre, plus half the voxel's
   /// diagonal; the surface checks guard that side then), or the whole map is younger than
   /// SafetyConfig::trustedAge_s and `map` knows it.
-  bool sideSeen(MapProbe& map, const Vec3d& p_W) const;
+  bool sideSeen(MapProbe& map, const Vec3d& p_W, double since_t_s) const;
   struct UnseenPoint {
     Vec3d p_W;
     double along_m;  ///< how far along the trajectory from t_from
@@ -552,7 +568,9 @@ class ExplorationManager {
   std::optional<UnseenPoint> unseenWayAhead(const MapQuery& map, const VehicleState& vehicle, double t_s) const;
   /// The first point of `trajectory` (moved by `shift`) after t_from, within way_m along it, not
   /// seen free (seenFree), or, SafetyConfig::look_side_m to its left or right, not seen
-  /// (sideSeen). A point more steeply above or below origin_W than the camera's vertical half
+  /// (sideSeen), by the frames still in the window when the trajectory gets there
+  /// (SafetyConfig::seen_until_arrival; the trajectory's time t_from is now). A point more
+  /// steeply above or below origin_W than the camera's vertical half
   /// field of view is checked at the steepest point of its vertical line in view
   /// (SafetyConfig::look_steep), unless it lies within SafetyConfig::clearance_m across.
   std::optional<UnseenPoint> firstUnseen(const MapQuery& map, const Trajectory& trajectory,

@@ -39,6 +39,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -99,8 +100,9 @@ class RecentFrames {
   std::vector<double> frameTimes() const;
   bool empty() const { return frames_.empty(); }
 
-  /// True when some recent frame saw p_W free (see the header comment).
-  bool seesFree(const Vec3d& p_W) const;
+  /// True when some recent frame captured at or after since_t_s saw p_W free (see the header
+  /// comment).
+  bool seesFree(const Vec3d& p_W, double since_t_s = -std::numeric_limits<double>::infinity()) const;
   /// A box that holds every point seesFree() can be true for: the frames' origins grown by
   /// max_range_m (empty without frames).
   Eigen::AlignedBox3d reach_W() const;
