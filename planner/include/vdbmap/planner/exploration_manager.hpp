@@ -69,7 +69,8 @@ namespace vdbmap::planner {
 ///    replans at once and stops if no plan is found (an emergency stop,
 ///    ReplanReason::EmergencyStop);
 ///  - looks where the vehicle flies: the way ahead within its braking distance plus look_margin_m
-///    must have been seen free by a recent frame (or, while the whole map is younger than
+///    must have been seen free by a recent frame young enough when the vehicle gets there
+///    (seen_until_arrival, seenAge_s()) (or, while the whole map is younger than
 ///    trustedAge_s(), be clear in the map), and the points look_side_m to its left and right must
 ///    have been seen (free, or near a recent surface); else the vehicle brakes along its velocity
 ///    and turns toward that point (ReplanReason::LookAhead, FlightKind::Look). As soon as it faces
