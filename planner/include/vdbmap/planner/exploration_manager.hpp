@@ -549,15 +549,14 @@ class ExplorationManager {
   /// flown is where odometry and the last correction put it; what the camera saw since is where
   /// the walls are.
   std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest);
-  /// p_W counts as seen free for flight: a recent frame (captured at or after since_t_s) saw it
-  /// free, or the whole map is younger
-  /// than SafetyConfig::trustedAge_s (at the last update) and `map` holds p_W clear by clearance_m.
+  /// p_W counts as seen free for flight: a recent frame captured at or after since_t_s saw it
+  /// free, or the whole map is younger than SafetyConfig::trustedAge_s (at the last update) and
+  /// `map` holds p_W clear by clearance_m.
   bool seenFree(MapProbe& map, const Vec3d& p_W, double since_t_s) const;
-  /// A point beside the way counts as seen when a recent frame (at or after since_t_s) saw it
-  /// free, a recent surface lies
-  /// within SafetyConfig::clearance_m of it (of its voxel's centre, plus half the voxel's
-  /// diagonal; the surface checks guard that side then), or the whole map is younger than
-  /// SafetyConfig::trustedAge_s and `map` knows it.
+  /// A point beside the way counts as seen when a recent frame captured at or after since_t_s saw
+  /// it free, a recent surface lies within SafetyConfig::clearance_m of it (of its voxel's centre,
+  /// plus half the voxel's diagonal; the surface checks guard that side then), or the whole map
+  /// is younger than SafetyConfig::trustedAge_s and `map` knows it.
   bool sideSeen(MapProbe& map, const Vec3d& p_W, double since_t_s) const;
   struct UnseenPoint {
     Vec3d p_W;
@@ -569,11 +568,11 @@ class ExplorationManager {
   std::optional<UnseenPoint> unseenWayAhead(const MapQuery& map, const VehicleState& vehicle, double t_s) const;
   /// The first point of `trajectory` (moved by `shift`) after t_from, within way_m along it, not
   /// seen free (seenFree), or, SafetyConfig::look_side_m to its left or right, not seen
-  /// (sideSeen), by the frames still in the window when the trajectory gets there
-  /// (SafetyConfig::seen_until_arrival; the trajectory's time t_from is now). A point more
-  /// steeply above or below origin_W than the camera's vertical half
-  /// field of view is checked at the steepest point of its vertical line in view
-  /// (SafetyConfig::look_steep), unless it lies within SafetyConfig::clearance_m across.
+  /// (sideSeen), by the frames at most SafetyConfig::seenAge_s() old when the trajectory gets
+  /// there (seen_until_arrival; the trajectory's time t_from is now). A point more steeply above
+  /// or below origin_W than the camera's vertical half field of view is checked at the steepest
+  /// point of its vertical line in view (SafetyConfig::look_steep), unless it lies within
+  /// SafetyConfig::clearance_m across.
   std::optional<UnseenPoint> firstUnseen(const MapQuery& map, const Trajectory& trajectory,
                                          const Eigen::Isometry3d& shift, double t_from, double way_m,
                                          const Vec3d& origin_W) const;
