@@ -40,12 +40,16 @@ DenseMap halfKnownRoom(int length_vox = 80, int known_vox = 40) {
   return map;
 }
 
+/// A room `length_m` long, no initial turn, and path budgets counted (with wall-clock limits far
+/// above what they take), so that a test plans the same on a loaded machine as on an idle one.
 ExplorationManagerConfig roomParams(double length_m = 8.0) {
   ExplorationManagerConfig p;
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(length_m, 6, 3));
   p.initial_turn = false;
-  p.path.time_limit_s = 0.05;
-  p.cost_path.time_limit_s = 0.005;
+  p.path.time_limit_s = 1.0;
+  p.path.max_iterations = 3000;
+  p.cost_path.time_limit_s = 1.0;
+  p.cost_path.max_iterations = 300;
   return p;
 }
 

@@ -79,6 +79,7 @@ TEST_CASE("Lattice paths go through the door, clear along their whole length", "
   PathConfig config;
   config.clearance_m = 0.25;
   config.search = PathSearch::Grid;
+  config.time_limit_s = 10.0;  // the expansion budget, not the clock, ends the search
   PathPlanner planner(map, config);
   const Vec3d start(2, 1, 1), goal(8, 1.2, 1.4);
   const PathResult r = planner.plan(start, goal);
@@ -204,6 +205,7 @@ TEST_CASE("Sampling then grid: the lattice finds the door when RRTConnect's budg
   const Vec3d start(2, 1, 1), goal(8, 1.2, 1.4);
   REQUIRE(sampling.plan(start, goal).status == PathStatus::NoPath);
   config.search = PathSearch::SamplingThenGrid;
+  config.time_limit_s = 10.0;  // the budgets, not the clock, end the searches
   PathPlanner both(map, config);
   const PathResult r = both.plan(start, goal);
   REQUIRE(r.status == PathStatus::Planned);
