@@ -272,8 +272,9 @@ const Registration registration("explore", [](CLI::App& app) {
                   "(off)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--safety-seen-until-arrival", o->safety_seen_until_arrival,
-                  "With the safety layer, a point of the way counts as seen only by frames still in the recent "
-                  "window when the vehicle gets there (on), or by any frame in it (off)")
+                  "With the safety layer, a point of the way counts as seen only by frames young enough when the "
+                  "vehicle gets there: the recent window, or shorter where the declared drift of that age exceeds "
+                  "the tolerance (on); or by any frame in the window (off)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "

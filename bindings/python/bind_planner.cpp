@@ -256,8 +256,8 @@ void bindExplorationParams(py::module_& m) {
                      "a point of the way ahead above or below the camera's view is checked at the steepest point of "
                      "its vertical line in view (default True), else exempt")
       .def_readwrite("seen_until_arrival", &SafetyConfig::seen_until_arrival,
-                     "a point of a way counts as seen only by frames still in the recent window when the vehicle "
-                     "gets there (default True), else by any frame in it")
+                     "a point of a way counts as seen only by frames at most seen_age_s() old when the vehicle gets "
+                     "there (default True), else by any frame in the recent window")
       .def_readwrite("max_chained_looks", &SafetyConfig::max_chained_looks,
                      "looks in a row that leave the way unseen before the target gets a failure; [1, 100]")
       .def_readwrite("seen_free_is_free", &SafetyConfig::seen_free_is_free,

@@ -482,13 +482,11 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   const double side_m = params_.safety.look_side_m;
   Vec3d prev = shift * trajectory.sample(t_from).position_W;
   double along_m = 0.0;
-  // The frames that count at a point (seen_until_arrival): those young enough when the trajectory
-  // gets there.
-  const double seen_age_s = params_.safety.seenAge_s();
-  const auto since = [&](double t) {
-    return params_.safety.seen_until_arrival ? last_t_ + (std::min(t, t_end) - t_from) - seen_age_s
-                                             : -std::numeric_limits<double>::infinity();
-  };
+  // The frames that count at a point: those at most seenAge_s() old when the trajectory gets
+  // there (seen_until_arrival), else every one.
+  const double seen_age_s =
+      params_.safety.seen_until_arrival ? params_.safety.seenAge_s() : std::numeric_limits<double>::infinity();
+  const auto since = [&](double t) { return last_t_ + (std::min(t, t_end) - t_from) - seen_age_s; };
   for (double t = t_from + dt; along_m < way_m; t += dt) {
     const Vec3d p = shift * trajectory.sample(std::min(t, t_end)).position_W;
     along_m += (p - prev).norm();
