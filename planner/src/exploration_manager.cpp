@@ -439,7 +439,7 @@ bool ExplorationManager::remainingTrajectoryClear(const MapQuery& map, double t_
 
 bool ExplorationManager::seenFree(MapProbe& map, const Vec3d& p_W, double since_t_s) const {
   if (recent_->seesFree(p_W, since_t_s)) return true;
-  return last_t_ <= map_trusted_until_s_ && map.isClear(p_W, params_.safety.clearance_m);
+  return last_t_ < map_trusted_until_s_ && map.isClear(p_W, params_.safety.clearance_m);
 }
 
 bool ExplorationManager::sideSeen(MapProbe& map, const Vec3d& p_W, double since_t_s) const {
@@ -448,7 +448,7 @@ bool ExplorationManager::sideSeen(MapProbe& map, const Vec3d& p_W, double since_
   const double near_m = params_.safety.clearance_m + 0.5 * std::sqrt(3.0) * map.voxelSize();
   if (recent_map_ && recent_map_->nearSurface(p_W, near_m)) return true;
   if (recent_->seesFree(p_W, since_t_s)) return true;
-  return last_t_ <= map_trusted_until_s_ && map.atWorld(p_W) != Occupancy::Unknown;
+  return last_t_ < map_trusted_until_s_ && map.atWorld(p_W) != Occupancy::Unknown;
 }
 
 std::optional<ExplorationManager::UnseenPoint> ExplorationManager::unseenWayAhead(const MapQuery& map,
@@ -492,7 +492,10 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     along_m += (p - prev).norm();
     const Eigen::Vector2d travel = (p - prev).head<2>();
     prev = p;
-    if (const std::optional<Vec3d> c = checkable(p); c && !seenFree(probe, *c, since(t)))
+    // Within clearance_m of origin_W the way is where the vehicle already is (its own camera never
+    // sees that space free), as the emergency stop leaves out what lies that near the vehicle.
+    if (const std::optional<Vec3d> c = checkable(p);
+        c && (p - origin_W).norm() >= params_.safety.clearance_m && !seenFree(probe, *c, since(t)))
       return UnseenPoint{*c, along_m, false};
     // Beside the way, side_m to the left and right of the horizontal travel (all four sides when
     // the way is vertical there): a way seen free down its middle may pass a wall no frame saw.
