@@ -956,13 +956,13 @@ TrajectoryResult ExplorationManager::planFlight(const std::vector<Vec3d>& path_W
                                                 double goal_yaw_rad, const MapQuery& map) const {
   TrajectoryConfig tc = params_.trajectory;
   TrajectoryResult traj;
+  const double all = std::numeric_limits<double>::infinity();
   if (tc.yaw_along_travel && recent_) {
     // Facing the way costs turns; a way the recent frames saw free all along does not need it,
     // and keeps the yaw spread over the motion. Else the vehicle may fly, while it turns, the
     // part of the way seen free short of the look-ahead margin.
     tc.yaw_along_travel = false;
     traj = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);
-    const double all = std::numeric_limits<double>::infinity();
     if (traj.ok())
       if (const std::optional<UnseenPoint> unseen =
               firstUnseen(map, traj.trajectory, Eigen::Isometry3d::Identity(), 0.0, all, vehicle.position_W)) {
@@ -971,6 +971,21 @@ TrajectoryResult ExplorationManager::planFlight(const std::vector<Vec3d>& path_W
       }
   }
   if (tc.yaw_along_travel || !traj.ok()) traj = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);
+  // The flight that faces the way reaches each point later than the one checked above (it turns
+  // first, or slows while it turns), so frames young enough for that one may be too old for it:
+  // its own first unseen point bounds the way it may fly before it faces the way. The bound only
+  // shrinks, and at 0 the vehicle turns on the spot before it moves.
+  constexpr int kMaxRefits = 3;
+  for (int i = 0; i < kMaxRefits && tc.yaw_along_travel && recent_ && traj.ok() && tc.free_way_m > 0.0; ++i) {
+    const std::optional<UnseenPoint> unseen =
+        firstUnseen(map, traj.trajectory, Eigen::Isometry3d::Identity(), 0.0, all, vehicle.position_W);
+    const double free_way_m = unseen ? std::max(0.0, unseen->along_m - params_.safety.look_margin_m) : all;
+    if (free_way_m >= tc.free_way_m) break;
+    tc.free_way_m = free_way_m;
+    TrajectoryResult refit = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);
+    if (!refit.ok()) break;  // the last one stands, and a look stop guards it
+    traj = std::move(refit);
+  }
   return traj;
 }
 

@@ -572,3 +572,44 @@ TEST_CASE("Where the vehicle stands counts as seen: looks do not wait for its ow
   CHECK(m.counters().target_failures == 0);
   CHECK(moved_m > 1.0);  // within 8 s
 }
+
+TEST_CASE("A flight that faces the way is planned from its own arrival times, so a look does not stop it at once",
+          "[planner][safety]") {
+  // The vehicle flies backwards along the corridor (+x, camera facing -x) when it replans toward
+  // the frontier at x = 6 m, at t_plan = 8.75 s; only the frame of t = 0 saw the way ahead, and it
+  // counts for points reached within 1.25 s. Checked on the flight with the yaw spread over the
+  // motion, the way is seen far ahead, so the flight that faces the way may cruise a long way
+  // while it turns. But that flight, slowed to turn, gets there later, when the old frame no
+  // longer counts: its own first unseen point bounds how far it flies before it faces the way.
+  // Then it is not stopped by a look at the next update, and it flies more than a metre in 3 s;
+  // planned from the spread flight's arrival times, a look stopped it at once (0.1-0.6 m).
+  const double speed_m_s = GENERATE(0.5, 1.0, 1.5);
+  INFO("speed " << speed_m_s << " m/s");
+  const CameraIntrinsics K = quarterCamera();
+  const DenseMap map = driftedMap(Vec3d::Zero());
+  const Vec3d start(1.0, 1.5, 1.2);
+  const double t_plan = 8.75;
+  ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
+  p.safety.enabled = true;
+  VehicleState s0 = planner::test::at(start, M_PI);
+  s0.velocity_W = Vec3d(speed_m_s, 0, 0);
+  ExplorationManager m(p, s0, 0.0);
+  const Pose3d ahead = lookingPose(Vec3d(0.2, 1.5, 1.2), 0.0), behind = lookingPose(start, M_PI);
+  m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
+  m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
+  REQUIRE(m.update(map, CoordBBox(), s0, t_plan).status == ExplorationStatus::Planned);
+  bool looked_at_once = false;
+  double moved_m = 0.0;
+  for (double t = t_plan + kFramePeriodS; t <= t_plan + 3.0; t += kFramePeriodS) {
+    const VehicleState c = m.command(t);
+    VehicleState v = planner::test::at(c.position_W, c.yaw_rad);
+    v.velocity_W = c.velocity_W;
+    const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
+    m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
+    const bool look = m.update(map, CoordBBox(), v, t).reason == ReplanReason::LookAhead;
+    if (t < t_plan + 1.5 * kFramePeriodS) looked_at_once = look;
+    moved_m = std::max(moved_m, (v.position_W - start).norm());
+  }
+  CHECK_FALSE(looked_at_once);
+  CHECK(moved_m > 1.0);
+}
