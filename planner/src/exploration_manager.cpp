@@ -474,11 +474,19 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   // What a level camera at origin_W can check of q: q itself when some yaw brings it into view;
   // above or below the view (look_steep), the steepest point of q's vertical line in view: what
   // stands beside a climb, walls and door jambs, stands at that height too. None within
-  // clearance_m across, where the vehicle's own clearance lies.
+  // clearance_m across, where the vehicle's own clearance lies. In view of a camera that faces q
+  // only within start_facing_rad (and a little more, for the edge of the image), as a turn and a
+  // look leave it: a point at the edge of the view of a camera facing it exactly was out of view
+  // of every look that ended facing it 0.2 rad off, and the looks went on, one per frame.
+  constexpr double kImageEdge_rad = 0.05;
   const CameraFrustum& camera = params_.viewpoint.camera;
+  const double facing_rad =
+      std::min(params_.trajectory.start_facing_rad + kImageEdge_rad, std::atan(camera.tan_half_fov_x));
   const double min_across_m =
       params_.safety.look_steep ? params_.safety.clearance_m : std::numeric_limits<double>::infinity();
-  const auto checkable = [&](const Vec3d& q) { return camera.nearestInViewOnVertical(origin_W, q, min_across_m); };
+  const auto checkable = [&](const Vec3d& q) {
+    return camera.nearestInViewOnVertical(origin_W, q, min_across_m, facing_rad);
+  };
   const double side_m = params_.safety.look_side_m;
   Vec3d prev = shift * trajectory.sample(t_from).position_W;
   double along_m = 0.0;

@@ -44,10 +44,15 @@ bool CameraFrustum::contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_
   return frustumContains(*this, eye_W, std::cos(yaw_rad), std::sin(yaw_rad), p_W);
 }
 
-std::optional<Vec3d> CameraFrustum::nearestInViewOnVertical(const Vec3d& eye_W, const Vec3d& p_W,
-                                                            double min_across_m) const {
+std::optional<Vec3d> CameraFrustum::nearestInViewOnVertical(const Vec3d& eye_W, const Vec3d& p_W, double min_across_m,
+                                                            double yaw_tolerance_rad) const {
+  if (!(yaw_tolerance_rad >= 0.0 && yaw_tolerance_rad < M_PI / 2 && std::tan(yaw_tolerance_rad) <= tan_half_fov_x))
+    throw std::invalid_argument(
+        "CameraFrustum::nearestInViewOnVertical: yaw_tolerance_rad must lie in [0, pi/2) "
+        "and within the horizontal half field of view, got " +
+        std::to_string(yaw_tolerance_rad));
   const Vec3d d = p_W - eye_W;
-  const double across_m = d.head<2>().norm(), rise_m = across_m * tan_half_fov_y;
+  const double across_m = d.head<2>().norm(), rise_m = across_m * std::cos(yaw_tolerance_rad) * tan_half_fov_y;
   if (std::abs(d.z()) <= rise_m) return p_W;
   if (across_m < min_across_m || across_m == 0.0) return std::nullopt;
   return Vec3d(p_W.x(), p_W.y(), eye_W.z() + std::copysign(rise_m, d.z()));

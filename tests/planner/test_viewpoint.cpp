@@ -111,6 +111,33 @@ TEST_CASE("The nearest point of a vertical line that a level camera turns to see
   CHECK(cam.nearestInViewOnVertical(eye, Vec3d(1.2, 1, 2.0), 0.1));
 }
 
+TEST_CASE("The nearest point of a vertical line in view of a camera that faces it only within a tolerance",
+          "[planner][viewpoint]") {
+  // Turned a radians off the line, a level camera sees it at cos(a) of its horizontal distance in
+  // depth, so less of it: the point at the edge of the view of a camera facing the line exactly
+  // is out of view 0.2 rad off. With the tolerance, the point returned is in view of every yaw
+  // within it (range aside), and a point inside that band is returned as it is.
+  const CameraFrustum cam;
+  const Vec3d eye(1, 1, 1), steep(2.5, 2.0, 3.0);  // 1.80 m across, 2 m up
+  const double bearing = std::atan2(steep.y() - eye.y(), steep.x() - eye.x());
+  const std::optional<Vec3d> exact = cam.nearestInViewOnVertical(eye, steep, 0.25);
+  REQUIRE(exact);
+  CHECK_FALSE(cam.contains(eye, bearing + 0.2, *exact - Vec3d(0, 0, 1e-9)));
+  for (const double tolerance : {0.2, 0.5, 0.69}) {
+    INFO("tolerance " << tolerance << " rad");
+    const std::optional<Vec3d> p = cam.nearestInViewOnVertical(eye, steep, 0.25, tolerance);
+    REQUIRE(p);
+    CHECK(p->head<2>() == steep.head<2>());
+    CHECK(p->z() < exact->z());
+    for (const double off : {-1.0, -0.5, 0.0, 0.5, 1.0})
+      CHECK(cam.contains(eye, bearing + off * tolerance * (1.0 - 1e-9), *p - Vec3d(0, 0, 1e-9)));
+    const Vec3d inside(2.5, 2.0, 1.5);  // 0.28 rad up: in view of every yaw within any of these
+    CHECK(*cam.nearestInViewOnVertical(eye, inside, 0.25, tolerance) == inside);
+  }
+  CHECK_THROWS_AS(cam.nearestInViewOnVertical(eye, steep, 0.25, -0.1), std::invalid_argument);
+  CHECK_THROWS_AS(cam.nearestInViewOnVertical(eye, steep, 0.25, 0.8), std::invalid_argument);  // beyond 0.69 rad
+}
+
 TEST_CASE("Occupied and unknown voxels occlude; free space does not", "[planner][viewpoint]") {
   DenseMap map(0.1, CoordBBox(Coord(-5), Coord(40, 5, 5)));
   map.fill(map.extent(), Occupancy::Free);

@@ -37,11 +37,15 @@ struct CameraFrustum {
 
   /// True when p_W is inside the frustum of a camera at `eye_W` looking along `yaw_rad`.
   bool contains(const Vec3d& eye_W, double yaw_rad, const Vec3d& p_W) const;
-  /// The point of p_W's vertical line nearest p_W within the vertical half field of view from
-  /// `eye_W` (which a level camera there turns to see, range aside): p_W itself when it lies
-  /// within it; nullopt when p_W lies less than min_across_m from eye_W horizontally (or at no
-  /// horizontal distance) and outside it.
-  std::optional<Vec3d> nearestInViewOnVertical(const Vec3d& eye_W, const Vec3d& p_W, double min_across_m) const;
+  /// The point of p_W's vertical line nearest p_W that a level camera at `eye_W` sees (range
+  /// aside) when it turns to face that line within yaw_tolerance_rad: p_W itself when it lies
+  /// within that band; nullopt when p_W lies less than min_across_m from eye_W horizontally (or at
+  /// no horizontal distance) and outside it. Turned off the line by an angle a, the camera sees it
+  /// at depth cos(a) times the horizontal distance, so the band is cos(yaw_tolerance_rad) times the
+  /// vertical half field of view's. Throws std::invalid_argument unless yaw_tolerance_rad lies in
+  /// [0, pi/2) and within the horizontal half field of view.
+  std::optional<Vec3d> nearestInViewOnVertical(const Vec3d& eye_W, const Vec3d& p_W, double min_across_m,
+                                               double yaw_tolerance_rad = 0.0) const;
   void validate() const;
 };
 
