@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <optional>
 
 using namespace vdbmap;
@@ -540,6 +541,41 @@ TEST_CASE("A way seen only by frames that leave the window before the vehicle ge
   CHECK(yawOffTravel(false) > M_PI / 2);  // flies off looking back
 }
 
+namespace {
+/// A manager with the layer in the exact corridor, at `start` with `velocity` and facing -x, whose
+/// only view of the way ahead (+x) is a frame from x = 0.2 m at t = 0; at t_plan it sees the wall
+/// behind it and plans toward the frontier at x = 6 m.
+std::unique_ptr<ExplorationManager> plannedFacingAway(const DenseMap& map, const Vec3d& start, const Vec3d& velocity,
+                                                      double t_plan) {
+  const CameraIntrinsics K = quarterCamera();
+  ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
+  p.safety.enabled = true;
+  VehicleState s0 = planner::test::at(start, M_PI);
+  s0.velocity_W = velocity;
+  auto m = std::make_unique<ExplorationManager>(p, s0, 0.0);
+  const Pose3d ahead = lookingPose(Vec3d(0.2, start.y(), start.z()), 0.0), behind = lookingPose(start, M_PI);
+  m->addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
+  m->addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
+  REQUIRE(m->update(map, CoordBBox(), s0, t_plan).status == ExplorationStatus::Planned);
+  return m;
+}
+
+/// Flies `m` exactly along its commands, a frame of the true world every kFramePeriodS from
+/// t_from on, until t_to or until `on_step(t, vehicle, step)` returns false.
+template <class OnStep>
+void flyCommands(ExplorationManager& m, const DenseMap& map, double t_from, double t_to, OnStep&& on_step) {
+  const CameraIntrinsics K = quarterCamera();
+  for (double t = t_from + kFramePeriodS; t <= t_to; t += kFramePeriodS) {
+    const VehicleState c = m.command(t);
+    VehicleState v = planner::test::at(c.position_W, c.yaw_rad);
+    v.velocity_W = c.velocity_W;
+    const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
+    m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
+    if (!on_step(t, v, m.update(map, CoordBBox(), v, t))) return;
+  }
+}
+}  // namespace
+
 TEST_CASE("Where the vehicle stands counts as seen: looks do not wait for its own position", "[planner][safety]") {
   // As above, the vehicle faces away from the way at t_plan = 9 s, and only the frame of t = 0
   // saw the way, including where the vehicle stands. The trajectory turns on the spot before it
@@ -548,28 +584,16 @@ TEST_CASE("Where the vehicle stands counts as seen: looks do not wait for its ow
   // points lie within the vehicle's clearance and count as seen: the vehicle turns, looks beside
   // the way, and flies on. Checked like the rest of the way, they were never seen: three looks
   // in a row on the spot, and the target counted as failed.
-  const CameraIntrinsics K = quarterCamera();
   const DenseMap map = driftedMap(Vec3d::Zero());
   const Vec3d start(1.0, 1.3, 1.2);
   const double t_plan = 9.0;
-  ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
-  p.safety.enabled = true;
-  ExplorationManager m(p, planner::test::at(start, M_PI), 0.0);
-  const Pose3d ahead = lookingPose(Vec3d(0.2, 1.3, 1.2), 0.0), behind = lookingPose(start, M_PI);
-  m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
-  m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
-  REQUIRE(m.update(map, CoordBBox(), planner::test::at(start, M_PI), t_plan).status == ExplorationStatus::Planned);
+  const std::unique_ptr<ExplorationManager> m = plannedFacingAway(map, start, Vec3d::Zero(), t_plan);
   double moved_m = 0.0;
-  for (double t = t_plan + kFramePeriodS; t <= t_plan + 8.0 && moved_m <= 1.0; t += kFramePeriodS) {
-    const VehicleState c = m.command(t);
-    VehicleState v = planner::test::at(c.position_W, c.yaw_rad);
-    v.velocity_W = c.velocity_W;
-    const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
-    m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
-    m.update(map, CoordBBox(), v, t);
+  flyCommands(*m, map, t_plan, t_plan + 8.0, [&](double, const VehicleState& v, const ExplorationStep&) {
     moved_m = std::max(moved_m, (v.position_W - start).norm());
-  }
-  CHECK(m.counters().target_failures == 0);
+    return moved_m <= 1.0;
+  });
+  CHECK(m->counters().target_failures == 0);
   CHECK(moved_m > 1.0);  // within 8 s
 }
 
@@ -585,31 +609,17 @@ TEST_CASE("A flight that faces the way is planned from its own arrival times, so
   // planned from the spread flight's arrival times, a look stopped it at once (0.1-0.6 m).
   const double speed_m_s = GENERATE(0.5, 1.0, 1.5);
   INFO("speed " << speed_m_s << " m/s");
-  const CameraIntrinsics K = quarterCamera();
   const DenseMap map = driftedMap(Vec3d::Zero());
   const Vec3d start(1.0, 1.5, 1.2);
   const double t_plan = 8.75;
-  ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
-  p.safety.enabled = true;
-  VehicleState s0 = planner::test::at(start, M_PI);
-  s0.velocity_W = Vec3d(speed_m_s, 0, 0);
-  ExplorationManager m(p, s0, 0.0);
-  const Pose3d ahead = lookingPose(Vec3d(0.2, 1.5, 1.2), 0.0), behind = lookingPose(start, M_PI);
-  m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
-  m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
-  REQUIRE(m.update(map, CoordBBox(), s0, t_plan).status == ExplorationStatus::Planned);
+  const std::unique_ptr<ExplorationManager> m = plannedFacingAway(map, start, Vec3d(speed_m_s, 0, 0), t_plan);
   bool looked_at_once = false;
   double moved_m = 0.0;
-  for (double t = t_plan + kFramePeriodS; t <= t_plan + 3.0; t += kFramePeriodS) {
-    const VehicleState c = m.command(t);
-    VehicleState v = planner::test::at(c.position_W, c.yaw_rad);
-    v.velocity_W = c.velocity_W;
-    const Pose3d T_W_S = lookingPose(v.position_W, v.yaw_rad);
-    m.addDepthFrame(t, renderTrue(K, T_W_S), K, T_W_S);
-    const bool look = m.update(map, CoordBBox(), v, t).reason == ReplanReason::LookAhead;
-    if (t < t_plan + 1.5 * kFramePeriodS) looked_at_once = look;
+  flyCommands(*m, map, t_plan, t_plan + 3.0, [&](double t, const VehicleState& v, const ExplorationStep& step) {
+    if (t < t_plan + 1.5 * kFramePeriodS) looked_at_once = step.reason == ReplanReason::LookAhead;
     moved_m = std::max(moved_m, (v.position_W - start).norm());
-  }
+    return true;
+  });
   CHECK_FALSE(looked_at_once);
   CHECK(moved_m > 1.0);
 }
