@@ -964,19 +964,23 @@ TrajectoryResult ExplorationManager::planFlight(const std::vector<Vec3d>& path_W
                                                 double goal_yaw_rad, const MapQuery& map) const {
   TrajectoryConfig tc = params_.trajectory;
   TrajectoryResult traj;
+  // How far along `flight` the way is seen, short of the look-ahead margin (infinite: all of it).
   const double all = std::numeric_limits<double>::infinity();
+  const auto seenWay_m = [&](const Trajectory& flight) {
+    const std::optional<UnseenPoint> unseen =
+        firstUnseen(map, flight, Eigen::Isometry3d::Identity(), 0.0, all, vehicle.position_W);
+    return unseen ? std::max(0.0, unseen->along_m - params_.safety.look_margin_m) : all;
+  };
   if (tc.yaw_along_travel && recent_) {
     // Facing the way costs turns; a way the recent frames saw free all along does not need it,
     // and keeps the yaw spread over the motion. Else the vehicle may fly, while it turns, the
     // part of the way seen free short of the look-ahead margin.
     tc.yaw_along_travel = false;
     traj = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);
-    if (traj.ok())
-      if (const std::optional<UnseenPoint> unseen =
-              firstUnseen(map, traj.trajectory, Eigen::Isometry3d::Identity(), 0.0, all, vehicle.position_W)) {
-        tc.yaw_along_travel = true;
-        tc.free_way_m = std::max(0.0, unseen->along_m - params_.safety.look_margin_m);
-      }
+    if (const double free_way_m = traj.ok() ? seenWay_m(traj.trajectory) : all; free_way_m < all) {
+      tc.yaw_along_travel = true;
+      tc.free_way_m = free_way_m;
+    }
   }
   if (tc.yaw_along_travel || !traj.ok()) traj = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);
   // The flight that faces the way reaches each point later than the one checked above (it turns
@@ -985,9 +989,7 @@ TrajectoryResult ExplorationManager::planFlight(const std::vector<Vec3d>& path_W
   // shrinks, and at 0 the vehicle turns on the spot before it moves.
   constexpr int kMaxRefits = 3;
   for (int i = 0; i < kMaxRefits && tc.yaw_along_travel && recent_ && traj.ok() && tc.free_way_m > 0.0; ++i) {
-    const std::optional<UnseenPoint> unseen =
-        firstUnseen(map, traj.trajectory, Eigen::Isometry3d::Identity(), 0.0, all, vehicle.position_W);
-    const double free_way_m = unseen ? std::max(0.0, unseen->along_m - params_.safety.look_margin_m) : all;
+    const double free_way_m = seenWay_m(traj.trajectory);
     if (free_way_m >= tc.free_way_m) break;
     tc.free_way_m = free_way_m;
     TrajectoryResult refit = planTrajectory(path_W, vehicle, goal_yaw_rad, map, tc);

@@ -376,8 +376,8 @@ TEST_CASE("Without drift declared, the map counts as seen: no look where it hold
   CHECK(unknown.counters.look_stops >= 1);
   CHECK(unknown.counters.looks_resumed >= 1);
   CHECK(declared.counters.look_stops == 0);
-  for (const Flight* f : {&unknown, &declared}) CHECK(f->max_x_m > 3.5);  // through the true gap
   for (const Flight* f : {&unknown, &declared}) {
+    CHECK(f->max_x_m > 3.5);  // through the true gap
     CHECK(f->min_clearance_m >= kVehicleRadiusM);
     CHECK(f->finished);
   }
@@ -502,54 +502,16 @@ TEST_CASE(
   CHECK(firstFlightEnd(false, 2.5f).x() < 4.5);
 }
 
-TEST_CASE("A way seen only by frames that leave the window before the vehicle gets there counts as unseen",
-          "[planner][safety]") {
-  // The corridor without drift, seen at t = 0 by a frame looking along it from x = 0.2 m; at
-  // t = 9 s the vehicle faces away (its newest frame sees the wall behind it) and plans to the
-  // frontier ahead. The old frame leaves the 10 s window at t = 10 s, so the way beyond where the
-  // vehicle gets by then is unseen (seen_until_arrival), and it turns to face the way before it
-  // flies there. Counting every frame in the window, the way is all seen: it flies off looking
-  // back, its yaw spread over the motion, and 1 m out, as the old frame leaves the window, the way
-  // ahead is unseen at speed.
-  const CameraIntrinsics K = quarterCamera();
-  const DenseMap map = driftedMap(Vec3d::Zero());
-  const Vec3d start(1.0, 1.3, 1.2);
-  const double t_plan = 9.0;
-  // The angle between the yaw and the direction of travel (toward where the vehicle is 0.5 s
-  // later, as TrajectoryConfig::yaw_along_travel faces it) when the first trajectory has flown
-  // 1 m from the start.
-  const auto yawOffTravel = [&](bool until_arrival) {
-    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
-    p.safety.enabled = true;
-    p.safety.seen_until_arrival = until_arrival;
-    ExplorationManager m(p, planner::test::at(start, M_PI), 0.0);
-    const Pose3d ahead = lookingPose(Vec3d(0.2, 1.3, 1.2), 0.0), behind = lookingPose(start, M_PI);
-    m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
-    m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
-    const ExplorationStep step = m.update(map, CoordBBox(), planner::test::at(start, M_PI), t_plan);
-    REQUIRE(step.status == ExplorationStatus::Planned);
-    REQUIRE(m.command(1e9).position_W.x() > 3.0);  // past the block, toward the frontier at x = 6 m
-    double s = t_plan;
-    while ((m.command(s).position_W - start).norm() < 1.0) s += 0.01;
-    REQUIRE(s < m.trajectoryStartTime() + m.trajectory().motionDuration());
-    const VehicleState c = m.command(s);
-    const Eigen::Vector2d travel = (m.command(s + 0.5).position_W - c.position_W).head<2>();
-    return std::abs(wrapAngle(std::atan2(travel.y(), travel.x()) - c.yaw_rad));
-  };
-  const double facing_rad = TrajectoryConfig{}.start_facing_rad;
-  CHECK(yawOffTravel(true) <= facing_rad);
-  CHECK(yawOffTravel(false) > M_PI / 2);  // flies off looking back
-}
-
 namespace {
 /// A manager with the layer in the exact corridor, at `start` with `velocity` and facing -x, whose
 /// only view of the way ahead (+x) is a frame from x = 0.2 m at t = 0; at t_plan it sees the wall
 /// behind it and plans toward the frontier at x = 6 m.
 std::unique_ptr<ExplorationManager> plannedFacingAway(const DenseMap& map, const Vec3d& start, const Vec3d& velocity,
-                                                      double t_plan) {
+                                                      double t_plan, bool seen_until_arrival = true) {
   const CameraIntrinsics K = quarterCamera();
   ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
   p.safety.enabled = true;
+  p.safety.seen_until_arrival = seen_until_arrival;
   VehicleState s0 = planner::test::at(start, M_PI);
   s0.velocity_W = velocity;
   auto m = std::make_unique<ExplorationManager>(p, s0, 0.0);
@@ -575,6 +537,38 @@ void flyCommands(ExplorationManager& m, const DenseMap& map, double t_from, doub
   }
 }
 }  // namespace
+
+TEST_CASE("A way seen only by frames that leave the window before the vehicle gets there counts as unseen",
+          "[planner][safety]") {
+  // The corridor without drift, seen at t = 0 by a frame looking along it from x = 0.2 m; at
+  // t = 9 s the vehicle faces away (its newest frame sees the wall behind it) and plans to the
+  // frontier ahead. The old frame leaves the 10 s window at t = 10 s, so the way beyond where the
+  // vehicle gets by then is unseen (seen_until_arrival), and it turns to face the way before it
+  // flies there. Counting every frame in the window, the way is all seen: it flies off looking
+  // back, its yaw spread over the motion, and 1 m out, as the old frame leaves the window, the way
+  // ahead is unseen at speed.
+  const DenseMap map = driftedMap(Vec3d::Zero());
+  const Vec3d start(1.0, 1.3, 1.2);
+  const double t_plan = 9.0;
+  // The angle between the yaw and the direction of travel (toward where the vehicle is 0.5 s
+  // later, as TrajectoryConfig::yaw_along_travel faces it) when the first trajectory has flown
+  // 1 m from the start.
+  const auto yawOffTravel = [&](bool until_arrival) {
+    const std::unique_ptr<ExplorationManager> planned =
+        plannedFacingAway(map, start, Vec3d::Zero(), t_plan, until_arrival);
+    const ExplorationManager& m = *planned;
+    REQUIRE(m.command(1e9).position_W.x() > 3.0);  // past the block, toward the frontier at x = 6 m
+    double s = t_plan;
+    while ((m.command(s).position_W - start).norm() < 1.0) s += 0.01;
+    REQUIRE(s < m.trajectoryStartTime() + m.trajectory().motionDuration());
+    const VehicleState c = m.command(s);
+    const Eigen::Vector2d travel = (m.command(s + 0.5).position_W - c.position_W).head<2>();
+    return std::abs(wrapAngle(std::atan2(travel.y(), travel.x()) - c.yaw_rad));
+  };
+  const double facing_rad = TrajectoryConfig{}.start_facing_rad;
+  CHECK(yawOffTravel(true) <= facing_rad);
+  CHECK(yawOffTravel(false) > M_PI / 2);  // flies off looking back
+}
 
 TEST_CASE("Where the vehicle stands counts as seen: looks do not wait for its own position", "[planner][safety]") {
   // As above, the vehicle faces away from the way at t_plan = 9 s, and only the frame of t = 0
