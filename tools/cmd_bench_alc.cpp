@@ -27,6 +27,7 @@ struct BenchAlcOptions {
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   bool keep_runs = false;
+  std::size_t jobs = 1;
 };
 
 void runBenchAlc(const BenchAlcOptions& o) {
@@ -46,6 +47,7 @@ void runBenchAlc(const BenchAlcOptions& o) {
   c.safety.seen_free_is_free = o.safety_seen_free == "on";
   c.safety.map_thin_obstacles = o.safety_map_thin == "on";
   c.keep_runs = o.keep_runs;
+  c.jobs = o.jobs;
   c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   sim::runAlcBenchmark(c, o.output);
   std::ifstream md(o.output / "alc.md");
@@ -85,6 +87,10 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
       ->check(CLI::Range(0.0, 1.0));
   addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep each run's log and map in OUTDIR/runs/ (large)");
+  sub->add_option("--jobs", o->jobs,
+                  "Runs at a time (each run also uses every core for its own work); the runs and tables are the same "
+                  "for any value, only the wall time changes")
+      ->check(CLI::Range(1, 64));
   sub->add_option("-o,--output", o->output, "Output folder")->required();
   sub->callback([o] { runBenchAlc(*o); });
 });

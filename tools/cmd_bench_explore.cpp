@@ -25,6 +25,7 @@ struct BenchExploreOptions {
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   bool keep_runs = false;
+  std::size_t jobs = 1;
 };
 
 void runBenchExplore(const BenchExploreOptions& o) {
@@ -40,6 +41,7 @@ void runBenchExplore(const BenchExploreOptions& o) {
   c.safety.seen_free_is_free = o.safety_seen_free == "on";
   c.safety.map_thin_obstacles = o.safety_map_thin == "on";
   c.keep_runs = o.keep_runs;
+  c.jobs = o.jobs;
   c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   sim::runExploreBenchmark(c, o.output);
   std::ifstream md(o.output / "explore.md");
@@ -68,6 +70,10 @@ const GroupRegistration registration("bench", "explore", [](CLI::App& bench) {
   sub->add_option("--alc", o->alc, "Active loop closure on or off")->check(CLI::IsMember({"on", "off"}));
   addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep every run's log and map (large)");
+  sub->add_option("--jobs", o->jobs,
+                  "Runs at a time (each run also uses every core for its own work); the runs and tables are the same "
+                  "for any value, only the wall time changes")
+      ->check(CLI::Range(1, 64));
   sub->add_option("-o,--output", o->output, "Output folder")->required();
   sub->callback([o] { runBenchExplore(*o); });
 });

@@ -12,8 +12,10 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace vdbmap::sim {
 
@@ -25,6 +27,7 @@ void AlcBenchmarkConfig::validate() const {
   if (!(voxel_size_m > 0.0 && voxel_size_m <= 10.0)) fail("voxel_size_m must be in (0, 10]");
   if (!(max_time_s > 0.0 && max_time_s <= 1e5)) fail("max_time_s must be in (0, 1e5]");
   if (!(min_finish_coverage >= 0.0 && min_finish_coverage <= 1.0)) fail("min_finish_coverage must be in [0, 1]");
+  if (jobs < 1 || jobs > 64) fail("jobs must be in [1, 64]");
   alc.validate();
   safety.validate();
 }
@@ -84,39 +87,54 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     if (config.report) config.report(line);
   };
   std::filesystem::create_directories(out_dir);
+  internal::LazyWorlds worlds(config.worlds, out_dir);
+  struct Job {
+    std::size_t world;
+    std::uint64_t seed;
+    const char* arm;
+  };
+  std::vector<Job> order;  // per world, per seed: no_alc, then alc (the tables' order)
+  for (std::size_t w = 0; w < config.worlds.size(); ++w)
+    for (std::uint64_t seed = 1; seed <= config.seeds; ++seed)
+      for (const char* arm : kArms) order.push_back({w, seed, arm});
+  std::vector<std::optional<AlcBenchmarkRun>> done(order.size());
   AlcBenchmarkResult result;
-  for (const BenchmarkWorld& w : config.worlds) {
-    const World world = loadBenchmarkWorld(w);
-    const std::string world_file = benchmarkWorldFile(w, out_dir).string();
-    for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) {
-      for (const char* arm : kArms) {
-        ExplorationConfig ec = explorationConfigFor(world, config.drift_level, seed, config.voxel_size_m);
-        ec.simulator.loop_closure = config.loop_closure;
-        ec.max_time_s = config.max_time_s;
-        ec.planner.alc_enabled = std::string(arm) == "alc";
-        ec.planner.alc = config.alc;
-        ec.planner.alc.tour.seed = seed;
-        ec.planner.safety = config.safety;
-        if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
-        const ExplorationRunConfig ro =
-            internal::benchmarkRunConfig(config.keep_runs, world_file,
-                                         "vdbmap bench alc: world " + w.name + ", arm " + std::string(arm) + ", seed " +
-                                             std::to_string(seed) + ", drift " + config.drift_level);
-        const std::string name = std::string(arm) + "_seed" + std::to_string(seed);
-        const AlcBenchmarkRun run{w.name, arm, seed, exploreToFolder(world, ec, out_dir / "runs" / w.name / name, ro)};
-        const ExplorationSummary& s = run.summary;
-        report(w.name + "/" + name + ": " + (s.finished ? "finished" : "time limit") + " after " +
-               format("%.1f s", s.exploration_time_s) + ", " + std::to_string(s.loop_closures) +
-               " loop closures, rmse " + format("%.4f m", s.accuracy_rmse_m) + ", coverage " +
-               format("%.3f", s.coverage) + ", " + std::to_string(s.alc_detours) + " detours (" +
-               format("%.1f s", s.alc_time_s) + "), " + std::to_string(s.collisions) + " collisions, " +
-               format("%.0f s wall", s.wall_s));
-        result.runs.push_back(run);
-        result.wall_s = wall.s();
-        writeOutputs(result, config, out_dir);
-      }
-    }
-  }
+  const auto explore = [&](std::size_t i) {
+    const Job& job = order[i];
+    const std::string& world_name = config.worlds[job.world].name;
+    const World& world = worlds.world(job.world);
+    ExplorationConfig ec = explorationConfigFor(world, config.drift_level, job.seed, config.voxel_size_m);
+    ec.simulator.loop_closure = config.loop_closure;
+    ec.max_time_s = config.max_time_s;
+    ec.planner.alc_enabled = std::string(job.arm) == "alc";
+    ec.planner.alc = config.alc;
+    ec.planner.alc.tour.seed = job.seed;
+    ec.planner.safety = config.safety;
+    if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
+    const ExplorationRunConfig ro =
+        internal::benchmarkRunConfig(config.keep_runs, worlds.file(job.world),
+                                     "vdbmap bench alc: world " + world_name + ", arm " + std::string(job.arm) +
+                                         ", seed " + std::to_string(job.seed) + ", drift " + config.drift_level);
+    const std::string name = std::string(job.arm) + "_seed" + std::to_string(job.seed);
+    done[i] = AlcBenchmarkRun{world_name, job.arm, job.seed,
+                              exploreToFolder(world, ec, out_dir / "runs" / world_name / name, ro)};
+  };
+  const auto record = [&](std::size_t i) {  // one at a time
+    const AlcBenchmarkRun& run = *done[i];
+    const ExplorationSummary& s = run.summary;
+    report(run.world + "/" + run.arm + "_seed" + std::to_string(run.seed) + ": " +
+           (s.finished ? "finished" : "time limit") + " after " + format("%.1f s", s.exploration_time_s) + ", " +
+           std::to_string(s.loop_closures) + " loop closures, rmse " + format("%.4f m", s.accuracy_rmse_m) +
+           ", coverage " + format("%.3f", s.coverage) + ", " + std::to_string(s.alc_detours) + " detours (" +
+           format("%.1f s", s.alc_time_s) + "), " + std::to_string(s.collisions) + " collisions, " +
+           format("%.0f s wall", s.wall_s));
+    result.runs.clear();
+    for (const auto& r : done)
+      if (r) result.runs.push_back(*r);
+    result.wall_s = wall.s();
+    writeOutputs(result, config, out_dir);
+  };
+  internal::runConcurrently(order.size(), config.jobs, explore, record);
   return result;
 }
 

@@ -11,8 +11,11 @@
 
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace vdbmap::sim {
 
@@ -23,6 +26,7 @@ void ExploreBenchmarkConfig::validate() const {
   if (seeds < 1 || seeds > 1000) fail("seeds must be in [1, 1000]");
   if (!(voxel_size_m > 0.0 && voxel_size_m <= 10.0)) fail("voxel_size_m must be in (0, 10]");
   if (!(max_time_s > 0.0 && max_time_s <= 1e5)) fail("max_time_s must be in (0, 1e5]");
+  if (jobs < 1 || jobs > 64) fail("jobs must be in [1, 64]");
   safety.validate();
 }
 
@@ -84,34 +88,43 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     if (config.report) config.report(line);
   };
   std::filesystem::create_directories(out_dir);
+  internal::LazyWorlds worlds(config.worlds, out_dir);
+  std::vector<std::pair<std::size_t, std::uint64_t>> order;  // (world, seed), the tables' order
+  for (std::size_t w = 0; w < config.worlds.size(); ++w)
+    for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) order.emplace_back(w, seed);
+  std::vector<std::optional<ExploreBenchmarkRun>> done(order.size());
   ExploreBenchmarkResult result;
-  for (const BenchmarkWorld& w : config.worlds) {
-    const World world = loadBenchmarkWorld(w);
-    // A generated world is written beside the runs, so that a report can colour a map by it.
-    const std::string world_file = benchmarkWorldFile(w, out_dir).string();
-    for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) {
-      ExplorationConfig ec = explorationConfigFor(world, config.drift_level, seed, config.voxel_size_m);
-      ec.max_time_s = config.max_time_s;
-      ec.planner.alc_enabled = config.alc;
-      ec.planner.alc.tour.seed = seed;
-      ec.planner.safety = config.safety;
-      if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
-      const ExplorationRunConfig ro =
-          internal::benchmarkRunConfig(config.keep_runs, world_file,
-                                       "vdbmap bench explore: world " + w.name + ", seed " + std::to_string(seed) +
-                                           ", drift " + config.drift_level + (config.alc ? ", ALC on" : ""));
-      const std::string name = w.name + "_seed" + std::to_string(seed);
-      const ExploreBenchmarkRun run{w.name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
-      const ExplorationSummary& s = run.summary;
-      report(name + ": " + (s.finished ? "finished" : "time limit") + " after " + format("%.1f s", s.exploration_time_s) +
-             ", coverage " + format("%.3f", s.coverage) + ", 0.95 at " + timeOrDash(s.time_to_coverage_s[3]) + " s, " +
-             format("%.2f m/s", s.mean_speed_mps) + ", " + std::to_string(s.collisions) + " collisions, " +
-             format("%.0f s wall", s.wall_s));
-      result.runs.push_back(run);
-      result.wall_s = wall.s();
-      writeOutputs(result, config, out_dir);
-    }
-  }
+  const auto explore = [&](std::size_t i) {
+    const auto [w, seed] = order[i];
+    const std::string& world_name = config.worlds[w].name;
+    const World& world = worlds.world(w);
+    ExplorationConfig ec = explorationConfigFor(world, config.drift_level, seed, config.voxel_size_m);
+    ec.max_time_s = config.max_time_s;
+    ec.planner.alc_enabled = config.alc;
+    ec.planner.alc.tour.seed = seed;
+    ec.planner.safety = config.safety;
+    if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
+    const ExplorationRunConfig ro =
+        internal::benchmarkRunConfig(config.keep_runs, worlds.file(w),
+                                     "vdbmap bench explore: world " + world_name + ", seed " + std::to_string(seed) +
+                                         ", drift " + config.drift_level + (config.alc ? ", ALC on" : ""));
+    const std::string name = world_name + "_seed" + std::to_string(seed);
+    done[i] = ExploreBenchmarkRun{world_name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
+  };
+  const auto record = [&](std::size_t i) {  // one at a time
+    const ExploreBenchmarkRun& run = *done[i];
+    const ExplorationSummary& s = run.summary;
+    report(run.world + "_seed" + std::to_string(run.seed) + ": " + (s.finished ? "finished" : "time limit") +
+           " after " + format("%.1f s", s.exploration_time_s) + ", coverage " + format("%.3f", s.coverage) +
+           ", 0.95 at " + timeOrDash(s.time_to_coverage_s[3]) + " s, " + format("%.2f m/s", s.mean_speed_mps) + ", " +
+           std::to_string(s.collisions) + " collisions, " + format("%.0f s wall", s.wall_s));
+    result.runs.clear();
+    for (const auto& r : done)
+      if (r) result.runs.push_back(*r);
+    result.wall_s = wall.s();
+    writeOutputs(result, config, out_dir);
+  };
+  internal::runConcurrently(order.size(), config.jobs, explore, record);
   return result;
 }
 

@@ -67,10 +67,15 @@ TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed",
   vdbmap::io::writePlyMesh(dir / "room2.ply", vdbmap::test::roomWithBox());
   const fs::path multi = dir / "multi";
   REQUIRE(run("bench alc --worlds " + (dir / "room.ply").string() + " " + (dir / "room2.ply").string() +
-                  " --seeds 1 --max-time-s 10 --safety on --safety-seen-free on -o " + multi.string(),
+                  " --seeds 1 --max-time-s 10 --safety on --safety-seen-free on --jobs 3 -o " + multi.string(),
               out) == 0);
   const auto multi_runs = nlohmann::json::parse(slurp(multi / "alc.json"));
   REQUIRE(multi_runs.size() == 4);
+  // Three runs at a time: the table lists them per world, per seed, no_alc then alc all the same.
+  for (std::size_t k = 0; k < 4; ++k) {
+    CHECK(multi_runs[k].at("world") == (k < 2 ? "room" : "room2"));
+    CHECK(multi_runs[k].at("arm") == (k % 2 == 0 ? "no_alc" : "alc"));
+  }
   std::set<std::string> worlds;
   for (const auto& r : multi_runs) {
     worlds.insert(r.at("world").get<std::string>());

@@ -55,6 +55,24 @@ TEST_CASE("vdbmap bench explore tabulates time to coverage per world and seed", 
   CHECK(md.find("| room | 2 | " + std::to_string(finished) + " | " + std::to_string(complete) + " |") !=
         std::string::npos);
 
+  // Two runs at a time fly the same runs and list them in the same order: a run's budgets are
+  // counted, not timed, so nothing it does depends on what runs beside it.
+  const fs::path concurrent = dir / "concurrent";
+  REQUIRE(run("bench explore --worlds " + (dir / "room.ply").string() +
+                  " --ceiling 0 --seeds 2 --max-time-s 40 --jobs 2 -o " + concurrent.string(),
+              out) == 0);
+  const auto concurrent_runs = nlohmann::json::parse(slurp(concurrent / "explore.json"));
+  REQUIRE(concurrent_runs.size() == runs.size());
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    CHECK(concurrent_runs[k].at("seed") == runs[k].at("seed"));
+    for (const char* key : {"exploration_time_s", "path_length_m", "coverage", "time_to_coverage_s", "collisions"})
+      CHECK(concurrent_runs[k].at(key) == runs[k].at(key));
+    const fs::path name = fs::path("runs") / ("room_seed" + std::to_string(k + 1)) / "trajectory_true.txt";
+    CHECK(slurp(concurrent / name) == slurp(bench / name));
+  }
+  CHECK(run("bench explore --worlds office:1 --jobs 0 -o " + (dir / "x").string(), out) != 0);
+  CHECK(slurp(out).find("--jobs") != std::string::npos);
+
   // A generated office is written beside the runs (a report colours maps by it); its spec is checked.
   CHECK(run("bench explore --worlds office:0 -o " + (dir / "x").string(), out) != 0);
   CHECK(slurp(out).find("office:0") != std::string::npos);

@@ -2,10 +2,20 @@
 #pragma once
 
 #include "text_format.hpp"
+#include "vdbmap/sim/benchmark_world.hpp"
 #include "vdbmap/sim/exploration.hpp"
 
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <exception>
+#include <filesystem>
+#include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <utility>
+#include <vector>
 
 namespace vdbmap::sim::internal {
 
@@ -33,6 +43,72 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
   return std::string("on") + (safety.seen_free_is_free ? " (seen free is free)" : "") +
          (!safety.map_thin_obstacles ? " (no thin structure from the map)" : "") + " (vertical margin " +
          format("%.2f", first_m) + (most_m > first_m ? format("-%.2f", most_m) : std::string()) + " m)";
+}
+
+/// A benchmark's worlds, each loaded by the first run that asks for it (a generated one is also
+/// written beside the runs then, so that a report can colour a map by it); safe to ask from
+/// several threads.
+class LazyWorlds {
+ public:
+  LazyWorlds(const std::vector<BenchmarkWorld>& worlds, std::filesystem::path out_dir)
+      : specs_(worlds),
+        out_dir_(std::move(out_dir)),
+        once_(new std::once_flag[worlds.size()]),
+        loaded_(worlds.size()) {}
+
+  /// The world `i` (of the config's list) and the mesh file that stands for it.
+  const World& world(std::size_t i) { return load(i).world; }
+  const std::string& file(std::size_t i) { return load(i).file; }
+
+ private:
+  struct Loaded {
+    World world;
+    std::string file;
+  };
+  const Loaded& load(std::size_t i) {
+    std::call_once(once_[i], [&] {
+      loaded_[i] = std::make_unique<Loaded>(
+          Loaded{loadBenchmarkWorld(specs_[i]), benchmarkWorldFile(specs_[i], out_dir_).string()});
+    });
+    return *loaded_[i];
+  }
+
+  const std::vector<BenchmarkWorld>& specs_;
+  std::filesystem::path out_dir_;
+  std::unique_ptr<std::once_flag[]> once_;
+  std::vector<std::unique_ptr<Loaded>> loaded_;
+};
+
+/// Runs task(i) for every i in [0, n) on up to `jobs` threads (the calling one included), starting
+/// them in index order; finished(i) follows task(i), under one lock, so one finished call at a
+/// time, in the order the tasks end. The first exception (from either) stops new tasks from
+/// starting; it is rethrown once the running ones are done. Each benchmark run repeats exactly
+/// whatever runs beside it (its budgets are counted, not timed), so `jobs` changes only the wall
+/// time.
+template <class Task, class Finished>
+void runConcurrently(std::size_t n, std::size_t jobs, const Task& task, const Finished& finished) {
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::mutex mutex;
+  std::exception_ptr error;
+  const auto work = [&] {
+    for (std::size_t i; !failed.load() && (i = next.fetch_add(1)) < n;) {
+      try {
+        task(i);
+        const std::lock_guard<std::mutex> lock(mutex);
+        finished(i);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        if (!error) error = std::current_exception();
+        failed = true;
+      }
+    }
+  };
+  std::vector<std::thread> helpers;
+  for (std::size_t k = 1; k < std::min(jobs, n); ++k) helpers.emplace_back(work);
+  work();
+  for (std::thread& t : helpers) t.join();
+  if (error) std::rethrow_exception(error);
 }
 
 }  // namespace vdbmap::sim::internal

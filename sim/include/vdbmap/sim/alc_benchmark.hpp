@@ -4,7 +4,7 @@
 // nobody tuned on.
 //
 // For each world and seed k (1..seeds) both arms run with the same set-up (explorationConfigFor: drift seeded
-// with k, planner seeded with k, same start), one after the other: "no_alc" (plain FUEL) and "alc"
+// with k, planner seeded with k, same start), `jobs` runs at a time: "no_alc" (plain FUEL) and "alc"
 // (ExplorationManagerConfig::alc_enabled, epsilon from the config). Each run is evaluated like `vdbmap
 // explore` (coverage of the observable surface, map RMSE and completeness against the world mesh)
 // and its folder OUTDIR/runs/<world>/<arm>_seed<k>/ gets summary.json and the trajectories (the
@@ -16,7 +16,8 @@
 // paired effect of ALC (time overhead, loop-closure gain, RMSE change and the share of pairs
 // where ALC's map is better, runs that finished below `min_finish_coverage`); then the same per
 // world, and every run. Both files are rewritten after every run, so an interrupted benchmark
-// leaves the runs done so far.
+// leaves the runs done so far, listed in the tables' order (per world, per seed, no_alc then alc)
+// whichever ended first.
 #pragma once
 
 #include "vdbmap/planner/active_loop_closure.hpp"
@@ -50,7 +51,10 @@ struct AlcBenchmarkConfig {
   double min_finish_coverage = kCompleteCoverage;
   /// Also keep each run's log and map (large); summary.json and trajectories are always written.
   bool keep_runs = false;
-  /// Called with a line of progress text.
+  /// Runs at a time (each also uses the machine's cores for its own work); every run repeats
+  /// exactly whatever runs beside it, so this changes only the wall time; [1, 64]
+  std::size_t jobs = 1;
+  /// Called with a line of progress text (in the order runs end).
   std::function<void(const std::string&)> report;
 
   void validate() const;

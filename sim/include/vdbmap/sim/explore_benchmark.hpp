@@ -11,7 +11,7 @@
 // 50/80/90/95/99 % coverage, the exploration time, mean speed, the final sweep's share, the
 // longest hold, collisions, the planner's time per replan and the real-time factor; then every
 // run). Both are rewritten after every run, so an interrupted benchmark leaves the runs done so
-// far.
+// far, listed in the tables' order (per world, per seed) whichever ended first.
 #pragma once
 
 #include "vdbmap/sim/benchmark_world.hpp"
@@ -35,7 +35,10 @@ struct ExploreBenchmarkConfig {
   bool alc = false;                                          ///< active loop closure on
   planner::SafetyConfig safety;  ///< the safety layer (off by default, as in `vdbmap explore`)
   bool keep_runs = false;  ///< also keep each run's log and map (large)
-  std::function<void(const std::string&)> report;  ///< a line of progress text
+  /// Runs at a time (each also uses the machine's cores for its own work); every run repeats
+  /// exactly whatever runs beside it, so this changes only the wall time; [1, 64]
+  std::size_t jobs = 1;
+  std::function<void(const std::string&)> report;  ///< a line of progress text (in the order runs end)
 
   void validate() const;
 };
