@@ -183,22 +183,33 @@ ObservableSurface::ObservableSurface(const World& world, const Eigen::AlignedBox
 
 std::vector<bool> ObservableSurface::known(const planner::MapQuery& map) const {
   const double s = map.voxelSize(), radius_m = config_.known_radius_vox * s;
+  // The voxels whose centre a point of voxel c can lie within radius_m of (a point is at most half
+  // a diagonal from c's centre), nearest first: a known one ends a point's search, and most
+  // points are known. Which of them are within radius_m is decided per point, exactly.
   const int reach = int(std::ceil(config_.known_radius_vox)) + 1;
+  const double reach_vox = config_.known_radius_vox + 0.5 * std::sqrt(3.0) + 1e-6;
+  std::vector<openvdb::Coord> near;
+  for (int dx = -reach; dx <= reach; ++dx)
+    for (int dy = -reach; dy <= reach; ++dy)
+      for (int dz = -reach; dz <= reach; ++dz)
+        if (dx * dx + dy * dy + dz * dz <= reach_vox * reach_vox) near.emplace_back(dx, dy, dz);
+  std::stable_sort(near.begin(), near.end(), [](const openvdb::Coord& a, const openvdb::Coord& b) {
+    return a.x() * a.x() + a.y() * a.y() + a.z() * a.z() < b.x() * b.x() + b.y() * b.y() + b.z() * b.z();
+  });
   std::vector<std::uint8_t> flags(observable_.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, observable_.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
     const std::unique_ptr<planner::MapReader> reader = map.reader();
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       const Vec3d& p = observable_[i];
       const openvdb::Coord c = map.worldToVoxel(p);
-      bool found = false;
-      for (int dx = -reach; dx <= reach && !found; ++dx)
-        for (int dy = -reach; dy <= reach && !found; ++dy)
-          for (int dz = -reach; dz <= reach && !found; ++dz) {
-            const openvdb::Coord n = c.offsetBy(dx, dy, dz);
-            if ((map.voxelCenter(n) - p).norm() > radius_m + 1e-9) continue;
-            found = reader->at(n) != planner::Occupancy::Unknown;
-          }
-      flags[i] = found;
+      for (const openvdb::Coord& d : near) {
+        const openvdb::Coord n = c + d;
+        if ((planner::voxelCenterOf(n, s) - p).norm() > radius_m + 1e-9) continue;
+        if (reader->at(n) != planner::Occupancy::Unknown) {
+          flags[i] = 1;
+          break;
+        }
+      }
     }
   });
   return std::vector<bool>(flags.begin(), flags.end());
