@@ -110,18 +110,70 @@ std::vector<Vec3d> clipNear(const std::array<Vec3d, 3>& tri) {
   return out;
 }
 
+/// Narrows the pixel span [lo, hi] of a row to the pixels inside edge e; empty when lo > hi. Along a
+/// row, e.eval is a monotone function of px (each rounded operation is), so the pixels inside one
+/// edge are a prefix or a suffix of the row and binary search finds exactly the pixels the
+/// pixel-by-pixel test accepts.
+void narrowToEdge(const Edge& e, double py, int& lo, int& hi) {
+  if (lo > hi) return;
+  if (e.dy == 0.0) {  // constant along the row
+    if (!e.inside(lo, py)) lo = hi + 1;
+    return;
+  }
+  const bool prefix = (e.dy > 0.0) == e.interior_positive;  // eval falls along the row iff dy > 0
+  if (prefix) {
+    if (!e.inside(lo, py)) {
+      lo = hi + 1;
+      return;
+    }
+    int a = lo, b = hi;  // inside(a); find the last inside
+    while (a < b) {
+      const int m = a + (b - a + 1) / 2;
+      if (e.inside(m, py))
+        a = m;
+      else
+        b = m - 1;
+    }
+    hi = a;
+  } else {
+    if (!e.inside(hi, py)) {
+      lo = hi + 1;
+      return;
+    }
+    int a = lo, b = hi;  // inside(b); find the first inside
+    while (a < b) {
+      const int m = a + (b - a) / 2;
+      if (e.inside(m, py))
+        b = m;
+      else
+        a = m + 1;
+    }
+    lo = b;
+  }
+}
+
+/// Pixel spans narrower than this are tested pixel by pixel (the same pixels either way).
+constexpr int kSearchSpanPx = 8;
+
 void rasterize(const ScreenTriangle& s, const CameraIntrinsics& K, int row_begin, int row_end,
                std::vector<double>& zbuf) {
   const Edge e0 = makeEdge(s.x[0], s.y[0], s.x[1], s.y[1], s.x[2], s.y[2]);
   const Edge e1 = makeEdge(s.x[1], s.y[1], s.x[2], s.y[2], s.x[0], s.y[0]);
   const Edge e2 = makeEdge(s.x[2], s.y[2], s.x[0], s.y[0], s.x[1], s.y[1]);
   const int v_begin = std::max(s.v0, row_begin), v_end = std::min(s.v1, row_end - 1);
+  const bool search = s.u1 - s.u0 + 1 >= kSearchSpanPx;
   for (int v = v_begin; v <= v_end; ++v) {
     const double py = v, ray_y = (py - K.cy) / K.fy;
     double* row = &zbuf[std::size_t(v - row_begin) * std::size_t(K.width)];
-    for (int u = s.u0; u <= s.u1; ++u) {
+    int lo = s.u0, hi = s.u1;
+    if (search) {
+      narrowToEdge(e0, py, lo, hi);
+      narrowToEdge(e1, py, lo, hi);
+      narrowToEdge(e2, py, lo, hi);
+    }
+    for (int u = lo; u <= hi; ++u) {
       const double px = u;
-      if (!e0.inside(px, py) || !e1.inside(px, py) || !e2.inside(px, py)) continue;
+      if (!search && (!e0.inside(px, py) || !e1.inside(px, py) || !e2.inside(px, py))) continue;
       // Depth where the pixel's ray (z = 1) meets the triangle's plane: exact, not interpolated.
       const double den = s.n_S.x() * (px - K.cx) / K.fx + s.n_S.y() * ray_y + s.n_S.z();
       if (den == 0.0) continue;
