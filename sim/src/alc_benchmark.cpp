@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -134,7 +135,13 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     result.wall_s = wall.s();
     writeOutputs(result, config, out_dir);
   };
-  internal::runConcurrently(order.size(), config.jobs, explore, record);
+  // Started seed by seed across the worlds, so that a benchmark stopped early has runs of each.
+  std::vector<std::size_t> start(order.size());
+  std::iota(start.begin(), start.end(), std::size_t(0));
+  std::stable_sort(start.begin(), start.end(),
+                   [&](std::size_t i, std::size_t j) { return order[i].seed < order[j].seed; });
+  internal::runConcurrently(
+      start.size(), config.jobs, [&](std::size_t k) { explore(start[k]); }, [&](std::size_t k) { record(start[k]); });
   return result;
 }
 

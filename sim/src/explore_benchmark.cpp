@@ -9,8 +9,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -124,7 +126,13 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     result.wall_s = wall.s();
     writeOutputs(result, config, out_dir);
   };
-  internal::runConcurrently(order.size(), config.jobs, explore, record);
+  // Started seed by seed across the worlds, so that a benchmark stopped early has runs of each.
+  std::vector<std::size_t> start(order.size());
+  std::iota(start.begin(), start.end(), std::size_t(0));
+  std::stable_sort(start.begin(), start.end(),
+                   [&](std::size_t i, std::size_t j) { return order[i].second < order[j].second; });
+  internal::runConcurrently(
+      start.size(), config.jobs, [&](std::size_t k) { explore(start[k]); }, [&](std::size_t k) { record(start[k]); });
   return result;
 }
 

@@ -17,7 +17,8 @@
 // where ALC's map is better, runs that finished below `min_finish_coverage`); then the same per
 // world, and every run. Both files are rewritten after every run, so an interrupted benchmark
 // leaves the runs done so far, listed in the tables' order (per world, per seed, no_alc then alc)
-// whichever ended first.
+// whichever ended first. Runs start seed by seed across the worlds (seed 1 of every world first),
+// so that a benchmark stopped early has runs of each world.
 #pragma once
 
 #include "vdbmap/planner/active_loop_closure.hpp"

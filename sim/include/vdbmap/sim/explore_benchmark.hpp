@@ -11,7 +11,8 @@
 // 50/80/90/95/99 % coverage, the exploration time, mean speed, the final sweep's share, the
 // longest hold, collisions, the planner's time per replan and the real-time factor; then every
 // run). Both are rewritten after every run, so an interrupted benchmark leaves the runs done so
-// far, listed in the tables' order (per world, per seed) whichever ended first.
+// far, listed in the tables' order (per world, per seed) whichever ended first. Runs start seed by
+// seed across the worlds, so that a benchmark stopped early has runs of each world.
 #pragma once
 
 #include "vdbmap/sim/benchmark_world.hpp"
