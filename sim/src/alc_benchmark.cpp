@@ -117,11 +117,11 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
                                      "vdbmap bench alc: world " + world_name + ", arm " + std::string(job.arm) +
                                          ", seed " + std::to_string(job.seed) + ", drift " + config.drift_level);
     const std::string name = std::string(job.arm) + "_seed" + std::to_string(job.seed);
-    done[i] = AlcBenchmarkRun{world_name, job.arm, job.seed,
-                              exploreToFolder(world, ec, out_dir / "runs" / world_name / name, ro)};
+    return AlcBenchmarkRun{world_name, job.arm, job.seed,
+                           exploreToFolder(world, ec, out_dir / "runs" / world_name / name, ro)};
   };
-  const auto record = [&](std::size_t i) {  // one at a time
-    const AlcBenchmarkRun& run = *done[i];
+  const auto record = [&](std::size_t i, AlcBenchmarkRun&& finished) {  // one at a time
+    const AlcBenchmarkRun& run = *(done[i] = std::move(finished));
     const ExplorationSummary& s = run.summary;
     report(run.world + "/" + run.arm + "_seed" + std::to_string(run.seed) + ": " +
            (s.finished ? "finished" : "time limit") + " after " + format("%.1f s", s.exploration_time_s) + ", " +
@@ -141,7 +141,8 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
   std::stable_sort(start.begin(), start.end(),
                    [&](std::size_t i, std::size_t j) { return order[i].seed < order[j].seed; });
   internal::runConcurrently(
-      start.size(), config.jobs, [&](std::size_t k) { explore(start[k]); }, [&](std::size_t k) { record(start[k]); });
+      start.size(), config.jobs, [&](std::size_t k) { return explore(start[k]); },
+      [&](std::size_t k, auto&& run) { record(start[k], std::move(run)); });
   return result;
 }
 

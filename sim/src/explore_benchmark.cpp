@@ -111,10 +111,10 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
                                      "vdbmap bench explore: world " + world_name + ", seed " + std::to_string(seed) +
                                          ", drift " + config.drift_level + (config.alc ? ", ALC on" : ""));
     const std::string name = world_name + "_seed" + std::to_string(seed);
-    done[i] = ExploreBenchmarkRun{world_name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
+    return ExploreBenchmarkRun{world_name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
   };
-  const auto record = [&](std::size_t i) {  // one at a time
-    const ExploreBenchmarkRun& run = *done[i];
+  const auto record = [&](std::size_t i, ExploreBenchmarkRun&& finished) {  // one at a time
+    const ExploreBenchmarkRun& run = *(done[i] = std::move(finished));
     const ExplorationSummary& s = run.summary;
     report(run.world + "_seed" + std::to_string(run.seed) + ": " + (s.finished ? "finished" : "time limit") +
            " after " + format("%.1f s", s.exploration_time_s) + ", coverage " + format("%.3f", s.coverage) +
@@ -132,7 +132,8 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
   std::stable_sort(start.begin(), start.end(),
                    [&](std::size_t i, std::size_t j) { return order[i].second < order[j].second; });
   internal::runConcurrently(
-      start.size(), config.jobs, [&](std::size_t k) { explore(start[k]); }, [&](std::size_t k) { record(start[k]); });
+      start.size(), config.jobs, [&](std::size_t k) { return explore(start[k]); },
+      [&](std::size_t k, auto&& run) { record(start[k], std::move(run)); });
   return result;
 }
 

@@ -80,11 +80,11 @@ class LazyWorlds {
 };
 
 /// Runs task(i) for every i in [0, n) on up to `jobs` threads (the calling one included), starting
-/// them in index order; finished(i) follows task(i), under one lock, so one finished call at a
-/// time, in the order the tasks end. The first exception (from either) stops new tasks from
-/// starting; it is rethrown once the running ones are done. Each benchmark run repeats exactly
-/// whatever runs beside it (its budgets are counted, not timed), so `jobs` changes only the wall
-/// time.
+/// them in index order; finished(i, result) follows each, with what task(i) returned, under one
+/// lock: one finished call at a time, in the order the tasks end, so that it alone may touch what
+/// the tasks share. The first exception (from either) stops new tasks from starting; it is
+/// rethrown once the running ones are done. Each benchmark run repeats exactly whatever runs
+/// beside it (its budgets are counted, not timed), so `jobs` changes only the wall time.
 template <class Task, class Finished>
 void runConcurrently(std::size_t n, std::size_t jobs, const Task& task, const Finished& finished) {
   std::atomic<std::size_t> next{0};
@@ -94,9 +94,9 @@ void runConcurrently(std::size_t n, std::size_t jobs, const Task& task, const Fi
   const auto work = [&] {
     for (std::size_t i; !failed.load() && (i = next.fetch_add(1)) < n;) {
       try {
-        task(i);
+        auto result = task(i);
         const std::lock_guard<std::mutex> lock(mutex);
-        finished(i);
+        finished(i, std::move(result));
       } catch (...) {
         const std::lock_guard<std::mutex> lock(mutex);
         if (!error) error = std::current_exception();
