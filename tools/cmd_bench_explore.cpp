@@ -71,8 +71,8 @@ const GroupRegistration registration("bench", "explore", [](CLI::App& bench) {
   addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep every run's log and map (large)");
   sub->add_option("--jobs", o->jobs,
-                  "Runs at a time (each run also uses every core for its own work); the runs and tables are the same "
-                  "for any value, only the wall time changes")
+                  "Runs at a time, at most one per core (each run also uses every core for its own work); the runs "
+                  "are the same for any value (their budgets are counted), only the wall time changes")
       ->check(CLI::Range(1, 64));
   sub->add_option("-o,--output", o->output, "Output folder")->required();
   sub->callback([o] { runBenchExplore(*o); });

@@ -88,7 +88,7 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     if (config.report) config.report(line);
   };
   std::filesystem::create_directories(out_dir);
-  internal::LazyWorlds worlds(config.worlds, out_dir);
+  internal::LazyWorlds worlds(config.worlds, out_dir, 2 * config.seeds);
   struct Job {
     std::size_t world;
     std::uint64_t seed;
@@ -117,8 +117,10 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
                                      "vdbmap bench alc: world " + world_name + ", arm " + std::string(job.arm) +
                                          ", seed " + std::to_string(job.seed) + ", drift " + config.drift_level);
     const std::string name = std::string(job.arm) + "_seed" + std::to_string(job.seed);
-    return AlcBenchmarkRun{world_name, job.arm, job.seed,
-                           exploreToFolder(world, ec, out_dir / "runs" / world_name / name, ro)};
+    AlcBenchmarkRun run{world_name, job.arm, job.seed,
+                        exploreToFolder(world, ec, out_dir / "runs" / world_name / name, ro)};
+    worlds.done(job.world);
+    return run;
   };
   const auto record = [&](std::size_t i, AlcBenchmarkRun&& finished) {  // one at a time
     const AlcBenchmarkRun& run = *(done[i] = std::move(finished));

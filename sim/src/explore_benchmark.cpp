@@ -90,7 +90,7 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     if (config.report) config.report(line);
   };
   std::filesystem::create_directories(out_dir);
-  internal::LazyWorlds worlds(config.worlds, out_dir);
+  internal::LazyWorlds worlds(config.worlds, out_dir, config.seeds);
   std::vector<std::pair<std::size_t, std::uint64_t>> order;  // (world, seed), the tables' order
   for (std::size_t w = 0; w < config.worlds.size(); ++w)
     for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) order.emplace_back(w, seed);
@@ -111,7 +111,9 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
                                      "vdbmap bench explore: world " + world_name + ", seed " + std::to_string(seed) +
                                          ", drift " + config.drift_level + (config.alc ? ", ALC on" : ""));
     const std::string name = world_name + "_seed" + std::to_string(seed);
-    return ExploreBenchmarkRun{world_name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
+    ExploreBenchmarkRun run{world_name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
+    worlds.done(w);
+    return run;
   };
   const auto record = [&](std::size_t i, ExploreBenchmarkRun&& finished) {  // one at a time
     const ExploreBenchmarkRun& run = *(done[i] = std::move(finished));

@@ -187,7 +187,8 @@ std::vector<bool> ObservableSurface::known(const planner::MapQuery& map) const {
   // a diagonal from c's centre), nearest first: a known one ends a point's search, and most
   // points are known. Which of them are within radius_m is decided per point, exactly.
   const int reach = int(std::ceil(config_.known_radius_vox)) + 1;
-  const double reach_vox = config_.known_radius_vox + 0.5 * std::sqrt(3.0) + 1e-6;
+  // (with the per-point test's 1e-9 m slack, and 1e-6 voxels for the rounding of this bound)
+  const double reach_vox = (radius_m + 1e-9) / s + 0.5 * std::sqrt(3.0) + 1e-6;
   std::vector<openvdb::Coord> near;
   for (int dx = -reach; dx <= reach; ++dx)
     for (int dy = -reach; dy <= reach; ++dy)

@@ -70,6 +70,18 @@ TEST_CASE("vdbmap bench explore tabulates time to coverage per world and seed", 
     const fs::path name = fs::path("runs") / ("room_seed" + std::to_string(k + 1)) / "trajectory_true.txt";
     CHECK(slurp(concurrent / name) == slurp(bench / name));
   }
+  // Two worlds, two seeds, started seed by seed across the worlds: the table stays per world, per seed.
+  vdbmap::io::writePlyMesh(dir / "room2.ply", vdbmap::test::roomWithBox());
+  const fs::path two = dir / "two";
+  REQUIRE(run("bench explore --worlds " + (dir / "room.ply").string() + " " + (dir / "room2.ply").string() +
+                  " --ceiling 0 --seeds 2 --max-time-s 5 --jobs 2 -o " + two.string(),
+              out) == 0);
+  const auto two_runs = nlohmann::json::parse(slurp(two / "explore.json"));
+  REQUIRE(two_runs.size() == 4);
+  for (std::size_t k = 0; k < 4; ++k) {
+    CHECK(two_runs[k].at("world") == (k < 2 ? "room" : "room2"));
+    CHECK(two_runs[k].at("seed") == k % 2 + 1);
+  }
   CHECK(run("bench explore --worlds office:1 --jobs 0 -o " + (dir / "x").string(), out) != 0);
   CHECK(slurp(out).find("--jobs") != std::string::npos);
 

@@ -46,66 +46,86 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
 }
 
 /// A benchmark's worlds, each loaded by the first run that asks for it (a generated one is also
-/// written beside the runs then, so that a report can colour a map by it); safe to ask from
-/// several threads.
+/// written beside the runs then, so that a report can colour a map by it) and dropped when its
+/// last run is done; safe to use from several threads.
 class LazyWorlds {
  public:
-  LazyWorlds(const std::vector<BenchmarkWorld>& worlds, std::filesystem::path out_dir)
-      : specs_(worlds),
-        out_dir_(std::move(out_dir)),
-        once_(new std::once_flag[worlds.size()]),
-        loaded_(worlds.size()) {}
+  /// `runs_per_world`: how many runs will call done() for each world.
+  LazyWorlds(const std::vector<BenchmarkWorld>& worlds, std::filesystem::path out_dir, std::size_t runs_per_world)
+      : specs_(worlds), out_dir_(std::move(out_dir)), slots_(worlds.size()) {
+    for (Slot& slot : slots_) slot.runs_left = runs_per_world;
+  }
 
-  /// The world `i` (of the config's list) and the mesh file that stands for it.
+  /// The world `i` (of the config's list) and the mesh file that stands for it; valid until its
+  /// last run is done. A world that fails to load throws here, for each run that asks.
   const World& world(std::size_t i) { return load(i).world; }
   const std::string& file(std::size_t i) { return load(i).file; }
+  /// One run of world `i` is over (its world is not used by it any more).
+  void done(std::size_t i) {
+    Slot& slot = slots_[i];
+    const std::lock_guard<std::mutex> lock(slot.mutex);
+    if (slot.runs_left > 0 && --slot.runs_left == 0) slot.loaded.reset();
+  }
 
  private:
   struct Loaded {
     World world;
     std::string file;
   };
+  struct Slot {
+    std::mutex mutex;
+    std::unique_ptr<Loaded> loaded;
+    std::size_t runs_left = 0;
+  };
   const Loaded& load(std::size_t i) {
-    std::call_once(once_[i], [&] {
-      loaded_[i] = std::make_unique<Loaded>(
+    Slot& slot = slots_[i];
+    const std::lock_guard<std::mutex> lock(slot.mutex);
+    if (!slot.loaded)
+      slot.loaded = std::make_unique<Loaded>(
           Loaded{loadBenchmarkWorld(specs_[i]), benchmarkWorldFile(specs_[i], out_dir_).string()});
-    });
-    return *loaded_[i];
+    return *slot.loaded;
   }
 
   const std::vector<BenchmarkWorld>& specs_;
   std::filesystem::path out_dir_;
-  std::unique_ptr<std::once_flag[]> once_;
-  std::vector<std::unique_ptr<Loaded>> loaded_;
+  std::vector<Slot> slots_;
 };
 
 /// Runs task(i) for every i in [0, n) on up to `jobs` threads (the calling one included), starting
 /// them in index order; finished(i, result) follows each, with what task(i) returned, under one
 /// lock: one finished call at a time, in the order the tasks end, so that it alone may touch what
-/// the tasks share. The first exception (from either) stops new tasks from starting; it is
-/// rethrown once the running ones are done. Each benchmark run repeats exactly whatever runs
-/// beside it (its budgets are counted, not timed), so `jobs` changes only the wall time.
+/// the tasks share. The first exception (from a task, a finished call or starting a thread) stops
+/// new tasks from starting; it is rethrown once the running ones are done.
 template <class Task, class Finished>
 void runConcurrently(std::size_t n, std::size_t jobs, const Task& task, const Finished& finished) {
   std::atomic<std::size_t> next{0};
   std::atomic<bool> failed{false};
   std::mutex mutex;
   std::exception_ptr error;
+  const auto fail = [&](std::exception_ptr e) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (!error) error = std::move(e);
+    failed = true;
+  };
   const auto work = [&] {
-    for (std::size_t i; !failed.load() && (i = next.fetch_add(1)) < n;) {
+    while (!failed.load()) {
+      const std::size_t i = next.fetch_add(1);
+      if (i >= n) return;
       try {
         auto result = task(i);
         const std::lock_guard<std::mutex> lock(mutex);
         finished(i, std::move(result));
       } catch (...) {
-        const std::lock_guard<std::mutex> lock(mutex);
-        if (!error) error = std::current_exception();
-        failed = true;
+        fail(std::current_exception());
       }
     }
   };
   std::vector<std::thread> helpers;
-  for (std::size_t k = 1; k < std::min(jobs, n); ++k) helpers.emplace_back(work);
+  try {
+    for (std::size_t k = 1; k < std::min(jobs, n); ++k) helpers.emplace_back(work);
+  } catch (...) {  // fails the call once the threads started are done
+    fail(std::current_exception());
+  }
   work();
   for (std::thread& t : helpers) t.join();
   if (error) std::rethrow_exception(error);

@@ -52,8 +52,9 @@ struct AlcBenchmarkConfig {
   double min_finish_coverage = kCompleteCoverage;
   /// Also keep each run's log and map (large); summary.json and trajectories are always written.
   bool keep_runs = false;
-  /// Runs at a time (each also uses the machine's cores for its own work); every run repeats
-  /// exactly whatever runs beside it, so this changes only the wall time; [1, 64]
+  /// Runs at a time (each also uses the machine's cores for its own work). A run's budgets are
+  /// counted (BudgetMode::Counted), so it repeats exactly whatever runs beside it unless the
+  /// machine gets 20 times slower for it (the wall-clock backstop): no more jobs than cores; [1, 64]
   std::size_t jobs = 1;
   /// Called with a line of progress text (in the order runs end).
   std::function<void(const std::string&)> report;

@@ -36,8 +36,10 @@ struct ExploreBenchmarkConfig {
   bool alc = false;                                          ///< active loop closure on
   planner::SafetyConfig safety;  ///< the safety layer (off by default, as in `vdbmap explore`)
   bool keep_runs = false;  ///< also keep each run's log and map (large)
-  /// Runs at a time (each also uses the machine's cores for its own work); every run repeats
-  /// exactly whatever runs beside it, so this changes only the wall time; [1, 64]
+  /// Runs at a time (each also uses the machine's cores for its own work). A run's budgets are
+  /// counted (BudgetMode::Counted), so it repeats exactly whatever runs beside it unless the
+  /// machine gets 20 times slower for it (the wall-clock backstop): no more jobs than cores; the
+  /// timing columns change with it; [1, 64]
   std::size_t jobs = 1;
   std::function<void(const std::string&)> report;  ///< a line of progress text (in the order runs end)
 

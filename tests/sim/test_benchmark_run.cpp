@@ -1,0 +1,72 @@
+// The benchmarks' concurrent runner: every task runs once and its finishing step sees its result,
+// one finishing step at a time, in the order the tasks end; a failure stops new tasks and is
+// rethrown.
+#include "internal/benchmark_run.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+using vdbmap::sim::internal::runConcurrently;
+
+TEST_CASE("runConcurrently runs each task once and serialises the finishing steps", "[sim][bench]") {
+  for (std::size_t jobs : {1, 2, 4}) {
+    CAPTURE(jobs);
+    constexpr std::size_t n = 64;
+    std::vector<int> seen(n, 0);
+    std::vector<std::size_t> order;  // not thread-safe: only the finishing step touches it
+    long long sum = 0;
+    runConcurrently(
+        n, jobs, [](std::size_t i) { return i * i; },
+        [&](std::size_t i, std::size_t square) {
+          ++seen[i];
+          order.push_back(i);
+          sum += (long long)square;
+        });
+    CHECK(order.size() == n);
+    CHECK(std::count(seen.begin(), seen.end(), 1) == long(n));
+    CHECK(sum == 63LL * 64 * 127 / 6);  // sum of i^2 for i < 64
+  }
+}
+
+TEST_CASE("runConcurrently finishes tasks in the order they end", "[sim][bench]") {
+  // Task 0 waits until task 1 has finished, so with two threads task 1 must end first (a runner
+  // that finished in index order would leave task 0 waiting: it gives up after 30 s instead).
+  std::atomic<bool> one_finished{false};
+  std::vector<std::size_t> order;
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  runConcurrently(
+      2, 2,
+      [&](std::size_t i) {
+        while (i == 0 && !one_finished.load() && std::chrono::steady_clock::now() < give_up) std::this_thread::yield();
+        return i;
+      },
+      [&](std::size_t i, std::size_t) {
+        order.push_back(i);
+        if (i == 1) one_finished = true;
+      });
+  CHECK(order == std::vector<std::size_t>{1, 0});
+}
+
+TEST_CASE("runConcurrently rethrows a task's failure once the running tasks are done", "[sim][bench]") {
+  for (std::size_t jobs : {1, 3}) {
+    CAPTURE(jobs);
+    std::vector<std::size_t> finished;
+    CHECK_THROWS_WITH(runConcurrently(
+                          20, jobs,
+                          [](std::size_t i) {
+                            if (i == 5) throw std::runtime_error("task 5 failed");
+                            return i;
+                          },
+                          [&](std::size_t i, std::size_t) { finished.push_back(i); }),
+                      "task 5 failed");
+    CHECK(std::find(finished.begin(), finished.end(), std::size_t(5)) == finished.end());
+    // One thread stops right at the failure: tasks 0-4 finished, none after.
+    if (jobs == 1) CHECK(finished == std::vector<std::size_t>{0, 1, 2, 3, 4});
+  }
+}
