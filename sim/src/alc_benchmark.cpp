@@ -312,16 +312,17 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
        << " / " << e.collisions_on << " |\n";
   }
 
-  md << "\n## Runs\n\n| world | seed | arm | finished | time (s) | loops | RMSE (m) | completeness | coverage | "
+  md << "\n## Runs\n\n| world | seed | arm | finished | time (s) | loops | RMSE (m) | completeness | coverage (seen) | "
         "estimate error (m) | detours (with loop / given up) | detour time (s) | collisions |\n"
         "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const AlcBenchmarkRun& r : result.runs) {
     const ExplorationSummary& s = r.summary;
     md << "| " << r.world << " | " << r.seed << " | " << r.arm << " | " << (s.finished ? "yes" : "no") << " | "
        << format("%.1f", s.exploration_time_s) << " | " << s.loop_closures << " | " << format("%.4f", s.accuracy_rmse_m)
-       << " | " << format("%.3f", s.completeness) << " | " << format("%.3f", s.coverage) << " | "
-       << format("%.3f", s.estimate_error_rmse_m) << " | " << s.alc_detours << " (" << s.alc_detour_loops << " / "
-       << s.alc_give_ups << ") | " << format("%.1f", s.alc_time_s) << " | " << s.collisions << " |\n";
+       << " | " << format("%.3f", s.completeness) << " | " << format("%.3f", s.coverage) << " ("
+       << format("%.3f", s.coverage_seen) << ") | " << format("%.3f", s.estimate_error_rmse_m) << " | " << s.alc_detours
+       << " (" << s.alc_detour_loops << " / " << s.alc_give_ups << ") | " << format("%.1f", s.alc_time_s) << " | "
+       << s.collisions << " |\n";
   }
   md << "\nTotal wall time " << format("%.0f s", result.wall_s) << ".\n";
   return md.str();
