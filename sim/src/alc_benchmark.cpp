@@ -12,8 +12,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <numeric>
-#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -98,7 +96,6 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
   for (std::size_t w = 0; w < config.worlds.size(); ++w)
     for (std::uint64_t seed = 1; seed <= config.seeds; ++seed)
       for (const char* arm : kArms) order.push_back({w, seed, arm});
-  std::vector<std::optional<AlcBenchmarkRun>> done(order.size());
   AlcBenchmarkResult result;
   const auto explore = [&](std::size_t i) {
     const Job& job = order[i];
@@ -122,29 +119,21 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     worlds.done(job.world);
     return run;
   };
-  const auto record = [&](std::size_t i, AlcBenchmarkRun&& finished) {  // one at a time
-    const AlcBenchmarkRun& run = *(done[i] = std::move(finished));
-    const ExplorationSummary& s = run.summary;
-    report(run.world + "/" + run.arm + "_seed" + std::to_string(run.seed) + ": " +
-           (s.finished ? "finished" : "time limit") + " after " + format("%.1f s", s.exploration_time_s) + ", " +
-           std::to_string(s.loop_closures) + " loop closures, rmse " + format("%.4f m", s.accuracy_rmse_m) +
-           ", coverage " + format("%.3f", s.coverage) + ", " + std::to_string(s.alc_detours) + " detours (" +
-           format("%.1f s", s.alc_time_s) + "), " + std::to_string(s.collisions) + " collisions, " +
-           format("%.0f s wall", s.wall_s));
-    result.runs.clear();
-    for (const auto& r : done)
-      if (r) result.runs.push_back(*r);
-    result.wall_s = wall.s();
-    writeOutputs(result, config, out_dir);
-  };
-  // Started seed by seed across the worlds, so that a benchmark stopped early has runs of each.
-  std::vector<std::size_t> start(order.size());
-  std::iota(start.begin(), start.end(), std::size_t(0));
-  std::stable_sort(start.begin(), start.end(),
-                   [&](std::size_t i, std::size_t j) { return order[i].seed < order[j].seed; });
-  internal::runConcurrently(
-      start.size(), config.jobs, [&](std::size_t k) { return explore(start[k]); },
-      [&](std::size_t k, auto&& run) { record(start[k], std::move(run)); });
+  std::vector<std::uint64_t> seed_of;
+  for (const Job& job : order) seed_of.push_back(job.seed);
+  internal::runBenchmarkRuns<AlcBenchmarkRun>(
+      seed_of, config.jobs, explore, [&](const AlcBenchmarkRun& run, std::vector<AlcBenchmarkRun>& done) {
+        const ExplorationSummary& s = run.summary;
+        report(run.world + "/" + run.arm + "_seed" + std::to_string(run.seed) + ": " +
+               (s.finished ? "finished" : "time limit") + " after " + format("%.1f s", s.exploration_time_s) + ", " +
+               std::to_string(s.loop_closures) + " loop closures, rmse " + format("%.4f m", s.accuracy_rmse_m) +
+               ", coverage " + format("%.3f", s.coverage) + ", " + std::to_string(s.alc_detours) + " detours (" +
+               format("%.1f s", s.alc_time_s) + "), " + std::to_string(s.collisions) + " collisions, " +
+               format("%.0f s wall", s.wall_s));
+        result.runs = std::move(done);
+        result.wall_s = wall.s();
+        writeOutputs(result, config, out_dir);
+      });
   return result;
 }
 

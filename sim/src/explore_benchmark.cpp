@@ -12,8 +12,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <numeric>
-#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -94,7 +92,6 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
   std::vector<std::pair<std::size_t, std::uint64_t>> order;  // (world, seed), the tables' order
   for (std::size_t w = 0; w < config.worlds.size(); ++w)
     for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) order.emplace_back(w, seed);
-  std::vector<std::optional<ExploreBenchmarkRun>> done(order.size());
   ExploreBenchmarkResult result;
   const auto explore = [&](std::size_t i) {
     const auto [w, seed] = order[i];
@@ -115,27 +112,19 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     worlds.done(w);
     return run;
   };
-  const auto record = [&](std::size_t i, ExploreBenchmarkRun&& finished) {  // one at a time
-    const ExploreBenchmarkRun& run = *(done[i] = std::move(finished));
-    const ExplorationSummary& s = run.summary;
-    report(run.world + "_seed" + std::to_string(run.seed) + ": " + (s.finished ? "finished" : "time limit") +
-           " after " + format("%.1f s", s.exploration_time_s) + ", coverage " + format("%.3f", s.coverage) +
-           ", 0.95 at " + timeOrDash(s.time_to_coverage_s[3]) + " s, " + format("%.2f m/s", s.mean_speed_mps) + ", " +
-           std::to_string(s.collisions) + " collisions, " + format("%.0f s wall", s.wall_s));
-    result.runs.clear();
-    for (const auto& r : done)
-      if (r) result.runs.push_back(*r);
-    result.wall_s = wall.s();
-    writeOutputs(result, config, out_dir);
-  };
-  // Started seed by seed across the worlds, so that a benchmark stopped early has runs of each.
-  std::vector<std::size_t> start(order.size());
-  std::iota(start.begin(), start.end(), std::size_t(0));
-  std::stable_sort(start.begin(), start.end(),
-                   [&](std::size_t i, std::size_t j) { return order[i].second < order[j].second; });
-  internal::runConcurrently(
-      start.size(), config.jobs, [&](std::size_t k) { return explore(start[k]); },
-      [&](std::size_t k, auto&& run) { record(start[k], std::move(run)); });
+  std::vector<std::uint64_t> seed_of;
+  for (const auto& run : order) seed_of.push_back(run.second);
+  internal::runBenchmarkRuns<ExploreBenchmarkRun>(
+      seed_of, config.jobs, explore, [&](const ExploreBenchmarkRun& run, std::vector<ExploreBenchmarkRun>& done) {
+        const ExplorationSummary& s = run.summary;
+        report(run.world + "_seed" + std::to_string(run.seed) + ": " + (s.finished ? "finished" : "time limit") +
+               " after " + format("%.1f s", s.exploration_time_s) + ", coverage " + format("%.3f", s.coverage) +
+               ", 0.95 at " + timeOrDash(s.time_to_coverage_s[3]) + " s, " + format("%.2f m/s", s.mean_speed_mps) +
+               ", " + std::to_string(s.collisions) + " collisions, " + format("%.0f s wall", s.wall_s));
+        result.runs = std::move(done);
+        result.wall_s = wall.s();
+        writeOutputs(result, config, out_dir);
+      });
   return result;
 }
 

@@ -7,11 +7,13 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <cstddef>
 #include <exception>
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <utility>
@@ -129,6 +131,29 @@ void runConcurrently(std::size_t n, std::size_t jobs, const Task& task, const Fi
   work();
   for (std::thread& t : helpers) t.join();
   if (error) std::rethrow_exception(error);
+}
+
+/// A benchmark's runs, listed in its tables' order (per world, per seed), with `seed_of[i]` the
+/// seed of run i: explore(i) returns run i's result, `jobs` at a time, started seed by seed across
+/// the worlds (so that a benchmark stopped early has runs of each world); after each,
+/// finished(run, done) gets that run and every run done so far in the tables' order, one call at
+/// a time (the tables are rewritten there).
+template <class Run, class Explore, class Finished>
+void runBenchmarkRuns(const std::vector<std::uint64_t>& seed_of, std::size_t jobs, const Explore& explore,
+                      const Finished& finished) {
+  std::vector<std::size_t> start(seed_of.size());
+  for (std::size_t i = 0; i < start.size(); ++i) start[i] = i;
+  std::stable_sort(start.begin(), start.end(), [&](std::size_t i, std::size_t j) { return seed_of[i] < seed_of[j]; });
+  std::vector<std::optional<Run>> slots(seed_of.size());
+  runConcurrently(
+      start.size(), jobs, [&](std::size_t k) -> Run { return explore(start[k]); },
+      [&](std::size_t k, Run&& run) {
+        slots[start[k]] = std::move(run);
+        std::vector<Run> done;
+        for (const std::optional<Run>& r : slots)
+          if (r) done.push_back(*r);
+        finished(*slots[start[k]], done);
+      });
 }
 
 }  // namespace vdbmap::sim::internal
