@@ -27,6 +27,7 @@ struct BenchAlcOptions {
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   bool keep_runs = false;
+  bool resume = false;
   std::size_t jobs = 1;
 };
 
@@ -47,6 +48,7 @@ void runBenchAlc(const BenchAlcOptions& o) {
   c.safety.seen_free_is_free = o.safety_seen_free == "on";
   c.safety.map_thin_obstacles = o.safety_map_thin == "on";
   c.keep_runs = o.keep_runs;
+  c.resume = o.resume;
   c.jobs = o.jobs;
   c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   sim::runAlcBenchmark(c, o.output);
@@ -87,6 +89,9 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
       ->check(CLI::Range(0.0, 1.0));
   addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep each run's log and map in OUTDIR/runs/ (large)");
+  sub->add_flag("--resume", o->resume,
+                "Keep the runs an earlier call with the same options left in OUTDIR (their summary.json) and run "
+                "only the rest; a run there made with other options is an error");
   sub->add_option("--jobs", o->jobs,
                   "Runs at a time, at most one per core (each run also uses every core for its own work); the runs "
                   "are the same for any value (their budgets are counted), only the wall time changes")

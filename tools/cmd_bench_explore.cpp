@@ -25,6 +25,7 @@ struct BenchExploreOptions {
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   bool keep_runs = false;
+  bool resume = false;
   std::size_t jobs = 1;
 };
 
@@ -41,6 +42,7 @@ void runBenchExplore(const BenchExploreOptions& o) {
   c.safety.seen_free_is_free = o.safety_seen_free == "on";
   c.safety.map_thin_obstacles = o.safety_map_thin == "on";
   c.keep_runs = o.keep_runs;
+  c.resume = o.resume;
   c.jobs = o.jobs;
   c.report = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   sim::runExploreBenchmark(c, o.output);
@@ -70,6 +72,9 @@ const GroupRegistration registration("bench", "explore", [](CLI::App& bench) {
   sub->add_option("--alc", o->alc, "Active loop closure on or off")->check(CLI::IsMember({"on", "off"}));
   addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep every run's log and map (large)");
+  sub->add_flag("--resume", o->resume,
+                "Keep the runs an earlier call with the same options left in OUTDIR (their summary.json) and run "
+                "only the rest; a run there made with other options is an error");
   sub->add_option("--jobs", o->jobs,
                   "Runs at a time, at most one per core (each run also uses every core for its own work); the runs "
                   "are the same for any value (their budgets are counted), only the wall time changes")

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -86,7 +87,6 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     if (config.report) config.report(line);
   };
   std::filesystem::create_directories(out_dir);
-  internal::LazyWorlds worlds(config.worlds, out_dir, 2 * config.seeds);
   struct Job {
     std::size_t world;
     std::uint64_t seed;
@@ -96,10 +96,30 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
   for (std::size_t w = 0; w < config.worlds.size(); ++w)
     for (std::uint64_t seed = 1; seed <= config.seeds; ++seed)
       for (const char* arm : kArms) order.push_back({w, seed, arm});
+  const auto run_dir = [&](const Job& job) {
+    return out_dir / "runs" / config.worlds[job.world].name /
+           (std::string(job.arm) + "_seed" + std::to_string(job.seed));
+  };
+  const auto description = [&](const Job& job) {
+    return "vdbmap bench alc: world " + config.worlds[job.world].name + ", arm " + std::string(job.arm) + ", seed " +
+           std::to_string(job.seed) + ", drift " + config.drift_level;
+  };
+  std::vector<std::optional<AlcBenchmarkRun>> earlier(order.size());
+  std::vector<std::size_t> runs_to_do(config.worlds.size(), 0);
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const Job& job = order[i];
+    const bool alc = std::string(job.arm) == "alc";
+    if (config.resume)
+      if (std::optional<ExplorationSummary> s = internal::earlierRun(
+              run_dir(job), internal::runIdentity(description(job), config.voxel_size_m, config.max_time_s, alc,
+                                                  config.alc.epsilon, config.safety, config.loop_closure)))
+        earlier[i] = AlcBenchmarkRun{config.worlds[job.world].name, job.arm, job.seed, *s};
+    if (!earlier[i]) ++runs_to_do[job.world];
+  }
+  internal::LazyWorlds worlds(config.worlds, out_dir, runs_to_do);
   AlcBenchmarkResult result;
   const auto explore = [&](std::size_t i) {
     const Job& job = order[i];
-    const std::string& world_name = config.worlds[job.world].name;
     const World& world = worlds.world(job.world);
     ExplorationConfig ec = explorationConfigFor(world, config.drift_level, job.seed, config.voxel_size_m);
     ec.simulator.loop_closure = config.loop_closure;
@@ -110,19 +130,23 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     ec.planner.safety = config.safety;
     if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
     const ExplorationRunConfig ro =
-        internal::benchmarkRunConfig(config.keep_runs, worlds.file(job.world),
-                                     "vdbmap bench alc: world " + world_name + ", arm " + std::string(job.arm) +
-                                         ", seed " + std::to_string(job.seed) + ", drift " + config.drift_level);
-    const std::string name = std::string(job.arm) + "_seed" + std::to_string(job.seed);
-    AlcBenchmarkRun run{world_name, job.arm, job.seed,
-                        exploreToFolder(world, ec, out_dir / "runs" / world_name / name, ro)};
+        internal::benchmarkRunConfig(config.keep_runs, worlds.file(job.world), description(job));
+    AlcBenchmarkRun run{config.worlds[job.world].name, job.arm, job.seed, exploreToFolder(world, ec, run_dir(job), ro)};
     worlds.done(job.world);
     return run;
   };
+  for (const std::optional<AlcBenchmarkRun>& run : earlier)
+    if (run) result.runs.push_back(*run);
+  if (!result.runs.empty()) {
+    report("kept " + std::to_string(result.runs.size()) + " of " + std::to_string(order.size()) +
+           " runs from an earlier call in " + out_dir.string());
+    writeOutputs(result, config, out_dir);
+  }
   std::vector<std::uint64_t> seed_of;
   for (const Job& job : order) seed_of.push_back(job.seed);
   internal::runBenchmarkRuns<AlcBenchmarkRun>(
-      seed_of, config.jobs, explore, [&](const AlcBenchmarkRun& run, std::vector<AlcBenchmarkRun>& done) {
+      seed_of, std::move(earlier), config.jobs, explore,
+      [&](const AlcBenchmarkRun& run, std::vector<AlcBenchmarkRun>& done) {
         const ExplorationSummary& s = run.summary;
         report(run.world + "/" + run.arm + "_seed" + std::to_string(run.seed) + ": " +
                (s.finished ? "finished" : "time limit") + " after " + format("%.1f s", s.exploration_time_s) + ", " +

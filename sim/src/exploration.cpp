@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <stdexcept>
 
@@ -411,6 +412,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   if (std::isfinite(world.ceiling_clip_z_m))  // how the world was cut, to load it again the same way
     j["world_ceiling"] = {{"clip_z_m", world.ceiling_clip_z_m}, {"capped", world.cap_ceiling}};
   j["mode"] = toString(c.mapper.mode);
+  j["loop_closure"] = toString(c.simulator.loop_closure);
   j["voxel_size_m"] = c.mapper.tsdf.voxel_size_m;
   j["max_time_s"] = c.max_time_s;
   j["budgets"] = {{"path_max_iterations", c.planner.path.max_iterations},
@@ -616,6 +618,77 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   const nlohmann::json j = summaryJson(s, r, config, options, world.config());
   vdbmap::writeFileAtomically(run_dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; });
   report("wrote " + run_dir.string());
+  return s;
+}
+
+namespace {
+/// summary.json's value at `key`, as T; names the file and the key when it is missing or of another type.
+template <class T>
+T summaryValue(const nlohmann::json& j, const char* key, const std::filesystem::path& file) {
+  const auto it = j.find(key);
+  if (it == j.end()) throw std::runtime_error(file.string() + ": no \"" + std::string(key) + "\"");
+  try {
+    return it->get<T>();
+  } catch (const nlohmann::json::exception&) {
+    throw std::runtime_error(file.string() + ": \"" + std::string(key) + "\" is " + it->dump() +
+                             ", not the type it should be");
+  }
+}
+}  // namespace
+
+ExplorationSummary readExplorationSummary(const std::filesystem::path& summary_json) {
+  std::ifstream in(summary_json);
+  if (!in) throw std::runtime_error("cannot open " + summary_json.string());
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(summary_json.string() + ": not JSON (" + e.what() + ")");
+  }
+  if (!j.is_object()) throw std::runtime_error(summary_json.string() + ": not a JSON object");
+  const auto& f = summary_json;
+  ExplorationSummary s;
+  s.exploration_time_s = summaryValue<double>(j, "exploration_time_s", f);
+  s.path_length_m = summaryValue<double>(j, "path_length_m", f);
+  s.coverage = summaryValue<double>(j, "coverage", f);
+  s.coverage_seen = summaryValue<double>(j, "coverage_seen", f);
+  s.loop_closures = summaryValue<std::size_t>(j, "loop_closures", f);
+  s.collisions = summaryValue<std::size_t>(j, "collisions", f);
+  s.alc_enabled = summaryValue<bool>(j, "alc_enabled", f);
+  s.epsilon = summaryValue<double>(j, "epsilon", f);
+  s.alc_detours = summaryValue<std::size_t>(j, "alc_detours", f);
+  s.alc_time_s = summaryValue<double>(j, "alc_time_s", f);
+  s.alc_give_ups = summaryValue<std::size_t>(j, "alc_give_ups", f);
+  s.alc_detour_loops = summaryValue<std::size_t>(j, "alc_detour_loops", f);
+  s.alc_finish_detours = summaryValue<std::size_t>(j, "alc_finish_detours", f);
+  s.estimate_error_rmse_m = summaryValue<double>(j, "estimate_error_rmse_m", f);
+  s.planner_ms_median = summaryValue<double>(j, "planner_ms_median", f);
+  s.planner_ms_max = summaryValue<double>(j, "planner_ms_max", f);
+  s.frames_total = summaryValue<std::size_t>(j, "frames_total", f);
+  s.keyframes_kept = summaryValue<std::size_t>(j, "keyframes_kept", f);
+  s.accuracy_rmse_m = summaryValue<double>(j, "accuracy_rmse_m", f);
+  s.completeness = summaryValue<double>(j, "completeness", f);
+  s.finished = summaryValue<bool>(j, "finished", f);
+  s.complete = summaryValue<bool>(j, "complete", f);
+  const auto observable = summaryValue<nlohmann::json>(j, "observable_surface", f);
+  s.observable.samples_in_box = summaryValue<std::size_t>(observable, "samples_in_box", f);
+  s.observable.observable = summaryValue<std::size_t>(observable, "observable_samples", f);
+  s.observable.observable_area_m2 = summaryValue<double>(observable, "observable_area_m2", f);
+  s.observable.reachable_cells = summaryValue<std::size_t>(observable, "reachable_cells", f);
+  const auto to_coverage = summaryValue<nlohmann::json>(j, "time_to_coverage_s", f);
+  for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i) {
+    const std::string key = format("%.2f", kCoverageMilestones[i]);
+    const auto t = summaryValue<nlohmann::json>(to_coverage, key.c_str(), f);
+    s.time_to_coverage_s[i] = t.is_null() ? -1.0 : summaryValue<double>(to_coverage, key.c_str(), f);
+  }
+  s.mean_speed_mps = summaryValue<double>(j, "mean_speed_mps", f);
+  const auto activity = summaryValue<nlohmann::json>(j, "activity_time_s", f);
+  for (int a = 0; a < planner::kExplorationActivities; ++a)
+    s.activity_time_s[std::size_t(a)] = summaryValue<double>(activity, toString(planner::ExplorationActivity(a)), f);
+  s.longest_hold_s = summaryValue<double>(j, "longest_hold_s", f);
+  s.emergency_stops = summaryValue<std::size_t>(j, "emergency_stops", f);
+  s.look_stops = summaryValue<std::size_t>(j, "look_stops", f);
+  s.wall_s = summaryValue<double>(j, "wall_s", f);
   return s;
 }
 

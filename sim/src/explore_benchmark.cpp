@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -88,10 +89,29 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     if (config.report) config.report(line);
   };
   std::filesystem::create_directories(out_dir);
-  internal::LazyWorlds worlds(config.worlds, out_dir, config.seeds);
   std::vector<std::pair<std::size_t, std::uint64_t>> order;  // (world, seed), the tables' order
   for (std::size_t w = 0; w < config.worlds.size(); ++w)
     for (std::uint64_t seed = 1; seed <= config.seeds; ++seed) order.emplace_back(w, seed);
+  const auto run_dir = [&](std::size_t w, std::uint64_t seed) {
+    return out_dir / "runs" / (config.worlds[w].name + "_seed" + std::to_string(seed));
+  };
+  const auto description = [&](std::size_t w, std::uint64_t seed) {
+    return "vdbmap bench explore: world " + config.worlds[w].name + ", seed " + std::to_string(seed) + ", drift " +
+           config.drift_level + (config.alc ? ", ALC on" : "");
+  };
+  std::vector<std::optional<ExploreBenchmarkRun>> earlier(order.size());
+  std::vector<std::size_t> runs_to_do(config.worlds.size(), 0);
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const auto [w, seed] = order[i];
+    if (config.resume)
+      if (std::optional<ExplorationSummary> s = internal::earlierRun(
+              run_dir(w, seed),
+              internal::runIdentity(description(w, seed), config.voxel_size_m, config.max_time_s, config.alc,
+                                    planner::AlcConfig{}.epsilon, config.safety, SimulatorConfig{}.loop_closure)))
+        earlier[i] = ExploreBenchmarkRun{config.worlds[w].name, seed, *s};
+    if (!earlier[i]) ++runs_to_do[w];
+  }
+  internal::LazyWorlds worlds(config.worlds, out_dir, runs_to_do);
   ExploreBenchmarkResult result;
   const auto explore = [&](std::size_t i) {
     const auto [w, seed] = order[i];
@@ -104,18 +124,24 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     ec.planner.safety = config.safety;
     if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
     const ExplorationRunConfig ro =
-        internal::benchmarkRunConfig(config.keep_runs, worlds.file(w),
-                                     "vdbmap bench explore: world " + world_name + ", seed " + std::to_string(seed) +
-                                         ", drift " + config.drift_level + (config.alc ? ", ALC on" : ""));
-    const std::string name = world_name + "_seed" + std::to_string(seed);
-    ExploreBenchmarkRun run{world_name, seed, exploreToFolder(world, ec, out_dir / "runs" / name, ro)};
+        internal::benchmarkRunConfig(config.keep_runs, worlds.file(w), description(w, seed));
+    ExploreBenchmarkRun run{world_name, seed, exploreToFolder(world, ec, run_dir(w, seed), ro)};
     worlds.done(w);
     return run;
   };
+  for (const std::optional<ExploreBenchmarkRun>& run : earlier)
+    if (run) result.runs.push_back(*run);
+  if (!result.runs.empty()) {
+    report("kept " + std::to_string(result.runs.size()) + " of " + std::to_string(order.size()) +
+           " runs from an earlier call in " + out_dir.string());
+    result.wall_s = wall.s();
+    writeOutputs(result, config, out_dir);
+  }
   std::vector<std::uint64_t> seed_of;
   for (const auto& run : order) seed_of.push_back(run.second);
   internal::runBenchmarkRuns<ExploreBenchmarkRun>(
-      seed_of, config.jobs, explore, [&](const ExploreBenchmarkRun& run, std::vector<ExploreBenchmarkRun>& done) {
+      seed_of, std::move(earlier), config.jobs, explore,
+      [&](const ExploreBenchmarkRun& run, std::vector<ExploreBenchmarkRun>& done) {
         const ExplorationSummary& s = run.summary;
         report(run.world + "_seed" + std::to_string(run.seed) + ": " + (s.finished ? "finished" : "time limit") +
                " after " + format("%.1f s", s.exploration_time_s) + ", coverage " + format("%.3f", s.coverage) +

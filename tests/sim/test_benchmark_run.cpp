@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -69,4 +71,25 @@ TEST_CASE("runConcurrently rethrows a task's failure once the running tasks are 
     // One thread stops right at the failure: tasks 0-4 finished, none after.
     if (jobs == 1) CHECK(finished == std::vector<std::size_t>{0, 1, 2, 3, 4});
   }
+}
+
+TEST_CASE("runBenchmarkRuns starts seed by seed, skips runs done before and lists all in table order", "[sim][bench]") {
+  // Two worlds x three seeds in table order; world 0's seed 2 and world 1's seed 1 were done before.
+  const std::vector<std::uint64_t> seed_of = {1, 2, 3, 1, 2, 3};
+  std::vector<std::optional<int>> before(6);
+  before[1] = 101;
+  before[3] = 103;
+  std::vector<std::size_t> started;
+  std::vector<std::vector<int>> listed;
+  vdbmap::sim::internal::runBenchmarkRuns<int>(
+      seed_of, before, 1,
+      [&](std::size_t i) {
+        started.push_back(i);
+        return int(i);
+      },
+      [&](const int&, const std::vector<int>& done) { listed.push_back(done); });
+  CHECK(started == std::vector<std::size_t>{0, 4, 2, 5});  // seed 1, then 2, then 3; never 1 or 3
+  REQUIRE(listed.size() == 4);
+  CHECK(listed.front() == std::vector<int>{0, 101, 103});
+  CHECK(listed.back() == std::vector<int>{0, 101, 2, 103, 4, 5});
 }

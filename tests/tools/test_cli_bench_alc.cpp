@@ -108,3 +108,51 @@ TEST_CASE("vdbmap bench alc writes alc.json and alc.md with both arms per seed",
   CHECK(run("bench alc --world " + (dir / "missing.ply").string() + " -o " + (dir / "x").string(), out) != 0);
   fs::remove_all(dir);
 }
+
+TEST_CASE("vdbmap bench alc --resume keeps the runs an earlier call made and refuses runs made otherwise",
+          "[cli][bench][alc][resume]") {
+  const fs::path dir = fs::temp_directory_path() / "vdbmap_cli_bench_alc_resume";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  vdbmap::io::writePlyMesh(dir / "room.ply", vdbmap::test::roomWithBox());
+  const fs::path bench = dir / "bench", out = dir / "out.txt";
+  const std::string args =
+      "bench alc --world " + (dir / "room.ply").string() + " --drift s3 --max-time-s 10 -o " + bench.string();
+  REQUIRE(run(args + " --seeds 1", out) == 0);
+  const auto first = nlohmann::json::parse(slurp(bench / "alc.json"));
+  REQUIRE(first.size() == 2);
+
+  // Seed 2 added: seed 1's runs are kept as they were (their wall time too, so not flown again).
+  REQUIRE(run(args + " --seeds 2 --resume", out) == 0);
+  CHECK(slurp(out).find("kept 2 of 4 runs") != std::string::npos);
+  const auto resumed = nlohmann::json::parse(slurp(bench / "alc.json"));
+  REQUIRE(resumed.size() == 4);
+  CHECK(resumed[0] == first[0]);
+  CHECK(resumed[1] == first[1]);
+  for (std::size_t k = 2; k < 4; ++k) {
+    CHECK(resumed[k].at("seed") == 2);
+    CHECK(resumed[k].at("arm") == (k == 2 ? "no_alc" : "alc"));
+  }
+  CHECK(slurp(bench / "alc.md").find("| 2 |") != std::string::npos);
+
+  // Without --resume every run is flown again (the wall time of a run never repeats exactly).
+  REQUIRE(run(args + " --seeds 1", out) == 0);
+  const auto again = nlohmann::json::parse(slurp(bench / "alc.json"));
+  REQUIRE(again.size() == 2);
+  CHECK(again[0].at("wall_s") != first[0].at("wall_s"));
+  CHECK(again[0].at("exploration_time_s") == first[0].at("exploration_time_s"));  // the same flight
+
+  // A run made with other options is never mixed in: the error names the file and the option.
+  CHECK(run(args + " --seeds 1 --epsilon 0.7 --resume", out) != 0);
+  CHECK(slurp(out).find("alc_seed1/summary.json was run with epsilon") != std::string::npos);
+  CHECK(run(args + " --seeds 1 --safety on --resume", out) != 0);
+  CHECK(slurp(out).find("was run with safety_") != std::string::npos);
+  // A damaged summary names its file and the key it lacks.
+  const fs::path summary = bench / "runs" / "room" / "no_alc_seed1" / "summary.json";
+  auto damaged = nlohmann::json::parse(slurp(summary));
+  damaged.erase("coverage");
+  std::ofstream(summary) << damaged.dump(2);
+  CHECK(run(args + " --seeds 1 --resume", out) != 0);
+  CHECK(slurp(out).find("no_alc_seed1/summary.json: no \"coverage\"") != std::string::npos);
+  fs::remove_all(dir);
+}

@@ -82,6 +82,24 @@ TEST_CASE("vdbmap bench explore tabulates time to coverage per world and seed", 
     CHECK(two_runs[k].at("world") == (k < 2 ? "room" : "room2"));
     CHECK(two_runs[k].at("seed") == k % 2 + 1);
   }
+  // Resumed with a third seed: the four runs made are kept as they were, only seed 3 is flown.
+  REQUIRE(run("bench explore --worlds " + (dir / "room.ply").string() + " " + (dir / "room2.ply").string() +
+                  " --ceiling 0 --seeds 3 --max-time-s 5 --jobs 2 --resume -o " + two.string(),
+              out) == 0);
+  CHECK(slurp(out).find("kept 4 of 6 runs") != std::string::npos);
+  const auto resumed = nlohmann::json::parse(slurp(two / "explore.json"));
+  REQUIRE(resumed.size() == 6);
+  for (std::size_t k = 0; k < 6; ++k) {
+    CHECK(resumed[k].at("world") == (k < 3 ? "room" : "room2"));
+    CHECK(resumed[k].at("seed") == k % 3 + 1);
+    if (k % 3 < 2) CHECK(resumed[k] == two_runs[k < 3 ? k : k - 1]);
+  }
+  CHECK(run("bench explore --worlds " + (dir / "room.ply").string() +
+                " --ceiling 0 --seeds 1 --max-time-s 6 "
+                "--resume -o " +
+                two.string(),
+            out) != 0);  // another time limit
+  CHECK(slurp(out).find("was run with max_time_s = 5.0 but this benchmark asks for 6.0") != std::string::npos);
   CHECK(run("bench explore --worlds office:1 --jobs 0 -o " + (dir / "x").string(), out) != 0);
   CHECK(slurp(out).find("--jobs") != std::string::npos);
 

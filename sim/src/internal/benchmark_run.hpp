@@ -4,6 +4,9 @@
 #include "text_format.hpp"
 #include "vdbmap/sim/benchmark_world.hpp"
 #include "vdbmap/sim/exploration.hpp"
+#include "vdbmap/sim/simulator.hpp"
+
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -11,9 +14,11 @@
 #include <cstddef>
 #include <exception>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <utility>
@@ -47,15 +52,58 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
          format("%.2f", first_m) + (most_m > first_m ? format("-%.2f", most_m) : std::string()) + " m)";
 }
 
+/// What a benchmark run's summary.json records of how it was run: an earlier call's run stands for
+/// this call's only when these agree (the description names the world, the arm or the ALC switch,
+/// the seed and the drift level).
+inline nlohmann::json runIdentity(const std::string& description, double voxel_size_m, double max_time_s,
+                                  bool alc_enabled, double epsilon, const planner::SafetyConfig& safety,
+                                  LoopClosureMode loop_closure) {
+  return {{"description", description},
+          {"voxel_size_m", voxel_size_m},
+          {"max_time_s", max_time_s},
+          {"alc_enabled", alc_enabled},
+          {"epsilon", alc_enabled ? epsilon : 0.0},
+          {"safety_layer", safety.enabled},
+          {"safety_seen_free", safety.enabled && safety.seen_free_is_free},
+          {"safety_map_thin", !safety.enabled || safety.map_thin_obstacles},
+          {"safety_free_clears", safety.enabled && safety.recent.newer_free_clears},
+          {"loop_closure", toString(loop_closure)}};
+}
+
+/// The run an earlier call left in `run_dir` (its summary.json), for a benchmark resumed into the
+/// same folder: nothing when there is none; its summary when it was run as `identity` says
+/// (runIdentity; "loop_closure" is checked only when recorded, older summaries lack it). Throws
+/// std::runtime_error naming the file and the first key that differs, so that a resumed table never
+/// mixes runs made with other options.
+inline std::optional<ExplorationSummary> earlierRun(const std::filesystem::path& run_dir,
+                                                    const nlohmann::json& identity) {
+  const std::filesystem::path file = run_dir / "summary.json";
+  if (!std::filesystem::exists(file)) return std::nullopt;
+  const ExplorationSummary summary = readExplorationSummary(file);  // throws for a damaged file
+  std::ifstream in(file);
+  const nlohmann::json recorded = nlohmann::json::parse(in);
+  for (const auto& [key, value] : identity.items()) {
+    const auto it = recorded.find(key);
+    if (it == recorded.end() && key == "loop_closure") continue;
+    if (it == recorded.end() || *it != value)
+      throw std::runtime_error(file.string() + " was run with " + key + " = " +
+                               (it == recorded.end() ? std::string("(not recorded)") : it->dump()) +
+                               " but this benchmark asks for " + value.dump() +
+                               ": resume into another folder, or run again without resuming");
+  }
+  return summary;
+}
+
 /// A benchmark's worlds, each loaded by the first run that asks for it (a generated one is also
 /// written beside the runs then, so that a report can colour a map by it) and dropped when its
 /// last run is done; safe to use from several threads.
 class LazyWorlds {
  public:
-  /// `runs_per_world`: how many runs will call done() for each world.
-  LazyWorlds(const std::vector<BenchmarkWorld>& worlds, std::filesystem::path out_dir, std::size_t runs_per_world)
+  /// `runs_per_world[i]`: how many runs will call done(i), one per world of `worlds`.
+  LazyWorlds(const std::vector<BenchmarkWorld>& worlds, std::filesystem::path out_dir,
+             const std::vector<std::size_t>& runs_per_world)
       : specs_(worlds), out_dir_(std::move(out_dir)), slots_(worlds.size()) {
-    for (Slot& slot : slots_) slot.runs_left = runs_per_world;
+    for (std::size_t i = 0; i < slots_.size(); ++i) slots_[i].runs_left = runs_per_world.at(i);
   }
 
   /// The world `i` (of the config's list) and the mesh file that stands for it; valid until its
@@ -134,17 +182,19 @@ void runConcurrently(std::size_t n, std::size_t jobs, const Task& task, const Fi
 }
 
 /// A benchmark's runs, listed in its tables' order (per world, per seed), with `seed_of[i]` the
-/// seed of run i: explore(i) returns run i's result, `jobs` at a time, started seed by seed across
-/// the worlds (so that a benchmark stopped early has runs of each world); after each,
+/// seed of run i and `slots[i]` its result when an earlier call made it (kept, not run again):
+/// explore(i) returns run i's result for each of the others, `jobs` at a time, started seed by
+/// seed across the worlds (so that a benchmark stopped early has runs of each world); after each,
 /// finished(run, done) gets that run and every run done so far in the tables' order, one call at
 /// a time (the tables are rewritten there).
 template <class Run, class Explore, class Finished>
-void runBenchmarkRuns(const std::vector<std::uint64_t>& seed_of, std::size_t jobs, const Explore& explore,
-                      const Finished& finished) {
-  std::vector<std::size_t> start(seed_of.size());
-  for (std::size_t i = 0; i < start.size(); ++i) start[i] = i;
+void runBenchmarkRuns(const std::vector<std::uint64_t>& seed_of, std::vector<std::optional<Run>> slots,
+                      std::size_t jobs, const Explore& explore, const Finished& finished) {
+  if (slots.size() != seed_of.size()) throw std::invalid_argument("runBenchmarkRuns: one slot per run");
+  std::vector<std::size_t> start;
+  for (std::size_t i = 0; i < seed_of.size(); ++i)
+    if (!slots[i]) start.push_back(i);
   std::stable_sort(start.begin(), start.end(), [&](std::size_t i, std::size_t j) { return seed_of[i] < seed_of[j]; });
-  std::vector<std::optional<Run>> slots(seed_of.size());
   runConcurrently(
       start.size(), jobs, [&](std::size_t k) -> Run { return explore(start[k]); },
       [&](std::size_t k, Run&& run) {

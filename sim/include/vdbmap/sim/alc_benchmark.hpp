@@ -52,6 +52,10 @@ struct AlcBenchmarkConfig {
   double min_finish_coverage = kCompleteCoverage;
   /// Also keep each run's log and map (large); summary.json and trajectories are always written.
   bool keep_runs = false;
+  /// Keep the runs an earlier call left in the output folder (each run folder's summary.json) and
+  /// run only the others; a run made with other options (runs/<world>/<arm>_seed<k>/summary.json
+  /// records them) is an error, never mixed into the tables. Without it, runs are made anew.
+  bool resume = false;
   /// Runs at a time (each also uses the machine's cores for its own work). A run's budgets are
   /// counted (BudgetMode::Counted), so it repeats exactly whatever runs beside it unless the
   /// machine gets 20 times slower for it (the wall-clock backstop): no more jobs than cores; [1, 64]
@@ -74,8 +78,9 @@ struct AlcBenchmarkResult {
   double wall_s = 0.0;
 };
 
-/// Runs the benchmark into `out_dir` (created; runs already there are overwritten). Throws
-/// std::invalid_argument for an invalid config, std::runtime_error on I/O errors.
+/// Runs the benchmark into `out_dir` (created; runs already there are overwritten unless
+/// config.resume keeps them). Throws std::invalid_argument for an invalid config,
+/// std::runtime_error on I/O errors and for runs a resumed call cannot keep.
 AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::filesystem::path& out_dir);
 
 /// alc.md's text.

@@ -316,4 +316,9 @@ using ExplorationRunOptions [[deprecated("renamed ExplorationRunConfig")]] = Exp
 ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
                                    const std::filesystem::path& run_dir, const ExplorationRunConfig& options = {});
 
+/// A run folder's summary as exploreToFolder wrote it to `summary_json`; of `observable` only what
+/// the file records (samples in the box, observable samples and area, reachable cells). Throws
+/// std::runtime_error naming the file and the key when it cannot be read or a key is missing.
+ExplorationSummary readExplorationSummary(const std::filesystem::path& summary_json);
+
 }  // namespace vdbmap::sim

@@ -36,6 +36,9 @@ struct ExploreBenchmarkConfig {
   bool alc = false;                                          ///< active loop closure on
   planner::SafetyConfig safety;  ///< the safety layer (off by default, as in `vdbmap explore`)
   bool keep_runs = false;  ///< also keep each run's log and map (large)
+  /// Keep the runs an earlier call left in the output folder and run only the others, as
+  /// AlcBenchmarkConfig::resume (a run made with other options is an error).
+  bool resume = false;
   /// Runs at a time (each also uses the machine's cores for its own work). A run's budgets are
   /// counted (BudgetMode::Counted), so it repeats exactly whatever runs beside it unless the
   /// machine gets 20 times slower for it (the wall-clock backstop): no more jobs than cores; the
@@ -57,8 +60,9 @@ struct ExploreBenchmarkResult {
   double wall_s = 0.0;
 };
 
-/// Runs the benchmark into `out_dir` (created; runs already there are overwritten). Throws
-/// std::invalid_argument for an invalid config, std::runtime_error on I/O errors.
+/// Runs the benchmark into `out_dir` (created; runs already there are overwritten unless
+/// config.resume keeps them). Throws std::invalid_argument for an invalid config,
+/// std::runtime_error on I/O errors and for runs a resumed call cannot keep.
 ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config, const std::filesystem::path& out_dir);
 
 /// explore.md's text.
