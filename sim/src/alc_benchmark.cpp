@@ -50,6 +50,8 @@ nlohmann::json toJson(const AlcBenchmarkRun& r) {
           {"coverage_seen", s.coverage_seen},
           {"path_length_m", s.path_length_m},
           {"estimate_error_rmse_m", s.estimate_error_rmse_m},
+          {"keyframe_error_rmse_m",
+           s.keyframe_error_rmse_m >= 0.0 ? nlohmann::json(s.keyframe_error_rmse_m) : nlohmann::json(nullptr)},
           {"alc_detours", s.alc_detours},
           {"alc_time_s", s.alc_time_s},
           {"alc_give_ups", s.alc_give_ups},
@@ -326,16 +328,17 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
   }
 
   md << "\n## Runs\n\n| world | seed | arm | finished | time (s) | loops | RMSE (m) | completeness | coverage (seen) | "
-        "estimate error (m) | detours (with loop / given up) | detour time (s) | collisions |\n"
+        "estimate error online / keyframes (m) | detours (with loop / given up) | detour time (s) | collisions |\n"
         "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const AlcBenchmarkRun& r : result.runs) {
     const ExplorationSummary& s = r.summary;
     md << "| " << r.world << " | " << r.seed << " | " << r.arm << " | " << (s.finished ? "yes" : "no") << " | "
        << format("%.1f", s.exploration_time_s) << " | " << s.loop_closures << " | " << format("%.4f", s.accuracy_rmse_m)
        << " | " << format("%.3f", s.completeness) << " | " << format("%.3f", s.coverage) << " ("
-       << format("%.3f", s.coverage_seen) << ") | " << format("%.3f", s.estimate_error_rmse_m) << " | " << s.alc_detours
-       << " (" << s.alc_detour_loops << " / " << s.alc_give_ups << ") | " << format("%.1f", s.alc_time_s) << " | "
-       << s.collisions << " |\n";
+       << format("%.3f", s.coverage_seen) << ") | " << format("%.3f", s.estimate_error_rmse_m) << " / "
+       << (s.keyframe_error_rmse_m >= 0.0 ? format("%.3f", s.keyframe_error_rmse_m) : std::string("-")) << " | "
+       << s.alc_detours << " (" << s.alc_detour_loops << " / " << s.alc_give_ups << ") | "
+       << format("%.1f", s.alc_time_s) << " | " << s.collisions << " |\n";
   }
   md << "\nTotal wall time " << format("%.0f s", result.wall_s) << ".\n";
   return md.str();

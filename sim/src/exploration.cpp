@@ -122,6 +122,22 @@ double estimateErrorRmse(const std::vector<io::StampedPose>& truth, const std::v
     sum += (truth[i].T_W_S.translation() - estimate[i].T_W_S.translation()).squaredNorm();
   return truth.empty() ? 0.0 : std::sqrt(sum / double(truth.size()));
 }
+
+/// RMSE of the positions the map holds its keyframes at (after the last correction) against the
+/// true ones, `truth` indexed by frame id; negative when the map keeps no frames (modes none and
+/// submap). What the map's accuracy follows, where estimateErrorRmse follows the online estimate.
+double keyframeErrorRmse(const KeyframeStore& keyframes, const std::vector<io::StampedPose>& truth) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const auto& [id, keyframe] : keyframes) {
+    if (!keyframe.integrated) continue;
+    if (id >= truth.size() || std::abs(truth[id].timestamp_s - keyframe.timestamp) > 1e-6)
+      throw std::logic_error("keyframe " + std::to_string(id) + " is not the frame of that index");
+    sum += (truth[id].T_W_S.translation() - keyframe.T_W_S_integrated.translation()).squaredNorm();
+    ++n;
+  }
+  return n == 0 ? -1.0 : std::sqrt(sum / double(n));
+}
 }  // namespace
 
 ExplorationResult runExploration(const World& world, const ExplorationConfig& config, const ExplorationRecordConfig& options) {
@@ -468,6 +484,8 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["pruned_frames_deintegrated"] = r.pruned_frames_deintegrated;
   j["reintegrated_frames"] = r.reintegrated_frames;
   j["estimate_error_rmse_m"] = s.estimate_error_rmse_m;
+  j["keyframe_error_rmse_m"] =
+      s.keyframe_error_rmse_m >= 0.0 ? nlohmann::json(s.keyframe_error_rmse_m) : nlohmann::json(nullptr);
   if (r.flight.frames > 0) {  // the log's statistics (with a log only)
     j["estimate_error_max_m"] = r.flight.estimate_error_max_m;
     j["odometry_error_final_m"] = r.flight.odometry_error_final_m;
@@ -583,6 +601,7 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   s.alc_finish_detours = r.alc.finish_detours;
   s.alc_detour_loops = r.alc.loops_on_detour;
   s.estimate_error_rmse_m = estimateErrorRmse(r.trajectory_true, r.trajectory_estimate);
+  s.keyframe_error_rmse_m = keyframeErrorRmse(r.mapper->keyframes(), r.trajectory_true);
   s.observable = observable.stats();
   s.time_to_coverage_s.fill(-1.0);
   for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i)
@@ -662,6 +681,10 @@ ExplorationSummary readExplorationSummary(const std::filesystem::path& summary_j
   s.alc_detour_loops = summaryValue<std::size_t>(j, "alc_detour_loops", f);
   s.alc_finish_detours = summaryValue<std::size_t>(j, "alc_finish_detours", f);
   s.estimate_error_rmse_m = summaryValue<double>(j, "estimate_error_rmse_m", f);
+  const auto keyframe_error = j.find("keyframe_error_rmse_m");  // older summaries lack it
+  s.keyframe_error_rmse_m = keyframe_error != j.end() && !keyframe_error->is_null()
+                                ? summaryValue<double>(j, "keyframe_error_rmse_m", f)
+                                : -1.0;
   s.planner_ms_median = summaryValue<double>(j, "planner_ms_median", f);
   s.planner_ms_max = summaryValue<double>(j, "planner_ms_max", f);
   s.frames_total = summaryValue<std::size_t>(j, "frames_total", f);

@@ -60,6 +60,11 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
     }
     CHECK(failed == s.at("visit_failures").get<std::size_t>());  // 2 in this run
   }
+  // s2 drifts: the map holds its keyframes off where the camera was, by what the online estimate
+  // was off at those frames at most, when no loop closed to correct them.
+  CHECK(s.at("keyframe_error_rmse_m").get<double>() > 0.0);
+  if (s.at("loop_closures") == 0)
+    CHECK(s.at("keyframe_error_rmse_m").get<double>() <= s.at("estimate_error_max_m").get<double>());
   CHECK(s.at("alc_enabled") == false);  // ALC is off unless asked for
   CHECK(s.at("alc_detours") == 0);
   CHECK(s.at("finished") == true);
@@ -178,5 +183,7 @@ TEST_CASE("vdbmap explore without --world flies the embedded house, whatever the
   // The house's exploration box: 19 x 11.4 m.
   CHECK(s.at("box").at("max")[0].get<double>() == Approx(9.5));
   CHECK(s.at("box").at("min")[1].get<double>() == Approx(-5.7));
+  // s1 has no drift: the map holds every keyframe exactly where the camera was.
+  CHECK(s.at("keyframe_error_rmse_m").get<double>() == 0.0);
   fs::remove_all(dir);
 }

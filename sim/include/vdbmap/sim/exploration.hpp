@@ -264,7 +264,10 @@ struct ExplorationSummary {
   std::size_t alc_give_ups = 0;        ///< detours given up without a loop closure
   std::size_t alc_detour_loops = 0;    ///< detours that ended with a loop closure
   std::size_t alc_finish_detours = 0;  ///< of alc_detours: to close a loop before finishing
-  double estimate_error_rmse_m = 0.0;  ///< estimated vs true sensor positions over the frames
+  double estimate_error_rmse_m = 0.0;  ///< estimated (online) vs true sensor positions over the frames
+  /// The positions the final map holds its keyframes at (every correction applied) vs the true
+  /// ones: what the map's accuracy follows. Negative when not known (no keyframes kept).
+  double keyframe_error_rmse_m = -1.0;
   double planner_ms_median = 0.0;
   double planner_ms_max = 0.0;
   std::size_t frames_total = 0;
