@@ -631,6 +631,10 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   }
   io::writeTumTrajectory(run_dir / "trajectory_true.txt", r.trajectory_true);
   io::writeTumTrajectory(run_dir / "trajectory_odom.txt", r.trajectory_estimate);
+  std::vector<io::StampedPose> keyframes;  // where the final map holds them, every correction applied
+  for (const auto& [id, keyframe] : r.mapper->keyframes())
+    if (keyframe.integrated) keyframes.push_back({keyframe.timestamp, keyframe.T_W_S_integrated});
+  io::writeTumTrajectory(run_dir / "trajectory_keyframes.txt", keyframes);
   writeCoverageCsv(run_dir / "coverage.csv", r.coverage_timeline);
   writeCyclesCsv(run_dir / "cycles.csv", r.cycles);
   s.wall_s = wall.s();

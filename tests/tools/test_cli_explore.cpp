@@ -8,7 +8,10 @@
 #include "tools/cli_test_worlds.hpp"
 
 #include "vdbmap/io/mesh_io.hpp"
+#include "vdbmap/io/tum_trajectory.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -83,6 +86,24 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(frames > 30);
   CHECK(lineCount(runs / "trajectory_true.txt") == frames);
   CHECK(lineCount(runs / "trajectory_odom.txt") == frames);
+  {
+    // The poses the final map holds its keyframes at, one per keyframe kept; their error against
+    // the true pose of the same frame is the summary's keyframe_error_rmse_m.
+    const auto keyframes = vdbmap::io::readTumTrajectory(runs / "trajectory_keyframes.txt");
+    const auto truth = vdbmap::io::readTumTrajectory(runs / "trajectory_true.txt");
+    CHECK(keyframes.size() == s.at("keyframes_kept").get<std::size_t>());
+    double sum = 0.0;
+    for (const auto& k : keyframes) {
+      const auto same = std::find_if(truth.begin(), truth.end(),
+                                     [&](const auto& t) { return std::abs(t.timestamp_s - k.timestamp_s) < 1e-4; });
+      REQUIRE(same != truth.end());
+      sum += (same->T_W_S.translation() - k.T_W_S.translation()).squaredNorm();
+    }
+    REQUIRE(!keyframes.empty());
+    // (TUM files hold positions to 0.1 mm)
+    CHECK(std::sqrt(sum / double(keyframes.size())) ==
+          Approx(s.at("keyframe_error_rmse_m").get<double>()).margin(1e-3));
+  }
 
   // How the time went: coverage every second (and once more after the final correction, equal to
   // the summary's), a row per frame, activities summing to the flight's time.

@@ -314,8 +314,10 @@ using ExplorationRunOptions [[deprecated("renamed ExplorationRunConfig")]] = Exp
 
 /// Runs the exploration and writes the run folder: log/ (replayable), map.vdb, mesh.ply (unless
 /// turned off in the options), trajectory_true.txt and trajectory_odom.txt (TUM, sensor poses per
-/// frame, true and estimated), coverage.csv (CoverageSample every second), cycles.csv
-/// (CycleSample per frame) and summary.json. Throws std::runtime_error when the folder holds a run and overwrite is false.
+/// frame, true and estimated online), trajectory_keyframes.txt (TUM, the poses the final map holds
+/// its keyframes at, every correction applied; empty in modes none and submap), coverage.csv (CoverageSample every
+/// second), cycles.csv (CycleSample per frame) and summary.json. Throws std::runtime_error when the folder holds a run
+/// and overwrite is false.
 ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& config,
                                    const std::filesystem::path& run_dir, const ExplorationRunConfig& options = {});
 
