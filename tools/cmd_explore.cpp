@@ -43,6 +43,7 @@ struct ExploreOptions {
   double safety_look_side_m = planner::SafetyConfig{}.look_side_m;
   std::string safety_look_steep = planner::SafetyConfig{}.look_steep ? "on" : "off";
   std::string safety_seen_until_arrival = planner::SafetyConfig{}.seen_until_arrival ? "on" : "off";
+  double safety_near_tolerance_m = planner::SafetyConfig{}.near_drift_tolerance_m;
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
@@ -110,6 +111,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.look_side_m = o.safety_look_side_m;
   config.planner.safety.look_steep = o.safety_look_steep == "on";
   config.planner.safety.seen_until_arrival = o.safety_seen_until_arrival == "on";
+  config.planner.safety.near_drift_tolerance_m = o.safety_near_tolerance_m;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.view_score == "into-unknown";
@@ -141,7 +143,8 @@ void runExplore(const ExploreOptions& o) {
                  " --safety-vertical-sigmas " + std::to_string(o.safety_vertical_sigmas) +
                  " --safety-vertical-margin-max " + std::to_string(o.safety_vertical_margin_max_m) +
                  " --safety-look-side " + std::to_string(o.safety_look_side_m) + " --safety-look-steep " +
-                 o.safety_look_steep + " --safety-seen-until-arrival " + o.safety_seen_until_arrival
+                 o.safety_look_steep + " --safety-seen-until-arrival " + o.safety_seen_until_arrival +
+                 " --safety-near-tolerance " + std::to_string(o.safety_near_tolerance_m)
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -276,6 +279,8 @@ const Registration registration("explore", [](CLI::App& app) {
                   "vehicle gets there: the recent window, or shorter where the declared drift of that age exceeds "
                   "the tolerance (on); or by any frame in the window (off)")
       ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--safety-near-tolerance", o->safety_near_tolerance_m, kSafetyNearToleranceHelp)
+      ->check(CLI::Range(0.0, 10.0));
   sub->add_option("--min-cluster-size", o->min_cluster_size,
                   "Frontier clusters with fewer voxels are ignored (FUEL's cluster_min); smaller values chase the "
                   "small unknown pockets of cluttered places (e.g. 50 for shelving)")

@@ -54,9 +54,18 @@ const std::filesystem::path& requireWorld(const std::filesystem::path& world);
 /// when the house is asked for and not found.
 std::vector<std::string> benchmarkWorldSpecs(const std::vector<std::string>& specs);
 
-/// `--safety on|off`, `--safety-seen-free on|off` and `--safety-map-thin on|off` of the benchmarks
-/// (as `vdbmap explore`'s).
-inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& seen_free, std::string& map_thin) {
+/// The help of `--safety-near-tolerance` (SafetyConfig::near_drift_tolerance_m), as `vdbmap explore`
+/// and the benchmarks give it.
+inline constexpr const char* kSafetyNearToleranceHelp =
+    "With the safety layer under declared drift, where the way passes within the clearance plus 0.2 m of a "
+    "recent surface it counts as seen only by frames whose drift at arrival stays within this many metres "
+    "(s3: 0.1 m keeps frames 2.6 s old): a surface seen seconds before may stand nearer than it looks, so "
+    "the vehicle faces the way or looks before it passes (0: off, the same frames count as elsewhere)";
+
+/// `--safety on|off`, `--safety-seen-free on|off`, `--safety-map-thin on|off` and
+/// `--safety-near-tolerance M` of the benchmarks (as `vdbmap explore`'s).
+inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& seen_free, std::string& map_thin,
+                             double& near_tolerance_m) {
   sub.add_option("--safety", safety, "The drift-free safety layer of recent depth frames (as vdbmap explore --safety)")
       ->check(CLI::IsMember({"on", "off"}));
   sub.add_option("--safety-seen-free", seen_free,
@@ -67,6 +76,7 @@ inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& se
                  "With the safety layer, paths also read the global map's thin structure as obstacles (as vdbmap "
                  "explore --safety-map-thin)")
       ->check(CLI::IsMember({"on", "off"}));
+  sub.add_option("--safety-near-tolerance", near_tolerance_m, kSafetyNearToleranceHelp)->check(CLI::Range(0.0, 10.0));
 }
 
 /// `--drift`, one of driftLevels().

@@ -170,6 +170,7 @@ void SafetyConfig::validate() const {
   if (!(max_window_s > 0.0 && max_window_s <= 600.0)) check.fail("max_window_s", "(0, 600]", max_window_s);
   check.inRange("drift_tolerance_m", drift_tolerance_m, 0.0, 10.0);
   check.inRange("drift_lever_m", drift_lever_m, 0.0, 100.0);
+  check.inRange("near_drift_tolerance_m", near_drift_tolerance_m, 0.0, 10.0);
   check.inRange("vertical_margin_m", vertical_margin_m, 0.0, 2.0);
   check.inRange("vertical_margin_sigmas", vertical_margin_sigmas, 0.0, 10.0);
   check.inRange("max_vertical_margin_m", max_vertical_margin_m, 0.0, 2.0);
@@ -197,6 +198,13 @@ double SafetyConfig::window_s() const {
 double SafetyConfig::seenAge_s() const {
   const double window = window_s();
   return odometry ? std::min(window, std::max(kMinSeenAge_s, trustedAge_s())) : window;
+}
+
+double SafetyConfig::nearSeenAge_s() const {
+  const double seen = seenAge_s();
+  if (!odometry || near_drift_tolerance_m <= 0.0 || near_drift_tolerance_m >= drift_tolerance_m) return seen;
+  return std::clamp(odometry->longestWithin(near_drift_tolerance_m, drift_lever_m, 0.0, 1e9),
+                    std::min(kMinSeenAge_s, seen), seen);
 }
 
 void ExplorationManagerConfig::validate() const {
@@ -495,6 +503,15 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   const double seen_age_s =
       params_.safety.seen_until_arrival ? params_.safety.seenAge_s() : std::numeric_limits<double>::infinity();
   const auto since = [&](double t) { return last_t_ + (std::min(t, t_end) - t_from) - seen_age_s; };
+  // Near a recent surface, only frames young enough at arrival that their drift cannot have moved
+  // it by the clearance (nearSeenAge_s()): it may stand nearer than the frames that saw it say.
+  const double near_age_s = params_.safety.seen_until_arrival ? params_.safety.nearSeenAge_s() : seen_age_s;
+  const double near_surface_m = params_.safety.clearance_m + params_.safety.drift_tolerance_m;
+  const auto seenNow = [&](const Vec3d& way_W, const Vec3d& check_W, double t) {
+    if (!seenFree(probe, check_W, since(t))) return false;
+    if (near_age_s >= seen_age_s || !recent_map_ || !recent_map_->nearSurface(way_W, near_surface_m)) return true;
+    return seenFree(probe, check_W, since(t) + seen_age_s - near_age_s);
+  };
   for (double t = t_from + dt; along_m < way_m; t += dt) {
     const Vec3d p = shift * trajectory.sample(std::min(t, t_end)).position_W;
     along_m += (p - prev).norm();
@@ -503,7 +520,7 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     // Within clearance_m of origin_W the way is where the vehicle already is (its own camera never
     // sees that space free), as the emergency stop leaves out what lies that near the vehicle.
     if (const std::optional<Vec3d> c = checkable(p);
-        c && (p - origin_W).norm() >= params_.safety.clearance_m && !seenFree(probe, *c, since(t)))
+        c && (p - origin_W).norm() >= params_.safety.clearance_m && !seenNow(p, *c, t))
       return UnseenPoint{*c, along_m, false};
     // Beside the way, side_m to the left and right of the horizontal travel (all four sides when
     // the way is vertical there): a way seen free down its middle may pass a wall no frame saw.

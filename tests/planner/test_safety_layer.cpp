@@ -570,6 +570,56 @@ TEST_CASE("A way seen only by frames that leave the window before the vehicle ge
   CHECK(yawOffTravel(false) > M_PI / 2);  // flies off looking back
 }
 
+TEST_CASE("Near a surface seen seconds before, only frames young at arrival count: the vehicle faces the way first",
+          "[planner][safety]") {
+  // The exact corridor, seen at t = 0 by a frame looking along it from x = 0.2 m, with s3's drift
+  // declared: that frame counts for 9.4 s (seenAge_s). At t = 4 s the vehicle, facing away,
+  // plans to the frontier at x = 6 m through the 0.8 m gap beside the block (x 3-3.5 m). Where
+  // the way passes within clearance_m + drift_tolerance_m of the block, the frame may be off by
+  // the clearance (s3's drift after 5 s at 2 m: 0.14 m), so there only frames at most 2.6 s old
+  // at arrival count (nearSeenAge_s): the flight faces the way before it gets there. Without that
+  // rule (off by default) the whole way counts as seen, and it flies past the block looking back.
+  const DenseMap map = driftedMap(Vec3d::Zero());
+  OdometryDrift s3;
+  s3.position_m_per_sqrt_s = s3.yaw_rad_per_sqrt_s = std::sqrt(5e-2 / 200.0);
+  s3.yaw_bias_rad_per_s = 1e-3;
+  const Vec3d start(1.0, 1.3, 1.2);
+  const double t_plan = 4.0;
+  const auto yawOffTravelAtBlock = [&](double near_drift_tolerance_m) {
+    const CameraIntrinsics K = quarterCamera();
+    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
+    p.safety.enabled = true;
+    p.safety.odometry = s3;
+    p.safety.near_drift_tolerance_m = near_drift_tolerance_m;
+    const VehicleState s0 = planner::test::at(start, M_PI);
+    ExplorationManager m(p, s0, -60.0);  // the map is a minute old: not trusted as seen
+    const Pose3d ahead = lookingPose(Vec3d(0.2, start.y(), start.z()), 0.0), behind = lookingPose(start, M_PI);
+    m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
+    m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
+    REQUIRE(m.update(map, CoordBBox(), s0, t_plan).status == ExplorationStatus::Planned);
+    REQUIRE(m.command(1e9).position_W.x() > 3.5);  // through the gap
+    double s = t_plan;
+    while (m.command(s).position_W.x() < 2.7) s += 0.01;  // 0.3 m before the block
+    const VehicleState c = m.command(s);
+    const Eigen::Vector2d travel = (m.command(s + 0.5).position_W - c.position_W).head<2>();
+    return std::abs(wrapAngle(std::atan2(travel.y(), travel.x()) - c.yaw_rad));
+  };
+  SafetyConfig c;
+  c.odometry = s3;
+  CHECK(c.seenAge_s() == Approx(9.4).margin(0.05));
+  CHECK(c.nearSeenAge_s() == c.seenAge_s());  // the rule is off by default
+  c.near_drift_tolerance_m = 0.1;
+  CHECK(c.nearSeenAge_s() == Approx(2.6).margin(0.05));
+  const double near_rule = yawOffTravelAtBlock(0.1);
+  const double without = yawOffTravelAtBlock(SafetyConfig{}.near_drift_tolerance_m);
+  INFO("yaw off the travel 0.3 m before the block: " << near_rule << " rad with the rule, " << without << " without");
+  CHECK(near_rule <= TrajectoryConfig{}.start_facing_rad);
+  CHECK(without > M_PI / 2);
+  // Without declared drift the rule has nothing to go by.
+  c.odometry.reset();
+  CHECK(c.nearSeenAge_s() == c.seenAge_s());
+}
+
 TEST_CASE("Where the vehicle stands counts as seen: looks do not wait for its own position", "[planner][safety]") {
   // As above, the vehicle faces away from the way at t_plan = 9 s, and only the frame of t = 0
   // saw the way, including where the vehicle stands. The trajectory turns on the spot before it

@@ -67,12 +67,14 @@ inline nlohmann::json runIdentity(const std::string& description, double voxel_s
           {"safety_seen_free", safety.enabled && safety.seen_free_is_free},
           {"safety_map_thin", !safety.enabled || safety.map_thin_obstacles},
           {"safety_free_clears", safety.enabled && safety.recent.newer_free_clears},
+          {"safety_near_drift_tolerance_m", safety.enabled ? safety.near_drift_tolerance_m : 0.0},
           {"loop_closure", toString(loop_closure)}};
 }
 
 /// The run an earlier call left in `run_dir` (its summary.json), for a benchmark resumed into the
 /// same folder: nothing when there is none; its summary when it was run as `identity` says
-/// (runIdentity; "loop_closure" is checked only when recorded, older summaries lack it). Throws
+/// (runIdentity; "loop_closure" and "safety_near_drift_tolerance_m" are checked only when recorded:
+/// older summaries lack them, and ran without the latter's rule). Throws
 /// std::runtime_error naming the file and the first key that differs, so that a resumed table never
 /// mixes runs made with other options.
 inline std::optional<ExplorationSummary> earlierRun(const std::filesystem::path& run_dir,
@@ -84,7 +86,8 @@ inline std::optional<ExplorationSummary> earlierRun(const std::filesystem::path&
   const nlohmann::json recorded = nlohmann::json::parse(in);
   for (const auto& [key, value] : identity.items()) {
     const auto it = recorded.find(key);
-    if (it == recorded.end() && key == "loop_closure") continue;
+    if (it == recorded.end() && (key == "loop_closure" || (key == "safety_near_drift_tolerance_m" && value == 0.0)))
+      continue;
     if (it == recorded.end() || *it != value)
       throw std::runtime_error(file.string() + " was run with " + key + " = " +
                                (it == recorded.end() ? std::string("(not recorded)") : it->dump()) +
