@@ -258,6 +258,12 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("seen_until_arrival", &SafetyConfig::seen_until_arrival,
                      "a point of a way counts as seen only by frames at most seen_age_s() old when the vehicle gets "
                      "there (default True), else by any frame in the recent window")
+      .def_readwrite("near_drift_tolerance_m", &SafetyConfig::near_drift_tolerance_m,
+                     "with seen_until_arrival and a declared odometry, near a recent surface a frame counts only "
+                     "while its drift at arrival stays within this (near_seen_age_s()); 0 (the default): off; [0, 10]")
+      .def("near_seen_age_s", &SafetyConfig::nearSeenAge_s,
+           "how old a frame may be when the vehicle passes near a recent surface and still count as having seen "
+           "the way there")
       .def_readwrite("max_chained_looks", &SafetyConfig::max_chained_looks,
                      "looks in a row that leave the way unseen before the target gets a failure; [1, 100]")
       .def_readwrite("seen_free_is_free", &SafetyConfig::seen_free_is_free,

@@ -293,6 +293,12 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     s4 = vdbmap.planner.SafetyConfig()
     s4.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s4"))
     assert s4.window_s() == 10.0 and s4.seen_age_s() == pytest.approx(6.0, abs=0.05)
+    # Near a recent surface, with the rule on, only frames whose drift stays within 0.1 m (s3: 2.6 s).
+    assert safety.near_drift_tolerance_m == 0.0 and cli_default("explore", "--safety-near-tolerance") == "0"
+    assert safety.near_seen_age_s() == safety.seen_age_s()
+    safety.near_drift_tolerance_m = 0.1
+    assert safety.near_seen_age_s() == pytest.approx(2.6, abs=0.05)
+    safety.near_drift_tolerance_m = 0.0
     assert safety.effective_vertical_margin_m(60.0) == pytest.approx(2.0 * safety.odometry.axis_displacement_m(60.0))
     assert safety.effective_vertical_margin_m(1000.0) == safety.max_vertical_margin_m == 0.3
     safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s1"))
