@@ -60,7 +60,8 @@ inline constexpr const char* kSafetyNearToleranceHelp =
     "With the safety layer under declared drift, where the way passes within the clearance plus 0.2 m of a "
     "recent surface it counts as seen only by frames whose drift at arrival stays within this many metres "
     "(s3: 0.1 m keeps frames 2.6 s old): a surface seen seconds before may stand nearer than it looks, so "
-    "the vehicle faces the way or looks before it passes (0: off, the same frames count as elsewhere)";
+    "the vehicle faces the way or looks before it passes (0: off, the same frames count as elsewhere; else below "
+    "the 0.2 m the window's frames may drift)";
 
 /// `--safety on|off`, `--safety-seen-free on|off`, `--safety-map-thin on|off` and
 /// `--safety-near-tolerance M` of the benchmarks (as `vdbmap explore`'s).

@@ -170,7 +170,8 @@ void SafetyConfig::validate() const {
   if (!(max_window_s > 0.0 && max_window_s <= 600.0)) check.fail("max_window_s", "(0, 600]", max_window_s);
   check.inRange("drift_tolerance_m", drift_tolerance_m, 0.0, 10.0);
   check.inRange("drift_lever_m", drift_lever_m, 0.0, 100.0);
-  check.inRange("near_drift_tolerance_m", near_drift_tolerance_m, 0.0, 10.0);
+  if (near_drift_tolerance_m != 0.0 && !(near_drift_tolerance_m > 0.0 && near_drift_tolerance_m < drift_tolerance_m))
+    check.fail("near_drift_tolerance_m", "0 (off) or (0, drift_tolerance_m)", near_drift_tolerance_m);
   check.inRange("vertical_margin_m", vertical_margin_m, 0.0, 2.0);
   check.inRange("vertical_margin_sigmas", vertical_margin_sigmas, 0.0, 10.0);
   check.inRange("max_vertical_margin_m", max_vertical_margin_m, 0.0, 2.0);
@@ -202,7 +203,7 @@ double SafetyConfig::seenAge_s() const {
 
 double SafetyConfig::nearSeenAge_s() const {
   const double seen = seenAge_s();
-  if (!odometry || near_drift_tolerance_m <= 0.0 || near_drift_tolerance_m >= drift_tolerance_m) return seen;
+  if (!odometry || near_drift_tolerance_m <= 0.0) return seen;
   return std::clamp(odometry->longestWithin(near_drift_tolerance_m, drift_lever_m, 0.0, 1e9),
                     std::min(kMinSeenAge_s, seen), seen);
 }

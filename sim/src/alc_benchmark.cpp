@@ -111,11 +111,11 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
   for (std::size_t i = 0; i < order.size(); ++i) {
     const Job& job = order[i];
     const bool alc = std::string(job.arm) == "alc";
-    if (config.resume)
-      if (std::optional<ExplorationSummary> s = internal::earlierRun(
-              run_dir(job), internal::runIdentity(description(job), config.voxel_size_m, config.max_time_s, alc,
-                                                  config.alc.epsilon, config.safety, config.loop_closure)))
-        earlier[i] = AlcBenchmarkRun{config.worlds[job.world].name, job.arm, job.seed, *s};
+    if (std::optional<ExplorationSummary> s = internal::startingPoint(
+            config.resume, run_dir(job),
+            internal::runIdentity(description(job), config.worlds[job.world], config.voxel_size_m, config.max_time_s,
+                                  alc, config.alc.epsilon, config.safety, config.loop_closure)))
+      earlier[i] = AlcBenchmarkRun{config.worlds[job.world].name, job.arm, job.seed, *s};
     if (!earlier[i]) ++runs_to_do[job.world];
   }
   internal::LazyWorlds worlds(config.worlds, out_dir, runs_to_do);
@@ -139,7 +139,9 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
   };
   for (const std::optional<AlcBenchmarkRun>& run : earlier)
     if (run) result.runs.push_back(*run);
+  result.kept_runs = result.runs.size();
   if (!result.runs.empty()) {
+    result.wall_s = wall.s();
     report("kept " + std::to_string(result.runs.size()) + " of " + std::to_string(order.size()) +
            " runs from an earlier call in " + out_dir.string());
     writeOutputs(result, config, out_dir);
@@ -340,7 +342,11 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
        << s.alc_detours << " (" << s.alc_detour_loops << " / " << s.alc_give_ups << ") | "
        << format("%.1f", s.alc_time_s) << " | " << s.collisions << " |\n";
   }
-  md << "\nTotal wall time " << format("%.0f s", result.wall_s) << ".\n";
+  md << "\nTotal wall time " << format("%.0f s", result.wall_s)
+     << (result.kept_runs > 0
+             ? " (this call's; " + std::to_string(result.kept_runs) + " runs were kept from an earlier call)"
+             : std::string())
+     << ".\n";
   return md.str();
 }
 

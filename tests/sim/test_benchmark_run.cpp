@@ -93,3 +93,14 @@ TEST_CASE("runBenchmarkRuns starts seed by seed, skips runs done before and list
   CHECK(listed.front() == std::vector<int>{0, 101, 103});
   CHECK(listed.back() == std::vector<int>{0, 101, 2, 103, 4, 5});
 }
+
+TEST_CASE("A benchmark's header says when the safety layer's near-surface rule is on", "[sim][bench]") {
+  vdbmap::planner::SafetyConfig safety;
+  safety.enabled = true;
+  using vdbmap::sim::internal::safetyDescription;
+  CHECK(safetyDescription(safety, "s3").find("near surfaces") == std::string::npos);
+  safety.near_drift_tolerance_m = 0.1;
+  CHECK(safetyDescription(safety, "s3").find("(near surfaces only frames drifted at most 0.10 m: 2.6 s)") !=
+        std::string::npos);
+  CHECK(safetyDescription(safety, "s1").find("near surfaces") == std::string::npos);  // no drift: nothing to go by
+}

@@ -133,7 +133,8 @@ TEST_CASE("vdbmap bench alc --resume keeps the runs an earlier call made and ref
     CHECK(resumed[k].at("seed") == 2);
     CHECK(resumed[k].at("arm") == (k == 2 ? "no_alc" : "alc"));
   }
-  CHECK(slurp(bench / "alc.md").find("| 2 |") != std::string::npos);
+  CHECK(slurp(bench / "alc.md").find("| room | 2 | alc |") != std::string::npos);
+  CHECK(slurp(bench / "alc.md").find("2 runs were kept from an earlier call") != std::string::npos);
 
   // Without --resume every run is flown again (the wall time of a run never repeats exactly).
   REQUIRE(run(args + " --seeds 1", out) == 0);
@@ -147,6 +148,8 @@ TEST_CASE("vdbmap bench alc --resume keeps the runs an earlier call made and ref
   CHECK(slurp(out).find("alc_seed1/summary.json was run with epsilon") != std::string::npos);
   CHECK(run(args + " --seeds 1 --safety on --resume", out) != 0);
   CHECK(slurp(out).find("was run with safety_") != std::string::npos);
+  CHECK(run(args + " --seeds 1 --ceiling 2 --resume", out) != 0);  // the same file cut elsewhere
+  CHECK(slurp(out).find("was run with world_ceiling") != std::string::npos);
   // A damaged summary names its file and the key it lacks.
   const fs::path summary = bench / "runs" / "room" / "no_alc_seed1" / "summary.json";
   auto damaged = nlohmann::json::parse(slurp(summary));

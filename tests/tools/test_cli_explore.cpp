@@ -172,6 +172,11 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --max-time-s 5 -o " + runs.string(), out) != 0);
   CHECK(slurp(out).find("already holds") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --drift s7 -o " + (dir / "x").string(), out) != 0);
+  // The near-surface rule's tolerance must lie below the window's drift tolerance (0.2 m).
+  CHECK(run("explore --world " + (dir / "room.ply").string() + " --safety on --safety-near-tolerance 0.3 -o " +
+                (dir / "x").string(),
+            out) != 0);
+  CHECK(slurp(out).find("near_drift_tolerance_m") != std::string::npos);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --min-cluster-size 0 -o " + (dir / "x").string(), out) != 0);
   CHECK(run("explore --world " + (dir / "room.ply").string() + " --revisit-rounds -1 -o " + (dir / "x").string(), out) != 0);
   CHECK(slurp(out).find("--revisit-rounds") != std::string::npos);

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <cstddef>
 #include <exception>
@@ -49,45 +50,62 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
   const double first_m = at_level.verticalMargin_m(), most_m = at_level.verticalMargin_m(1e9);
   return std::string("on") + (safety.seen_free_is_free ? " (seen free is free)" : "") +
          (!safety.map_thin_obstacles ? " (no thin structure from the map)" : "") + " (vertical margin " +
-         format("%.2f", first_m) + (most_m > first_m ? format("-%.2f", most_m) : std::string()) + " m)";
+         format("%.2f", first_m) + (most_m > first_m ? format("-%.2f", most_m) : std::string()) + " m)" +
+         (at_level.nearSeenAge_s() < at_level.seenAge_s()
+              ? " (near surfaces only frames drifted at most " + format("%.2f", safety.near_drift_tolerance_m) +
+                    " m: " + format("%.1f", at_level.nearSeenAge_s()) + " s)"
+              : std::string());
 }
 
 /// What a benchmark run's summary.json records of how it was run: an earlier call's run stands for
 /// this call's only when these agree (the description names the world, the arm or the ALC switch,
-/// the seed and the drift level).
-inline nlohmann::json runIdentity(const std::string& description, double voxel_size_m, double max_time_s,
-                                  bool alc_enabled, double epsilon, const planner::SafetyConfig& safety,
-                                  LoopClosureMode loop_closure) {
-  return {{"description", description},
-          {"voxel_size_m", voxel_size_m},
-          {"max_time_s", max_time_s},
-          {"alc_enabled", alc_enabled},
-          {"epsilon", alc_enabled ? epsilon : 0.0},
-          {"safety_layer", safety.enabled},
-          {"safety_seen_free", safety.enabled && safety.seen_free_is_free},
-          {"safety_map_thin", !safety.enabled || safety.map_thin_obstacles},
-          {"safety_free_clears", safety.enabled && safety.recent.newer_free_clears},
-          {"safety_near_drift_tolerance_m", safety.enabled ? safety.near_drift_tolerance_m : 0.0},
-          {"loop_closure", toString(loop_closure)}};
+/// the seed and the drift level; a mesh world's file and every world's ceiling cut are recorded
+/// too; null: the key must be absent).
+inline nlohmann::json runIdentity(const std::string& description, const BenchmarkWorld& world, double voxel_size_m,
+                                  double max_time_s, bool alc_enabled, double epsilon,
+                                  const planner::SafetyConfig& safety, LoopClosureMode loop_closure) {
+  const double clip_z_m = world.office ? world.office->height_m : world.world.ceiling_clip_z_m;
+  const bool capped = world.office ? true : world.world.cap_ceiling;
+  nlohmann::json identity = {
+      {"description", description},
+      {"world_ceiling",
+       std::isfinite(clip_z_m) ? nlohmann::json{{"clip_z_m", clip_z_m}, {"capped", capped}} : nlohmann::json()},
+      {"voxel_size_m", voxel_size_m},
+      {"max_time_s", max_time_s},
+      {"alc_enabled", alc_enabled},
+      {"epsilon", alc_enabled ? epsilon : 0.0},
+      {"safety_layer", safety.enabled},
+      {"safety_seen_free", safety.enabled && safety.seen_free_is_free},
+      {"safety_map_thin", !safety.enabled || safety.map_thin_obstacles},
+      {"safety_free_clears", safety.enabled && safety.recent.newer_free_clears},
+      {"safety_near_drift_tolerance_m", safety.enabled ? safety.near_drift_tolerance_m : 0.0},
+      {"loop_closure", toString(loop_closure)}};
+  if (!world.office) identity["world"] = std::filesystem::absolute(world.mesh).lexically_normal().string();
+  return identity;
 }
 
-/// The run an earlier call left in `run_dir` (its summary.json), for a benchmark resumed into the
-/// same folder: nothing when there is none; its summary when it was run as `identity` says
-/// (runIdentity; "loop_closure" and "safety_near_drift_tolerance_m" are checked only when recorded:
-/// older summaries lack them, and ran without the latter's rule). Throws
-/// std::runtime_error naming the file and the first key that differs, so that a resumed table never
-/// mixes runs made with other options.
-inline std::optional<ExplorationSummary> earlierRun(const std::filesystem::path& run_dir,
-                                                    const nlohmann::json& identity) {
+/// Where a benchmark's planned run starts. Resuming: the run an earlier call left in `run_dir` (its
+/// summary.json), when it was run as `identity` says (runIdentity; a summary without
+/// "safety_near_drift_tolerance_m" predates that rule and ran without it), else nothing when there
+/// is none; throws std::runtime_error naming the file and the first key (in alphabetical order)
+/// that differs, so that a resumed table never mixes runs made with other options. Not resuming:
+/// nothing, after removing the summary.json an earlier call left there, so that this call, if
+/// stopped before it reaches the run, does not leave it to a later resume.
+inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::filesystem::path& run_dir,
+                                                       const nlohmann::json& identity) {
   const std::filesystem::path file = run_dir / "summary.json";
+  if (!resume) {
+    std::filesystem::remove(file);
+    return std::nullopt;
+  }
   if (!std::filesystem::exists(file)) return std::nullopt;
   const ExplorationSummary summary = readExplorationSummary(file);  // throws for a damaged file
   std::ifstream in(file);
   const nlohmann::json recorded = nlohmann::json::parse(in);
   for (const auto& [key, value] : identity.items()) {
-    const auto it = recorded.find(key);
-    if (it == recorded.end() && (key == "loop_closure" || (key == "safety_near_drift_tolerance_m" && value == 0.0)))
-      continue;
+    auto it = recorded.find(key);
+    if (it == recorded.end() && key == "safety_near_drift_tolerance_m" && value == 0.0) continue;
+    if (value.is_null() && (it == recorded.end() || it->is_null())) continue;
     if (it == recorded.end() || *it != value)
       throw std::runtime_error(file.string() + " was run with " + key + " = " +
                                (it == recorded.end() ? std::string("(not recorded)") : it->dump()) +

@@ -133,7 +133,7 @@ struct SafetyConfig {
   /// before may sit drift_tolerance_m nearer than it looks, which is all the clearance there is:
   /// near one, the way must have been seen lately, so the vehicle faces it (or looks) before it
   /// passes. 0 (the default until its runs are measured on every report world; 0.1 m tried in
-  /// docs/exploration.md, "Stop 70") or >= drift_tolerance_m: no tighter rule near surfaces; [0, 10]
+  /// docs/exploration.md, "Stop 70"): no tighter rule near surfaces; 0 or [0, drift_tolerance_m)
   double near_drift_tolerance_m = 0.0;
   /// Looks in a row that leave the way ahead unseen before the target gets a failure and the
   /// vehicle holds (the way may be hidden behind a corner); [1, 100]
@@ -189,7 +189,7 @@ struct SafetyConfig {
   /// How old, when the vehicle gets to a point of its way that passes near a recent surface
   /// (near_drift_tolerance_m), a frame may be and still count as having seen it: the age whose
   /// declared drift at drift_lever_m reaches near_drift_tolerance_m (s3: 2.6 s), within
-  /// [kMinSeenAge_s, seenAge_s()]; seenAge_s() without declared drift or with the rule off.
+  /// [kMinSeenAge_s, seenAge_s()]; seenAge_s() without declared drift or with the rule off (0).
   /// Throws std::invalid_argument for an invalid config.
   double nearSeenAge_s() const;
   static constexpr double kMinSeenAge_s = 2.0;

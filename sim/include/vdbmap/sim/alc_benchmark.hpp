@@ -54,7 +54,8 @@ struct AlcBenchmarkConfig {
   bool keep_runs = false;
   /// Keep the runs an earlier call left in the output folder (each run folder's summary.json) and
   /// run only the others; a run made with other options (runs/<world>/<arm>_seed<k>/summary.json
-  /// records them) is an error, never mixed into the tables. Without it, runs are made anew.
+  /// records them) is an error, never mixed into the tables. Without it, every run is made anew
+  /// (its earlier summary.json is removed when the call starts).
   bool resume = false;
   /// Runs at a time (each also uses the machine's cores for its own work). A run's budgets are
   /// counted (BudgetMode::Counted), so it repeats exactly whatever runs beside it unless the
@@ -75,7 +76,8 @@ struct AlcBenchmarkRun {
 
 struct AlcBenchmarkResult {
   std::vector<AlcBenchmarkRun> runs;  ///< per world, per seed: no_alc, then alc
-  double wall_s = 0.0;
+  double wall_s = 0.0;                ///< this call's
+  std::size_t kept_runs = 0;          ///< of runs: read back from an earlier call (resume), not flown
 };
 
 /// Runs the benchmark into `out_dir` (created; runs already there are overwritten unless
