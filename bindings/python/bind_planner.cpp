@@ -258,9 +258,11 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("seen_until_arrival", &SafetyConfig::seen_until_arrival,
                      "a point of a way counts as seen only by frames at most seen_age_s() old when the vehicle gets "
                      "there (default True), else by any frame in the recent window")
-      .def_readwrite("near_drift_tolerance_m", &SafetyConfig::near_drift_tolerance_m,
-                     "with seen_until_arrival and a declared odometry, near a recent surface a frame counts only "
-                     "while its drift at arrival stays within this (near_seen_age_s()); 0 (the default): off; [0, 10]")
+      .def_readwrite(
+          "near_drift_tolerance_m", &SafetyConfig::near_drift_tolerance_m,
+          "with seen_until_arrival and a declared odometry, near a recent surface a frame counts only "
+          "while its drift at arrival stays within this (near_seen_age_s()); 0 (the default): off, else below "
+          "drift_tolerance_m")
       .def("near_seen_age_s", &SafetyConfig::nearSeenAge_s,
            "how old a frame may be when the vehicle passes near a recent surface and still count as having seen "
            "the way there")
