@@ -137,13 +137,10 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     worlds.done(job.world);
     return run;
   };
-  for (const std::optional<AlcBenchmarkRun>& run : earlier)
-    if (run) result.runs.push_back(*run);
+  result.runs = internal::keptRuns(earlier, out_dir, report);
   result.kept_runs = result.runs.size();
   if (!result.runs.empty()) {
     result.wall_s = wall.s();
-    report("kept " + std::to_string(result.runs.size()) + " of " + std::to_string(order.size()) +
-           " runs from an earlier call in " + out_dir.string());
     writeOutputs(result, config, out_dir);
   }
   std::vector<std::uint64_t> seed_of;

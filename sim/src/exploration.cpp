@@ -10,6 +10,7 @@
 #include "vdbmap/timing.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
 #include "vdbmap/sim/pose_graph.hpp"
+#include "internal/summary_json.hpp"
 #include "text_format.hpp"
 
 #include <nlohmann/json.hpp>
@@ -660,7 +661,7 @@ T summaryValue(const nlohmann::json& j, const char* key, const std::filesystem::
 }
 }  // namespace
 
-ExplorationSummary readExplorationSummary(const std::filesystem::path& summary_json) {
+nlohmann::json internal::readSummaryJson(const std::filesystem::path& summary_json) {
   std::ifstream in(summary_json);
   if (!in) throw std::runtime_error("cannot open " + summary_json.string());
   nlohmann::json j;
@@ -670,7 +671,14 @@ ExplorationSummary readExplorationSummary(const std::filesystem::path& summary_j
     throw std::runtime_error(summary_json.string() + ": not JSON (" + e.what() + ")");
   }
   if (!j.is_object()) throw std::runtime_error(summary_json.string() + ": not a JSON object");
-  const auto& f = summary_json;
+  return j;
+}
+
+ExplorationSummary readExplorationSummary(const std::filesystem::path& summary_json) {
+  return internal::explorationSummaryOf(internal::readSummaryJson(summary_json), summary_json);
+}
+
+ExplorationSummary internal::explorationSummaryOf(const nlohmann::json& j, const std::filesystem::path& f) {
   ExplorationSummary s;
   s.exploration_time_s = summaryValue<double>(j, "exploration_time_s", f);
   s.path_length_m = summaryValue<double>(j, "path_length_m", f);

@@ -129,11 +129,8 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     worlds.done(w);
     return run;
   };
-  for (const std::optional<ExploreBenchmarkRun>& run : earlier)
-    if (run) result.runs.push_back(*run);
+  result.runs = internal::keptRuns(earlier, out_dir, report);
   if (!result.runs.empty()) {
-    report("kept " + std::to_string(result.runs.size()) + " of " + std::to_string(order.size()) +
-           " runs from an earlier call in " + out_dir.string());
     result.wall_s = wall.s();
     writeOutputs(result, config, out_dir);
   }

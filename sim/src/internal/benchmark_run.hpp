@@ -1,6 +1,7 @@
 // What the benchmarks' runs share (sim-internal).
 #pragma once
 
+#include "internal/summary_json.hpp"
 #include "text_format.hpp"
 #include "vdbmap/sim/benchmark_world.hpp"
 #include "vdbmap/sim/exploration.hpp"
@@ -15,7 +16,6 @@
 #include <cstddef>
 #include <exception>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -99,11 +99,9 @@ inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::f
     return std::nullopt;
   }
   if (!std::filesystem::exists(file)) return std::nullopt;
-  const ExplorationSummary summary = readExplorationSummary(file);  // throws for a damaged file
-  std::ifstream in(file);
-  const nlohmann::json recorded = nlohmann::json::parse(in);
+  const nlohmann::json recorded = readSummaryJson(file);
   for (const auto& [key, value] : identity.items()) {
-    auto it = recorded.find(key);
+    const auto it = recorded.find(key);
     if (it == recorded.end() && key == "safety_near_drift_tolerance_m" && value == 0.0) continue;
     if (value.is_null() && (it == recorded.end() || it->is_null())) continue;
     if (it == recorded.end() || *it != value)
@@ -112,7 +110,21 @@ inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::f
                                " but this benchmark asks for " + value.dump() +
                                ": resume into another folder, or run again without resuming");
   }
-  return summary;
+  return explorationSummaryOf(recorded, file);  // throws for a damaged file
+}
+
+/// The runs `slots` holds from an earlier call (startingPoint), in the tables' order; says how many
+/// of all were kept through `report` when there are any.
+template <class Run, class Report>
+std::vector<Run> keptRuns(const std::vector<std::optional<Run>>& slots, const std::filesystem::path& out_dir,
+                          const Report& report) {
+  std::vector<Run> kept;
+  for (const std::optional<Run>& run : slots)
+    if (run) kept.push_back(*run);
+  if (!kept.empty())
+    report("kept " + std::to_string(kept.size()) + " of " + std::to_string(slots.size()) +
+           " runs from an earlier call in " + out_dir.string());
+  return kept;
 }
 
 /// A benchmark's worlds, each loaded by the first run that asks for it (a generated one is also
