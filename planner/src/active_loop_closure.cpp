@@ -20,6 +20,7 @@ void AlcConfig::validate() const {
   if (!(give_up_timeout_s > 0.0 && give_up_timeout_s <= 1e6)) check.fail("give_up_timeout_s", "(0, 1e6]");
   if (!in(suspension_s, 0.0, 1e6)) check.fail("suspension_s", "[0, 1e6]");
   if (!in(loop_quiet_s, 0.0, 1e6)) check.fail("loop_quiet_s", "[0, 1e6]");
+  if (!in(max_drift_age_ratio, 0.0, 1.0)) check.fail("max_drift_age_ratio", "[0, 1]");
   if (max_failures_per_cluster < 1 || max_failures_per_cluster > 1000) check.fail("max_failures_per_cluster", "[1, 1000]");
   if (!in(finish_loop_age_s, 0.0, 1e6)) check.fail("finish_loop_age_s", "[0, 1e6]");
   if (!(finish_search_radius_m > 0.0 && finish_search_radius_m <= 1e3))
@@ -149,11 +150,20 @@ std::optional<AlcStatus> ActiveLoopClosure::gate(double now_s, bool loop_closed)
   return std::nullopt;
 }
 
-std::vector<LoopClusterId> ActiveLoopClosure::candidates(const Vec3d& position_W, double radius_m) const {
+double ActiveLoopClosure::clusterDriftAge_s(LoopClusterId id) const {
+  double age_s = 0.0;
+  for (const std::size_t member : clusters_[id].members) age_s = std::max(age_s, history_[member].drift_age_s);
+  return age_s;
+}
+
+std::vector<LoopClusterId> ActiveLoopClosure::candidates(const Vec3d& position_W, double radius_m, double now_s) const {
   if (detour_) return {detour_->cluster};
+  const double max_age_s = params_.max_drift_age_ratio * history_.driftAge_s(now_s);
   std::vector<LoopClusterId> usable;
   for (const LoopClusterId id : clusters_.near(history_, position_W, radius_m))
-    if (failures(id) < std::size_t(params_.max_failures_per_cluster)) usable.push_back(id);
+    if (failures(id) < std::size_t(params_.max_failures_per_cluster) &&
+        (params_.max_drift_age_ratio <= 0.0 || clusterDriftAge_s(id) <= max_age_s))
+      usable.push_back(id);
   return usable;
 }
 
@@ -177,7 +187,7 @@ std::vector<LegCost> priced(const LegCostFunction& leg_costs, const VehicleState
 
 bool ActiveLoopClosure::chooseCluster(const VehicleState& vehicle, double now_s, double radius_m,
                                       const LegCostFunction& leg_costs, AlcDecision& d) {
-  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, radius_m);
+  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, radius_m, now_s);
   if (ids.empty()) {
     d.status = AlcStatus::kNoCluster;
     return false;
