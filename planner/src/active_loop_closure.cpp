@@ -186,7 +186,7 @@ std::vector<LegCost> priced(const LegCostFunction& leg_costs, const VehicleState
 }  // namespace
 
 bool ActiveLoopClosure::chooseCluster(const VehicleState& vehicle, double now_s, double radius_m,
-                                      const LegCostFunction& leg_costs, AlcDecision& d) {
+                                      const LegCostFunction& leg_costs, bool best_anchored, AlcDecision& d) {
   const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, radius_m, now_s);
   if (ids.empty()) {
     d.status = AlcStatus::kNoCluster;
@@ -198,9 +198,14 @@ bool ActiveLoopClosure::chooseCluster(const VehicleState& vehicle, double now_s,
     centres.push_back(TourTarget{id, FlatPose{c.position_W, c.yaw_rad}});
   }
   const std::vector<LegCost> to_centres = priced(leg_costs, vehicle, centres);
+  std::vector<double> age_s(ids.size(), 0.0);
+  if (best_anchored)
+    for (std::size_t k = 0; k < ids.size(); ++k) age_s[k] = clusterDriftAge_s(ids[k]);
   std::optional<std::size_t> best;
   for (std::size_t k = 0; k < ids.size(); ++k)
-    if (to_centres[k].reachable && (!best || to_centres[k].cost_s < to_centres[*best].cost_s)) best = k;
+    if (to_centres[k].reachable &&
+        (!best || std::pair(age_s[k], to_centres[k].cost_s) < std::pair(age_s[*best], to_centres[*best].cost_s)))
+      best = k;
   if (!best) {
     if (detour_) giveUp(now_s);  // the detour's cluster can no longer be reached
     d.status = AlcStatus::kNoReachableCluster;
@@ -241,7 +246,7 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
     return d;
   }
 
-  if (!chooseCluster(vehicle, now_s, params_.search_radius_m, leg_costs, d)) return d;
+  if (!chooseCluster(vehicle, now_s, params_.search_radius_m, leg_costs, false, d)) return d;
 
   // M_loop: M_frt with row 0 from c* (at rest); both tours from node 0.
   const FlownViewpoint& centre = history_[clusters_[*d.cluster].centre];
@@ -282,7 +287,8 @@ AlcDecision ActiveLoopClosure::decideFinish(const VehicleState& vehicle, double 
         since_loop_s < params_.finish_loop_age_s)
       return d;
   }
-  if (!chooseCluster(vehicle, now_s, params_.finish_search_radius_m, leg_costs, d)) return d;
+  const bool best_anchored = params_.max_drift_age_ratio > 0.0;
+  if (!chooseCluster(vehicle, now_s, params_.finish_search_radius_m, leg_costs, best_anchored, d)) return d;
   d.loop_costs = RealCostMatrix(1);
   d.loop_tour = d.frontier_tour;
   d.loop_cost_s = d.to_cluster.cost_s;

@@ -489,6 +489,19 @@ TEST_CASE("With a drift-age ratio, ALC flies only to places anchored better than
     CHECK(decideAt(alc, legs, 40.0).status == AlcStatus::kNoCluster);  // age 10: limit 0.5 s, A's 0.97
     CHECK(decideAt(alc, legs, 60.0).cluster == std::optional<LoopClusterId>(kA));
   }
+  SECTION("before finishing, the best-anchored candidate rather than the cheapest") {
+    p.max_drift_age_ratio = 0.5;
+    legs.to_cluster = {{kA, 3.0}, {kB, 1.0}};  // A is the better anchored (ages 1.0 and 2.5)
+    for (const double ratio : {0.0, 0.5}) {
+      p.max_drift_age_ratio = ratio;
+      ActiveLoopClosure alc(p);
+      flyPlaces(alc);
+      const AlcDecision d = alc.decideFinish(vehicleAt(), 30.0, false, legs.function());
+      CAPTURE(ratio);
+      CHECK(d.status == AlcStatus::kDetour);
+      CHECK(d.cluster == std::optional<LoopClusterId>(ratio > 0.0 ? kA : kB));
+    }
+  }
   p.max_drift_age_ratio = 1.5;
   CHECK_THROWS_AS(ActiveLoopClosure(p), std::invalid_argument);
 }

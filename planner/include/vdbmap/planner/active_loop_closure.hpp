@@ -37,6 +37,8 @@
 // closed for finish_loop_age_s, one more detour goes to the cheapest loop cluster within
 // finish_search_radius_m, so that the drift of the last stretch is corrected before the map is
 // handed over (the frames since the last loop closure are otherwise left where drift put them).
+// With max_drift_age_ratio > 0 it goes to the best-anchored candidate (the lowest drift age) rather
+// than the cheapest: the last loop decides how well the map's last stretch is anchored.
 // It ends like any detour: a loop closure, the give-up timeout or no path. A loop's correction
 // can open new frontiers, and their exploration drifts again: at most max_finish_detours per flight.
 //
@@ -224,11 +226,11 @@ class ActiveLoopClosure {
   std::vector<LoopClusterId> candidates(const Vec3d& position_W, double radius_m, double now_s) const;
   /// c*: of the usable clusters with a viewpoint within radius_m (the detour's own while one is in
   /// progress), the one whose centre is cheapest to reach from `vehicle` (ties: the older
-  /// cluster). Sets d.cluster, d.cluster_viewpoints and d.to_cluster and returns true; else sets
-  /// d.status to kNoCluster or kNoReachableCluster, giving up a detour whose cluster can no longer
-  /// be reached.
+  /// cluster); with `best_anchored`, the one with the lowest drift age (ties: the cheapest). Sets d.cluster,
+  /// d.cluster_viewpoints and d.to_cluster and returns true; else sets d.status to kNoCluster or kNoReachableCluster,
+  /// giving up a detour whose cluster can no longer be reached.
   bool chooseCluster(const VehicleState& vehicle, double now_s, double radius_m, const LegCostFunction& leg_costs,
-                     AlcDecision& d);
+                     bool best_anchored, AlcDecision& d);
 
   AlcConfig params_;
   double flight_start_s_;
