@@ -20,7 +20,6 @@ struct BenchAlcOptions {
   double voxel_size_m = 0.1;
   double max_time_s = sim::ExplorationConfig::kDefaultMaxTime_s;
   double epsilon = planner::AlcConfig{}.epsilon;
-  double alc_drift_age_ratio = planner::AlcConfig{}.max_drift_age_ratio;
   double ceiling_m = 2.5;
   std::string loop_closure = sim::toString(sim::SimulatorConfig{}.loop_closure);
   double min_finish_coverage = sim::AlcBenchmarkConfig{}.min_finish_coverage;
@@ -44,7 +43,6 @@ void runBenchAlc(const BenchAlcOptions& o) {
   c.voxel_size_m = o.voxel_size_m;
   c.max_time_s = o.max_time_s;
   c.alc.epsilon = o.epsilon;
-  c.alc.max_drift_age_ratio = o.alc_drift_age_ratio;
   c.loop_closure = sim::parseLoopClosureMode(o.loop_closure);
   c.min_finish_coverage = o.min_finish_coverage;
   c.safety.enabled = o.safety == "on";
@@ -81,10 +79,6 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
   sub->add_option("--epsilon", o->epsilon,
                   "ALC arm: take the loop-closure detour when it costs at most (1 + epsilon) times the frontier tour")
       ->check(CLI::Range(0.0, 100.0));
-  sub->add_option("--alc-drift-age-ratio", o->alc_drift_age_ratio,
-                  "ALC arm: fly only to places whose drift age is at most this fraction of the vehicle's (see "
-                  "`vdbmap explore --help`; 0: any place, as the paper)")
-      ->check(CLI::Range(0.0, 1.0));
   sub->add_option("--loop-closure", o->loop_closure, "Correction on loop closure: pgo, perfect or off")
       ->check(CLI::IsMember({"pgo", "perfect", "off"}));
   sub->add_option(

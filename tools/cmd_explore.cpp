@@ -47,7 +47,6 @@ struct ExploreOptions {
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
   double finish_loop_age_s = planner::AlcConfig{}.finish_loop_age_s;
-  double alc_drift_age_ratio = planner::AlcConfig{}.max_drift_age_ratio;
   double w_dir = planner::CostConfig{}.w_dir;
   std::string lead_in = planner::TrajectoryConfig{}.lead_in_at_speed ? "at-speed" : "straight";
   int min_cluster_size = planner::FrontierConfig{}.min_cluster_size;
@@ -98,7 +97,6 @@ void runExplore(const ExploreOptions& o) {
   config.planner.alc_enabled = o.alc == "on";
   config.planner.alc.epsilon = o.epsilon;
   config.planner.alc.finish_loop_age_s = o.finish_loop_age_s;
-  config.planner.alc.max_drift_age_ratio = o.alc_drift_age_ratio;
   config.planner.cost.w_dir = o.w_dir;
   config.planner.trajectory.lead_in_at_speed = o.lead_in == "at-speed";
   config.planner.safety.enabled = o.safety == "on";
@@ -134,8 +132,7 @@ void runExplore(const ExploreOptions& o) {
       " --revisit-rounds " + std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --lead-in " +
       o.lead_in + " --budgets " + o.budgets + " --alc " + o.alc +
       (config.planner.alc_enabled
-           ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s) +
-                 " --alc-drift-age-ratio " + std::to_string(o.alc_drift_age_ratio)
+           ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
            : std::string()) +
       " --safety " + o.safety +
       (config.planner.safety.enabled
@@ -227,11 +224,6 @@ const Registration registration("explore", [](CLI::App& app) {
              std::to_string(planner::AlcConfig{}.max_finish_detours) +
              " times per flight), so the drift of the last stretch is corrected in the map (0: finish at once)")
       ->check(CLI::Range(0.0, 1e6));
-  sub->add_option("--alc-drift-age-ratio", o->alc_drift_age_ratio,
-                  "ALC: fly only to places whose estimate is better anchored than the vehicle's, i.e. whose drift "
-                  "age (seconds of odometry since the start or since a loop closure tied them to a place flown "
-                  "earlier) is at most this fraction of the vehicle's (0: any place, as the paper)")
-      ->check(CLI::Range(0.0, 1.0));
   sub->add_option("--safety", o->safety,
                   "The drift-free safety layer: the last seconds of depth frames are obstacles over the global map, "
                   "a trajectory they see blocked is replanned at once (an emergency stop), and the vehicle brakes "

@@ -163,8 +163,6 @@ void bindAlcParams(py::module_& m) {
       .def_readwrite("give_up_timeout_s", &AlcConfig::give_up_timeout_s, "a detour without a loop closure ends then")
       .def_readwrite("suspension_s", &AlcConfig::suspension_s, "ALC is off this long after giving up")
       .def_readwrite("loop_quiet_s", &AlcConfig::loop_quiet_s, "ALC is off this long after any loop closure")
-      .def_readwrite("max_drift_age_ratio", &AlcConfig::max_drift_age_ratio,
-                     "candidate clusters' drift age is at most this fraction of the vehicle's; 0: any; [0, 1]")
       .def_readwrite("max_failures_per_cluster", &AlcConfig::max_failures_per_cluster,
                      "given up this often, a cluster is never chosen again")
       .def_readwrite("finish_loop_age_s", &AlcConfig::finish_loop_age_s,

@@ -20,7 +20,6 @@ void AlcConfig::validate() const {
   if (!(give_up_timeout_s > 0.0 && give_up_timeout_s <= 1e6)) check.fail("give_up_timeout_s", "(0, 1e6]");
   if (!in(suspension_s, 0.0, 1e6)) check.fail("suspension_s", "[0, 1e6]");
   if (!in(loop_quiet_s, 0.0, 1e6)) check.fail("loop_quiet_s", "[0, 1e6]");
-  if (!in(max_drift_age_ratio, 0.0, 1.0)) check.fail("max_drift_age_ratio", "[0, 1]");
   if (max_failures_per_cluster < 1 || max_failures_per_cluster > 1000) check.fail("max_failures_per_cluster", "[1, 1000]");
   if (!in(finish_loop_age_s, 0.0, 1e6)) check.fail("finish_loop_age_s", "[0, 1e6]");
   if (!(finish_search_radius_m > 0.0 && finish_search_radius_m <= 1e3))
@@ -150,20 +149,11 @@ std::optional<AlcStatus> ActiveLoopClosure::gate(double now_s, bool loop_closed)
   return std::nullopt;
 }
 
-double ActiveLoopClosure::clusterDriftAge_s(LoopClusterId id) const {
-  double age_s = 0.0;
-  for (const std::size_t member : clusters_[id].members) age_s = std::max(age_s, history_[member].drift_age_s);
-  return age_s;
-}
-
-std::vector<LoopClusterId> ActiveLoopClosure::candidates(const Vec3d& position_W, double radius_m, double now_s) const {
+std::vector<LoopClusterId> ActiveLoopClosure::candidates(const Vec3d& position_W, double radius_m) const {
   if (detour_) return {detour_->cluster};
-  const double max_age_s = params_.max_drift_age_ratio * history_.driftAge_s(now_s);
   std::vector<LoopClusterId> usable;
   for (const LoopClusterId id : clusters_.near(history_, position_W, radius_m))
-    if (failures(id) < std::size_t(params_.max_failures_per_cluster) &&
-        (params_.max_drift_age_ratio <= 0.0 || clusterDriftAge_s(id) <= max_age_s))
-      usable.push_back(id);
+    if (failures(id) < std::size_t(params_.max_failures_per_cluster)) usable.push_back(id);
   return usable;
 }
 
@@ -186,8 +176,8 @@ std::vector<LegCost> priced(const LegCostFunction& leg_costs, const VehicleState
 }  // namespace
 
 bool ActiveLoopClosure::chooseCluster(const VehicleState& vehicle, double now_s, double radius_m,
-                                      const LegCostFunction& leg_costs, bool best_anchored, AlcDecision& d) {
-  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, radius_m, now_s);
+                                      const LegCostFunction& leg_costs, AlcDecision& d) {
+  const std::vector<LoopClusterId> ids = candidates(vehicle.position_W, radius_m);
   if (ids.empty()) {
     d.status = AlcStatus::kNoCluster;
     return false;
@@ -198,14 +188,9 @@ bool ActiveLoopClosure::chooseCluster(const VehicleState& vehicle, double now_s,
     centres.push_back(TourTarget{id, FlatPose{c.position_W, c.yaw_rad}});
   }
   const std::vector<LegCost> to_centres = priced(leg_costs, vehicle, centres);
-  std::vector<double> age_s(ids.size(), 0.0);
-  if (best_anchored)
-    for (std::size_t k = 0; k < ids.size(); ++k) age_s[k] = clusterDriftAge_s(ids[k]);
   std::optional<std::size_t> best;
   for (std::size_t k = 0; k < ids.size(); ++k)
-    if (to_centres[k].reachable &&
-        (!best || std::pair(age_s[k], to_centres[k].cost_s) < std::pair(age_s[*best], to_centres[*best].cost_s)))
-      best = k;
+    if (to_centres[k].reachable && (!best || to_centres[k].cost_s < to_centres[*best].cost_s)) best = k;
   if (!best) {
     if (detour_) giveUp(now_s);  // the detour's cluster can no longer be reached
     d.status = AlcStatus::kNoReachableCluster;
@@ -246,7 +231,7 @@ AlcDecision ActiveLoopClosure::decide(const VehicleState& vehicle, double now_s,
     return d;
   }
 
-  if (!chooseCluster(vehicle, now_s, params_.search_radius_m, leg_costs, false, d)) return d;
+  if (!chooseCluster(vehicle, now_s, params_.search_radius_m, leg_costs, d)) return d;
 
   // M_loop: M_frt with row 0 from c* (at rest); both tours from node 0.
   const FlownViewpoint& centre = history_[clusters_[*d.cluster].centre];
@@ -287,8 +272,7 @@ AlcDecision ActiveLoopClosure::decideFinish(const VehicleState& vehicle, double 
         since_loop_s < params_.finish_loop_age_s)
       return d;
   }
-  const bool best_anchored = params_.max_drift_age_ratio > 0.0;
-  if (!chooseCluster(vehicle, now_s, params_.finish_search_radius_m, leg_costs, best_anchored, d)) return d;
+  if (!chooseCluster(vehicle, now_s, params_.finish_search_radius_m, leg_costs, d)) return d;
   d.loop_costs = RealCostMatrix(1);
   d.loop_tour = d.frontier_tour;
   d.loop_cost_s = d.to_cluster.cost_s;

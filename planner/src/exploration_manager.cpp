@@ -299,18 +299,13 @@ double ExplorationManager::verticalMarginAt_m(double t_s) const {
   return params_.safety.verticalMargin_m(t_s - start_t_);
 }
 
-void ExplorationManager::notifyLoopClosure(double t_s, const std::function<FlatPose(const FlownViewpoint&)>& corrected,
-                                           std::optional<double> matched_stamp_s) {
+void ExplorationManager::notifyLoopClosure(double t_s,
+                                           const std::function<FlatPose(const FlownViewpoint&)>& corrected) {
   if (!std::isfinite(t_s)) throw std::invalid_argument("ExplorationManager::notifyLoopClosure: t_s must be finite");
-  if (matched_stamp_s && !(std::isfinite(*matched_stamp_s) && *matched_stamp_s <= t_s))
-    throw std::invalid_argument("ExplorationManager::notifyLoopClosure: the matched place's stamp " +
-                                std::to_string(*matched_stamp_s) + " s is not finite or after the loop closure at " +
-                                std::to_string(t_s) + " s");
   if (corrected) escapes_.correctHistory(corrected);
   if (!alc_) return;
   pending_.loop_closed = true;
   if (corrected) alc_->correctHistory(corrected);
-  if (matched_stamp_s) alc_->anchorHistory(*matched_stamp_s, std::max(t_s, last_t_));
 }
 
 void ExplorationManager::startTrajectory(Trajectory trajectory, double t_s, FlightKind kind) {

@@ -1,9 +1,7 @@
 #include "vdbmap/planner/viewpoint_history.hpp"
 #include "vdbmap/field_check.hpp"
 
-#include <algorithm>
 #include <cmath>
-#include <iterator>
 #include <stdexcept>
 #include <string>
 
@@ -23,7 +21,6 @@ bool ViewpointHistory::offer(const Vec3d& position_W, double yaw_rad, double sta
   if (last_offer_s_ && stamp_s < *last_offer_s_)
     throw std::invalid_argument("ViewpointHistory::offer: stamp " + std::to_string(stamp_s) +
                                 " s is earlier than the previous one, " + std::to_string(*last_offer_s_) + " s");
-  age_at_last_offer_s_ = driftAge_s(stamp_s);
   last_offer_s_ = stamp_s;
   if (!viewpoints_.empty()) {
     const FlownViewpoint& last = viewpoints_.back();
@@ -31,38 +28,9 @@ bool ViewpointHistory::offer(const Vec3d& position_W, double yaw_rad, double sta
     const bool turned = yawDistance(last.yaw_rad, yaw_rad) >= params_.record_yaw_step_rad;
     if (!moved && !turned) return false;
   }
-  viewpoints_.push_back(FlownViewpoint{position_W, wrapAngle(yaw_rad), stamp_s, age_at_last_offer_s_});
+  viewpoints_.push_back(FlownViewpoint{position_W, wrapAngle(yaw_rad), stamp_s});
   index_.add(position_W);
   return true;
-}
-
-double ViewpointHistory::driftAge_s(double now_s) const {
-  if (!std::isfinite(now_s) || (last_offer_s_ && now_s < *last_offer_s_))
-    throw std::invalid_argument("ViewpointHistory::driftAge_s: t = " + std::to_string(now_s) +
-                                " s is not finite or before the last offer");
-  return last_offer_s_ ? age_at_last_offer_s_ + (now_s - *last_offer_s_) : 0.0;
-}
-
-void ViewpointHistory::anchor(double matched_stamp_s, double now_s) {
-  if (!std::isfinite(matched_stamp_s) || !(matched_stamp_s <= now_s))
-    throw std::invalid_argument("ViewpointHistory::anchor: matched stamp " + std::to_string(matched_stamp_s) +
-                                " s is not finite or after the loop closure at " + std::to_string(now_s) + " s");
-  const double vehicle_age_s = driftAge_s(now_s);  // checks now_s
-  const auto after = std::upper_bound(viewpoints_.begin(), viewpoints_.end(), matched_stamp_s,
-                                      [](double t, const FlownViewpoint& v) { return t < v.stamp_s; });
-  const double place_age_s = after == viewpoints_.begin()
-                                 ? 0.0
-                                 : std::prev(after)->drift_age_s + (matched_stamp_s - std::prev(after)->stamp_s);
-  const double m = std::min(vehicle_age_s, place_age_s);
-  const double span_s = now_s - matched_stamp_s;
-  for (auto it = std::lower_bound(viewpoints_.begin(), viewpoints_.end(), matched_stamp_s,
-                                  [](const FlownViewpoint&v, double t) { return v.stamp_s < t; });
-       it != viewpoints_.end(); ++it) {
-    const double bridge = span_s > 0.0 ? (it->stamp_s - matched_stamp_s) * (now_s - it->stamp_s) / span_s : 0.0;
-    it->drift_age_s = std::min(it->drift_age_s, m + bridge);
-  }
-  age_at_last_offer_s_ = m;
-  last_offer_s_ = now_s;
 }
 
 std::vector<std::size_t> ViewpointHistory::withinRadius(const Vec3d& p_W, double radius_m) const {

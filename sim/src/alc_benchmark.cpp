@@ -114,7 +114,7 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     if (std::optional<ExplorationSummary> s = internal::startingPoint(
             config.resume, run_dir(job),
             internal::runIdentity(description(job), config.worlds[job.world], config.voxel_size_m, config.max_time_s,
-                                  alc, config.alc, config.safety, config.loop_closure)))
+                                  alc, config.alc.epsilon, config.safety, config.loop_closure)))
       earlier[i] = AlcBenchmarkRun{config.worlds[job.world].name, job.arm, job.seed, *s};
     if (!earlier[i]) ++runs_to_do[job.world];
   }
@@ -243,11 +243,8 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
   md << "; drift " << config.drift_level << ", seeds 1.." << config.seeds << ", voxel " << config.voxel_size_m
      << " m, loop closure `" << toString(config.loop_closure) << "`, time limit " << config.max_time_s
      << " s. ALC: epsilon " << config.alc.epsilon << ", give-up timeout " << config.alc.give_up_timeout_s
-     << " s, search radius " << config.alc.search_radius_m << " m"
-     << (config.alc.max_drift_age_ratio > 0.0 ? ", only places whose drift age is at most " +
-                                                    format("%.2f", config.alc.max_drift_age_ratio) + " of the vehicle's"
-                                              : std::string())
-     << ". Safety layer " << internal::safetyDescription(config.safety, config.drift_level)
+     << " s, search radius " << config.alc.search_radius_m << " m. Safety layer "
+     << internal::safetyDescription(config.safety, config.drift_level)
      << ". Both arms of a world and seed share the drift and planner seeds and the start. Values: mean ± sample "
         "standard deviation over the runs done. A run is incomplete when it ends below "
      << format("%.2f", config.min_finish_coverage) << " coverage of the observable surface, finished or not.\n";

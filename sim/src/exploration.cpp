@@ -205,8 +205,7 @@ ExplorationResult runExploration(const World& world, const ExplorationConfig& co
       // The estimate jumped: the pose believed at capture is now sim.bodyEstimate().
       const FlatPose shift = compose(sim.bodyEstimate(), inverse(frame.body_estimate));
       manager.shiftFrame(bodyPose(shift));
-      manager.notifyLoopClosure(frame.t_s, correctedViewpoints(*frame.correction, frame_times, sim.T_B_S()),
-                                frame_times.at(frame.correction->loop.old_frame));
+      manager.notifyLoopClosure(frame.t_s, correctedViewpoints(*frame.correction, frame_times, sim.T_B_S()));
     }
     if (vehicle.collisions() > collisions_seen) {  // the flight up to this frame began an event
       collisions_seen = vehicle.collisions();
@@ -464,7 +463,6 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
   j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.map_thin_obstacles;
   j["safety_free_clears"] = c.planner.safety.enabled && c.planner.safety.recent.newer_free_clears;
-  j["alc_max_drift_age_ratio"] = c.planner.alc_enabled ? c.planner.alc.max_drift_age_ratio : 0.0;
   j["safety_near_drift_tolerance_m"] = c.planner.safety.enabled ? c.planner.safety.near_drift_tolerance_m : 0.0;
   // The vertical margin at the start and at the end (grown with the map's age under declared drift).
   j["safety_vertical_margin_m"] =

@@ -103,10 +103,11 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
   std::vector<std::size_t> runs_to_do(config.worlds.size(), 0);
   for (std::size_t i = 0; i < order.size(); ++i) {
     const auto [w, seed] = order[i];
-    if (std::optional<ExplorationSummary> s = internal::startingPoint(
-            config.resume, run_dir(w, seed),
-            internal::runIdentity(description(w, seed), config.worlds[w], config.voxel_size_m, config.max_time_s,
-                                  config.alc, planner::AlcConfig{}, config.safety, SimulatorConfig{}.loop_closure)))
+    if (std::optional<ExplorationSummary> s =
+            internal::startingPoint(config.resume, run_dir(w, seed),
+                                    internal::runIdentity(description(w, seed), config.worlds[w], config.voxel_size_m,
+                                                          config.max_time_s, config.alc, planner::AlcConfig{}.epsilon,
+                                                          config.safety, SimulatorConfig{}.loop_closure)))
       earlier[i] = ExploreBenchmarkRun{config.worlds[w].name, seed, *s};
     if (!earlier[i]) ++runs_to_do[w];
   }

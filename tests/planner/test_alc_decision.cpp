@@ -456,56 +456,6 @@ TEST_CASE("ALC's loop before finishing: off, out of range, unreachable; an explo
   }
 }
 
-TEST_CASE("With a drift-age ratio, ALC flies only to places anchored better than the vehicle", "[planner][alc]") {
-  CHECK(AlcConfig{}.max_drift_age_ratio == 0.0);
-  AlcConfig p = testParams();
-  p.search_radius_m = 10.0;  // both clusters are candidates by distance
-  p.loop_quiet_s = 0.0;
-  FakeLegs legs;
-  legs.to_cluster = {{kA, 2.5}, {kB, 2.0}};  // B is the cheaper; both within the epsilon allowance
-  // At 30 s the vehicle's drift age is 29.5 s (no loop since the first pose at 0.5 s); A's members
-  // were flown 0-1 s after it, B's 1.5-2.5 s.
-  for (const auto& [ratio, expected] :
-       {std::pair{0.0, std::optional<LoopClusterId>(kB)}, std::pair{0.1, std::optional<LoopClusterId>(kB)},
-        std::pair{0.05, std::optional<LoopClusterId>(kA)}, std::pair{0.01, std::optional<LoopClusterId>()}}) {
-    p.max_drift_age_ratio = ratio;
-    ActiveLoopClosure alc(p);
-    flyPlaces(alc);
-    const AlcDecision d = decideAt(alc, legs, 30.0);
-    CHECK(alc.clusterDriftAge_s(kA) == Approx(1.0));
-    CHECK(alc.clusterDriftAge_s(kB) == Approx(2.5));
-    CAPTURE(ratio);
-    CHECK(d.cluster == expected);
-    CHECK(d.status == (expected ? AlcStatus::kDetour : AlcStatus::kNoCluster));
-  }
-  SECTION("a loop closure that anchors the vehicle at the start leaves no place anchored better") {
-    p.max_drift_age_ratio = 0.05;
-    ActiveLoopClosure alc(p);
-    flyPlaces(alc);
-    alc.anchorHistory(0.5, 30.0);  // matched the first pose: the vehicle's age is 0 again
-    CHECK(alc.history().driftAge_s(30.0) == 0.0);
-    CHECK(decideAt(alc, legs, 30.0, true).status == AlcStatus::kNoCluster);
-    CHECK(alc.clusterDriftAge_s(kA) == Approx(0.966).margin(1e-3));    // pinned by the loop's bridge
-    CHECK(decideAt(alc, legs, 40.0).status == AlcStatus::kNoCluster);  // age 10: limit 0.5 s, A's 0.97
-    CHECK(decideAt(alc, legs, 60.0).cluster == std::optional<LoopClusterId>(kA));
-  }
-  SECTION("before finishing, the best-anchored candidate rather than the cheapest") {
-    p.max_drift_age_ratio = 0.5;
-    legs.to_cluster = {{kA, 3.0}, {kB, 1.0}};  // A is the better anchored (ages 1.0 and 2.5)
-    for (const double ratio : {0.0, 0.5}) {
-      p.max_drift_age_ratio = ratio;
-      ActiveLoopClosure alc(p);
-      flyPlaces(alc);
-      const AlcDecision d = alc.decideFinish(vehicleAt(), 30.0, false, legs.function());
-      CAPTURE(ratio);
-      CHECK(d.status == AlcStatus::kDetour);
-      CHECK(d.cluster == std::optional<LoopClusterId>(ratio > 0.0 ? kA : kB));
-    }
-  }
-  p.max_drift_age_ratio = 1.5;
-  CHECK_THROWS_AS(ActiveLoopClosure(p), std::invalid_argument);
-}
-
 TEST_CASE("ALC's other outcomes and misuse", "[planner][alc]") {
   ActiveLoopClosure alc(testParams());
   flyPlaces(alc);

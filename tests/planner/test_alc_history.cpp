@@ -1,7 +1,6 @@
 // Active loop closure, the history: the incremental KD-tree answers radius queries exactly as brute
 // force does (while it grows, on the sphere's surface, after a reset), and the viewpoint history
-// records a pose only when the vehicle moved or turned enough; drift ages grow with flight time and
-// follow loop closures.
+// records a pose only when the vehicle moved or turned enough.
 #include "vdbmap/planner/point_index.hpp"
 #include "vdbmap/planner/viewpoint_history.hpp"
 
@@ -134,44 +133,4 @@ TEST_CASE("ViewpointHistory radius queries over a flight equal brute force, befo
   }),
                   std::invalid_argument);
   CHECK(h[h.size() - 1].position_W == last.position_W + Vec3d(0, 0.5, 0));  // a failed correction changes nothing
-}
-
-TEST_CASE("Drift ages grow with flight time and follow a loop closure as a bridge pinned at both ends",
-          "[planner][alc]") {
-  ViewpointHistoryConfig p;
-  p.record_spacing_m = 0.0;  // every offer is recorded
-  ViewpointHistory history(p);
-  CHECK(history.driftAge_s(0.0) == 0.0);
-  for (int k = 0; k <= 100; ++k) history.offer(Vec3d(0.1 * k, 0, 1), 0.0, 10.0 + k);  // t = 10 ... 110 s
-  // Without loop closures a place's age is its time since the first offer.
-  for (std::size_t i = 0; i < history.size(); ++i) CHECK(history[i].drift_age_s == Approx(double(i)));
-  CHECK(history.driftAge_s(115.0) == Approx(105.0));
-
-  // A loop at t_b = 120 s to the place flown at t_a = 30.5 s (age 20.5 there, below the vehicle's 110).
-  const std::vector<FlownViewpoint> before = history.viewpoints();
-  history.anchor(30.5, 120.0);
-  const double m = 20.5, t_a = 30.5, t_b = 120.0;
-  CHECK(history.driftAge_s(120.0) == Approx(m));
-  CHECK(history.driftAge_s(130.0) == Approx(m + 10.0));
-  for (std::size_t i = 0; i < history.size(); ++i) {
-    const double t = history[i].stamp_s;
-    const double expected =
-        t < t_a ? before[i].drift_age_s : std::min(before[i].drift_age_s, m + (t - t_a) * (t_b - t) / (t_b - t_a));
-    CAPTURE(t);
-    CHECK(history[i].drift_age_s == Approx(expected));
-    CHECK(history[i].drift_age_s <= before[i].drift_age_s);
-  }
-  CHECK(history[100].drift_age_s < 30.0);  // the last place, 10 s before the loop: pinned near m
-
-  SECTION("a loop to a place anchored worse than the vehicle keeps the vehicle's age and lowers the place's") {
-    history.anchor(105.0, 125.0);  // the place flown at 105 s: age about 33 after the first loop, the vehicle's 25.5
-    CHECK(history.driftAge_s(125.0) == Approx(m + 5.0));
-    CHECK(history[95].drift_age_s == Approx(m + 5.0));  // stamp 105 s: the vehicle's age now
-  }
-  SECTION("misuse: a matched stamp after the loop, or a loop before the last offer") {
-    CHECK_THROWS_AS(history.anchor(121.0, 120.5), std::invalid_argument);
-    CHECK_THROWS_AS(history.anchor(10.0, 119.0), std::invalid_argument);
-    CHECK_THROWS_AS(history.anchor(std::nan(""), 121.0), std::invalid_argument);
-    CHECK_THROWS_AS(history.offer(Vec3d(0, 0, 1), 0.0, 119.0), std::invalid_argument);
-  }
 }

@@ -207,7 +207,6 @@ def test_exploration_config_defaults_and_shortcuts(room):
     assert config.planner.alc_enabled is False and cli_default("explore", "--alc") == "off"
     assert config.planner.alc.epsilon == float(cli_default("explore", "--epsilon")) == 0.2
     assert config.planner.alc.finish_loop_age_s == float(cli_default("explore", "--finish-loop-age")) == 10.0
-    assert config.planner.alc.max_drift_age_ratio == float(cli_default("explore", "--alc-drift-age-ratio"))
     config.planner.alc.epsilon = 0.5
     assert config.planner.alc.epsilon == 0.5
     with pytest.raises(ValueError, match="finish_search_radius_m"):

@@ -146,8 +146,6 @@ TEST_CASE("vdbmap bench alc --resume keeps the runs an earlier call made and ref
   // A run made with other options is never mixed in: the error names the file and the option.
   CHECK(run(args + " --seeds 1 --epsilon 0.7 --resume", out) != 0);
   CHECK(slurp(out).find("alc_seed1/summary.json was run with epsilon") != std::string::npos);
-  CHECK(run(args + " --seeds 1 --alc-drift-age-ratio 0.5 --resume", out) != 0);
-  CHECK(slurp(out).find("alc_seed1/summary.json was run with alc_max_drift_age_ratio") != std::string::npos);
   CHECK(run(args + " --seeds 1 --safety on --resume", out) != 0);
   CHECK(slurp(out).find("was run with safety_") != std::string::npos);
   CHECK(run(args + " --seeds 1 --ceiling 2 --resume", out) != 0);  // the same file cut elsewhere

@@ -62,7 +62,7 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
 /// the seed and the drift level; a mesh world's file and every world's ceiling cut are recorded
 /// too; null: the key must be absent).
 inline nlohmann::json runIdentity(const std::string& description, const BenchmarkWorld& world, double voxel_size_m,
-                                  double max_time_s, bool alc_enabled, const planner::AlcConfig& alc,
+                                  double max_time_s, bool alc_enabled, double epsilon,
                                   const planner::SafetyConfig& safety, LoopClosureMode loop_closure) {
   const double clip_z_m = world.office ? world.office->height_m : world.world.ceiling_clip_z_m;
   const bool capped = world.office ? true : world.world.cap_ceiling;
@@ -73,8 +73,7 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
       {"voxel_size_m", voxel_size_m},
       {"max_time_s", max_time_s},
       {"alc_enabled", alc_enabled},
-      {"epsilon", alc_enabled ? alc.epsilon : 0.0},
-      {"alc_max_drift_age_ratio", alc_enabled ? alc.max_drift_age_ratio : 0.0},
+      {"epsilon", alc_enabled ? epsilon : 0.0},
       {"safety_layer", safety.enabled},
       {"safety_seen_free", safety.enabled && safety.seen_free_is_free},
       {"safety_map_thin", !safety.enabled || safety.map_thin_obstacles},
@@ -87,11 +86,11 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
 
 /// Where a benchmark's planned run starts. Resuming: the run an earlier call left in `run_dir` (its
 /// summary.json), when it was run as `identity` says (runIdentity; a summary without
-/// "safety_near_drift_tolerance_m" or "alc_max_drift_age_ratio" predates that rule and ran without it), else nothing
-/// when there is none; throws std::runtime_error naming the file and the first key (in alphabetical order) that
-/// differs, so that a resumed table never mixes runs made with other options. Not resuming: nothing, after removing the
-/// summary.json an earlier call left there, so that this call, if stopped before it reaches the run, does not leave it
-/// to a later resume.
+/// "safety_near_drift_tolerance_m" predates that rule and ran without it), else nothing when there
+/// is none; throws std::runtime_error naming the file and the first key (in alphabetical order)
+/// that differs, so that a resumed table never mixes runs made with other options. Not resuming:
+/// nothing, after removing the summary.json an earlier call left there, so that this call, if
+/// stopped before it reaches the run, does not leave it to a later resume.
 inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::filesystem::path& run_dir,
                                                        const nlohmann::json& identity) {
   const std::filesystem::path file = run_dir / "summary.json";
@@ -103,8 +102,7 @@ inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::f
   const nlohmann::json recorded = readSummaryJson(file);
   for (const auto& [key, value] : identity.items()) {
     const auto it = recorded.find(key);
-    const bool rule_added_later = key == "safety_near_drift_tolerance_m" || key == "alc_max_drift_age_ratio";
-    if (it == recorded.end() && rule_added_later && value == 0.0) continue;
+    if (it == recorded.end() && key == "safety_near_drift_tolerance_m" && value == 0.0) continue;
     if (value.is_null() && (it == recorded.end() || it->is_null())) continue;
     if (it == recorded.end() || *it != value)
       throw std::runtime_error(file.string() + " was run with " + key + " = " +

@@ -5,7 +5,6 @@
 // At each global replan, with the frontier tour's matrix M_frt (buildTourCostMatrix: node 0 the
 // vehicle, node i + 1 frontier target i):
 //   1. candidates: loop clusters with a viewpoint within search_radius_m of the vehicle;
-//      and, beyond the paper, better anchored than the vehicle (max_drift_age_ratio, below);
 //   2. c* = the candidate whose centre is cheapest to reach from the vehicle's current state
 //      (CostEvaluator legs: real paths, the velocity-direction term; ties: the older cluster);
 //   3. M_loop = M_frt with row 0 replaced by the costs from c*'s centre (at rest) to the targets;
@@ -24,21 +23,10 @@
 // never chosen again. There is no ALC during the first initial_period_s of a flight, nor within
 // loop_quiet_s after any detected loop closure (drift was just corrected).
 //
-// Beyond the paper, only loops that can anchor the estimate: a loop closure ties the vehicle's
-// pose to the old place's estimate, so a loop to a place mapped with as much drift as the vehicle
-// has now makes the map consistent but not accurate (measured on offices at s3: such loops, 16-40 s
-// back, left the error at 1-2 m, while one loop to a place flown 295 s earlier took it from 1.3 to
-// 0.1 m). With max_drift_age_ratio r > 0, a cluster is a candidate only when the drift age of
-// every member (viewpoint_history.hpp) is at most r times the vehicle's. The ages follow the
-// loop closures the caller reports with the stamp of the place they matched (anchorHistory);
-// without them, ages are times since the start and the rule prefers the first part of the flight.
-//
-// Also beyond the paper, a loop before finishing (decideFinish): when exploration would end and no loop
+// Beyond the paper, a loop before finishing (decideFinish): when exploration would end and no loop
 // closed for finish_loop_age_s, one more detour goes to the cheapest loop cluster within
 // finish_search_radius_m, so that the drift of the last stretch is corrected before the map is
 // handed over (the frames since the last loop closure are otherwise left where drift put them).
-// With max_drift_age_ratio > 0 it goes to the best-anchored candidate (the lowest drift age) rather
-// than the cheapest: the last loop decides how well the map's last stretch is anchored.
 // It ends like any detour: a loop closure, the give-up timeout or no path. A loop's correction
 // can open new frontiers, and their exploration drifts again: at most max_finish_detours per flight.
 //
@@ -78,9 +66,6 @@ struct AlcConfig {
   double suspension_s = 10.0;        ///< ALC is off this long after giving up; [0, 1e6]
   double loop_quiet_s = 30.0;        ///< ALC is off this long after any loop closure; [0, 1e6]
   int max_failures_per_cluster = 2;  ///< given up this often, a cluster is never chosen again; [1, 1000]
-  /// A candidate cluster's members have at most this fraction of the vehicle's drift age (above);
-  /// 0: any cluster; [0, 1]
-  double max_drift_age_ratio = 0.0;
   /// A detour before finishing when the last loop closure (or the flight's start) is at least this
   /// old; 0: finish without one; [0, 1e6]
   double finish_loop_age_s = 10.0;
@@ -96,14 +81,14 @@ using AlcParams [[deprecated("renamed AlcConfig")]] = AlcConfig;
 
 /// Why the decision came out as it did. Every status is an expected outcome.
 enum class AlcStatus {
-  kDetour,           ///< fly via the loop cluster first (a new detour, or the one in progress)
-  kFrontierCheaper,  ///< compared: C_loop > (1 + epsilon) C_frt, the frontier tour is kept
-  kNoFrontier,       ///< no frontier target: nothing to compare (exploration is over, no loop needed before)
-  kInitialPeriod,    ///< within initial_period_s of the flight's start
-  kQuietAfterLoop,   ///< within loop_quiet_s of a detected loop closure (also: a detour just succeeded)
-  kGaveUp,           ///< the detour in progress timed out (or its cluster became unreachable) now
-  kSuspended,        ///< within suspension_s of giving up
-  kNoCluster,        ///< no usable loop cluster (better anchored than the vehicle, when asked) within search_radius_m
+  kDetour,              ///< fly via the loop cluster first (a new detour, or the one in progress)
+  kFrontierCheaper,     ///< compared: C_loop > (1 + epsilon) C_frt, the frontier tour is kept
+  kNoFrontier,          ///< no frontier target: nothing to compare (exploration is over, no loop needed before)
+  kInitialPeriod,       ///< within initial_period_s of the flight's start
+  kQuietAfterLoop,      ///< within loop_quiet_s of a detected loop closure (also: a detour just succeeded)
+  kGaveUp,              ///< the detour in progress timed out (or its cluster became unreachable) now
+  kSuspended,           ///< within suspension_s of giving up
+  kNoCluster,           ///< no usable loop cluster within search_radius_m
   kNoReachableCluster,  ///< candidates, but no path to any of them
 };
 
@@ -176,13 +161,6 @@ class ActiveLoopClosure {
   /// and the clusters' centres with them.
   void correctHistory(const std::function<FlatPose(const FlownViewpoint&)>& corrected);
 
-  /// A loop closure at now_s matched the place flown through at matched_stamp_s: the drift ages
-  /// follow (ViewpointHistory::anchor). Throws std::invalid_argument as anchor() does.
-  void anchorHistory(double matched_stamp_s, double now_s) { history_.anchor(matched_stamp_s, now_s); }
-
-  /// A cluster's drift age: the largest of its members' (the loop detector may match any of them).
-  double clusterDriftAge_s(LoopClusterId id) const;
-
   /// The decision at a global replan. `targets` and `frontier_costs` are the frontier tour's
   /// (frontier_costs = buildTourCostMatrix(costs from `vehicle`, targets, table)); `frontier_tour`
   /// is its solved tour if the caller has one (else it is solved here). `loop_closed`: a loop
@@ -221,16 +199,14 @@ class ActiveLoopClosure {
   void endDetour(double now_s);
   void giveUp(double now_s);
   void checkTime(double now_s, const char* who);
-  /// The usable clusters with a viewpoint within radius_m (the detour's own while one is in
-  /// progress): not given up on too often, and anchored well enough at now_s (max_drift_age_ratio).
-  std::vector<LoopClusterId> candidates(const Vec3d& position_W, double radius_m, double now_s) const;
+  std::vector<LoopClusterId> candidates(const Vec3d& position_W, double radius_m) const;
   /// c*: of the usable clusters with a viewpoint within radius_m (the detour's own while one is in
   /// progress), the one whose centre is cheapest to reach from `vehicle` (ties: the older
-  /// cluster); with `best_anchored`, the one with the lowest drift age (ties: the cheapest). Sets d.cluster,
-  /// d.cluster_viewpoints and d.to_cluster and returns true; else sets d.status to kNoCluster or kNoReachableCluster,
-  /// giving up a detour whose cluster can no longer be reached.
+  /// cluster). Sets d.cluster, d.cluster_viewpoints and d.to_cluster and returns true; else sets
+  /// d.status to kNoCluster or kNoReachableCluster, giving up a detour whose cluster can no longer
+  /// be reached.
   bool chooseCluster(const VehicleState& vehicle, double now_s, double radius_m, const LegCostFunction& leg_costs,
-                     bool best_anchored, AlcDecision& d);
+                     AlcDecision& d);
 
   AlcConfig params_;
   double flight_start_s_;

@@ -471,12 +471,7 @@ class ExplorationManager {
   /// the next replan). `corrected`, when given, maps a recorded viewpoint (stamped with the t_s of
   /// the update() that fed it) to its corrected pose in the estimate frame after the correction;
   /// the way flown that retreats go back along moves with it, and with ALC the viewpoint history.
-  /// `matched_stamp_s`, when given, is when the vehicle flew through the place the loop matched
-  /// (e.g. the old keyframe's stamp in a VINS loop message): ALC's drift ages follow it
-  /// (ActiveLoopClosure::anchorHistory). Throws std::invalid_argument for a non-finite t_s, or a
-  /// matched stamp that is not finite or after t_s.
-  void notifyLoopClosure(double t_s, const std::function<FlatPose(const FlownViewpoint&)>& corrected = {},
-                         std::optional<double> matched_stamp_s = std::nullopt);
+  void notifyLoopClosure(double t_s, const std::function<FlatPose(const FlownViewpoint&)>& corrected = {});
 
   /// A depth frame captured at t_s from the sensor pose T_W_S (the estimate frame, as the
   /// trajectory), for the safety layer (SafetyConfig); ignored when it is off. Frames must come

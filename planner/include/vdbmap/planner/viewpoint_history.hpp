@@ -5,13 +5,6 @@
 // The vehicle offers its pose every cycle; a pose is recorded only when it moved or turned enough
 // since the last recorded one, so hovering adds nothing and the spacing stays well below the
 // loop detector's tolerance (the simulator's: 0.5 m, 0.2 rad).
-//
-// Each viewpoint also carries its drift age: how well the estimate of that place is anchored,
-// as seconds of uncorrected odometry. Odometry error is a random walk whose variance grows with
-// time, so without loop closures a place t seconds after the start has drift age t. A loop
-// closure ties the vehicle to an older place (anchor()): both ends get the better-anchored end's
-// age, and the places flown between them are pinned at both ends (a Brownian bridge). Ages are
-// relative measures for choosing loop places (active_loop_closure.hpp), not metres.
 #pragma once
 
 #include "vdbmap/planner/point_index.hpp"
@@ -40,7 +33,6 @@ struct FlownViewpoint {
   Vec3d position_W = Vec3d::Zero();
   double yaw_rad = 0.0;
   double stamp_s = 0.0;
-  double drift_age_s = 0.0;  ///< seconds of uncorrected odometry behind this place's estimate (above)
 };
 
 class ViewpointHistory {
@@ -58,19 +50,6 @@ class ViewpointHistory {
   const FlownViewpoint& operator[](std::size_t i) const { return viewpoints_.at(i); }
   const std::vector<FlownViewpoint>& viewpoints() const { return viewpoints_; }
 
-  /// The vehicle's drift age at now_s: the last offer's (or the last anchor's), plus the time
-  /// since; 0 before the first offer. Throws std::invalid_argument for a non-finite now_s or one
-  /// before the last offer.
-  double driftAge_s(double now_s) const;
-
-  /// A loop closure at now_s tied the vehicle to the place it flew through at matched_stamp_s: m,
-  /// the smaller of the vehicle's drift age and the place's (the age at the recorded viewpoint at
-  /// or before that stamp, plus the time since it), becomes the vehicle's; every viewpoint stamped
-  /// in [matched_stamp_s, now_s] keeps the smaller of its age and m + (t - t_a)(t_b - t)/(t_b - t_a).
-  /// Offers after it must not be earlier than now_s. Throws std::invalid_argument for non-finite
-  /// stamps, matched_stamp_s > now_s, or now_s before the last offer.
-  void anchor(double matched_stamp_s, double now_s);
-
   /// Indices of the recorded viewpoints within radius_m of p (see PointIndex::withinRadius),
   /// ascending, i.e. oldest first.
   std::vector<std::size_t> withinRadius(const Vec3d& p_W, double radius_m) const;
@@ -86,7 +65,6 @@ class ViewpointHistory {
   std::vector<FlownViewpoint> viewpoints_;
   PointIndex index_;
   std::optional<double> last_offer_s_;
-  double age_at_last_offer_s_ = 0.0;  ///< the vehicle's drift age at last_offer_s_
 };
 
 }  // namespace vdbmap::planner
