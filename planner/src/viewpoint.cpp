@@ -210,7 +210,7 @@ void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sigh
                  const Rings& rings, std::vector<Viewpoint>& out) {
   const MapQuery& map = probe.map();
   // Every check below stays within the outer ring, the samples, and the clearance around them:
-  // read that region once.
+  // read that region once (on maps where that pays: the clearance checks read a small part of it).
   {
     const double reach = rings.radius_max_m + rings.min_clearance_m + map.voxelSize();
     double dz_lo = 0.0, dz_hi = 0.0;
@@ -220,8 +220,8 @@ void searchRings(const FrontierCluster& cluster, MapProbe& probe, MapProbe& sigh
                                cluster.centroid_W + Vec3d(reach, reach, margin_z + dz_hi));
     for (const openvdb::Coord& c : cluster.samples) region.extend(map.voxelCenter(c));
     const openvdb::CoordBBox block = map.voxelsIn(region).expandBy(1);
-    probe.cacheBox(block);
-    if (&sight != &probe) sight.cacheBox(block);
+    if (map.boxReadsPay()) probe.cacheBox(block);
+    if (&sight != &probe && sight.map().boxReadsPay()) sight.cacheBox(block);
   }
   const double step = params.angle_step_deg * M_PI / 180.0;
   const int angles = std::max(1, int(std::ceil(2.0 * M_PI / step - 1e-9)));

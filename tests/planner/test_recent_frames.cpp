@@ -7,6 +7,8 @@
 #include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
 #include "vdbmap/planner/recent_obstacle_map.hpp"
+#include "vdbmap/planner/viewpoint.hpp"
+#include "vdbmap/planner/frontier.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -518,6 +520,68 @@ TEST_CASE("RecentObstacleMap with seen free space reopens what drift closed in t
   const PathResult through = PathPlanner(reopened).plan(start, goal, 1);
   REQUIRE(through.ok());
   CHECK((through.waypoints.back() - goal).norm() < 1e-9);
+}
+
+namespace {
+/// Voxel states copied out of another map and looked up, with that map's sight map.
+class LookedUp : public MapQuery {
+ public:
+  LookedUp(const MapQuery& from, const CoordBBox& extent)
+      : states_(from.voxelSize(), extent), sight_(&from.sightMap()) {
+    auto reader = from.reader();
+    for (auto it = extent.begin(); it; ++it) states_.set(*it, reader->at(*it));
+  }
+  double voxelSize() const override { return states_.voxelSize(); }
+  CoordBBox knownBounds() const override { return states_.knownBounds(); }
+  std::unique_ptr<MapReader> reader() const override { return states_.reader(); }
+  const MapQuery& sightMap() const override { return *sight_; }
+
+ private:
+  DenseMap states_;
+  const MapQuery* sight_;
+};
+}  // namespace
+
+TEST_CASE("Viewpoints over seen free space, read voxel by voxel, equal those over the same states looked up",
+          "[planner][safety][viewpoint]") {
+  // An 8 x 6 x 3 m room known up to x = 4 m (a frontier plane there) whose map holds a ghost wall
+  // at x = 2.5 m with a door; the vehicle at x = 0.5 m sees along +x to 3.9 m, through the ghost.
+  DenseMap base(0.1, CoordBBox(Coord(-2), Coord(82, 62, 32)));
+  base.fill(CoordBBox(Coord(0), Coord(39, 59, 29)), Occupancy::Occupied);
+  base.fill(CoordBBox(Coord(1), Coord(39, 58, 28)), Occupancy::Free);
+  base.fill(CoordBBox(Coord(25, 1, 1), Coord(25, 58, 28)), Occupancy::Occupied);
+  base.fill(CoordBBox(Coord(25, 26, 1), Coord(25, 34, 20)), Occupancy::Free);
+  const CameraIntrinsics K = quarterCamera();
+  RecentFrames recent;
+  recent.add(0.0, flatWall(K, 3.4f), K, lookingPose(Vec3d(0.5, 3.0, 1.5), 0.0));
+  const SurfaceVoxels& surface = recent.surfaceVoxels(base.voxelSize());
+  const RecentObstacleMap plain(base, surface), reopened(base, surface, &recent);
+  // Seen free space is computed per voxel, so reading whole boxes of it does not pay.
+  CHECK(plain.boxReadsPay());
+  CHECK_FALSE(reopened.boxReadsPay());
+
+  FrontierMap frontiers;
+  frontiers.rebuild(base);
+  REQUIRE_FALSE(frontiers.clusters().empty());
+  const LookedUp looked_up(reopened, CoordBBox(Coord(-2), Coord(82, 62, 32)));
+  REQUIRE(looked_up.boxReadsPay());
+  const ViewpointConfig params;
+  std::size_t total = 0, differ_from_plain = 0;
+  for (const FrontierCluster& cluster : frontiers.clusters()) {
+    const std::vector<Viewpoint> views = computeViewpoints(cluster, reopened, params),
+                                 expected = computeViewpoints(cluster, looked_up, params),
+                                 held = computeViewpoints(cluster, plain, params);
+    REQUIRE(views.size() == expected.size());
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      REQUIRE(views[i].position_W == expected[i].position_W);
+      REQUIRE(views[i].yaw_rad == expected[i].yaw_rad);
+      REQUIRE(views[i].visible_samples == expected[i].visible_samples);
+    }
+    total += views.size();
+    differ_from_plain += views.size() != held.size();
+  }
+  CHECK(total > 20);
+  CHECK(differ_from_plain > 0);  // the reopened ghost wall frees some candidates
 }
 
 TEST_CASE(

@@ -72,6 +72,11 @@ class MapQuery {
   /// a voxel, tsdf_map_query.hpp) returns the map without those rules: a 2.5 cm post keeps the
   /// vehicle 0.3 m away, but hides only a sliver of its 0.1 m voxel from a camera.
   virtual const MapQuery& sightMap() const { return *this; }
+  /// Whether reading a whole box at once (MapReader::readBox, MapProbe::cacheBox) pays before
+  /// checks that read only part of it: true for maps whose voxels are looked up; false for one
+  /// that computes some voxels' states at a cost (RecentObstacleMap's seen free space projects
+  /// each into every recent frame), where a box read computes states that no check reads.
+  virtual bool boxReadsPay() const { return true; }
 
   /// The voxel that contains p_W.
   openvdb::Coord worldToVoxel(const Vec3d& p_W) const;

@@ -49,6 +49,8 @@ class RecentObstacleMap : public MapQuery {
   openvdb::CoordBBox knownBounds() const override;
   std::unique_ptr<MapReader> reader() const override;
   const MapQuery& sightMap() const override { return base_->sightMap(); }
+  /// False with `seen_free`: each of its voxels costs a projection into every recent frame.
+  bool boxReadsPay() const override { return !seen_free_ && base_->boxReadsPay(); }
 
   /// The voxel holds a recent surface.
   bool isRecentSurface(const openvdb::Coord& ijk) const {
