@@ -4,6 +4,7 @@
 #include "common/quarter_camera.hpp"
 #include "planner/planner_test_maps.hpp"
 
+#include "vdbmap/planner/assume_free_map.hpp"
 #include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
 #include "vdbmap/planner/recent_obstacle_map.hpp"
@@ -559,6 +560,9 @@ TEST_CASE("Viewpoints over seen free space, read voxel by voxel, equal those ove
   // Seen free space is computed per voxel, so reading whole boxes of it does not pay.
   CHECK(plain.boxReadsPay());
   CHECK_FALSE(reopened.boxReadsPay());
+  // A wrapper that reads its base's boxes says what its base says.
+  CHECK_FALSE(AssumeFreeMap(reopened, {}).boxReadsPay());
+  CHECK(AssumeFreeMap(plain, {}).boxReadsPay());
 
   FrontierMap frontiers;
   frontiers.rebuild(base);

@@ -30,6 +30,8 @@ class AssumeFreeMap : public MapQuery {
   std::unique_ptr<MapReader> reader() const override;
   /// The same boxes over the base's sightMap() (this map when the base is its own).
   const MapQuery& sightMap() const override;
+  /// As the base's: a box read here is the base's box read.
+  bool boxReadsPay() const override { return base_->boxReadsPay(); }
 
   const std::vector<openvdb::CoordBBox>& freeBoxes() const { return boxes_; }
 
