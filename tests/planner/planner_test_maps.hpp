@@ -128,6 +128,18 @@ inline DenseMap wallRoom(bool door = true) {
   return map;
 }
 
+/// An 8 x 6 x 3 m room whose half x < 4 m is known (walls occupied, inside free); the rest is
+/// unknown, so the plane x = 3.9 m is one big frontier. A pillar stands in the known half.
+inline DenseMap halfKnownRoom() {
+  using openvdb::Coord;
+  using openvdb::CoordBBox;
+  DenseMap map(0.1, CoordBBox(Coord(-2), Coord(82, 62, 32)));
+  map.fill(CoordBBox(Coord(0), Coord(39, 59, 29)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(1), Coord(39, 58, 28)), Occupancy::Free);
+  map.fill(CoordBBox(Coord(20, 25, 1), Coord(23, 28, 28)), Occupancy::Occupied);  // pillar
+  return map;
+}
+
 /// Every point of the path, every 5 mm, has only free voxel centres within r (brute force).
 inline bool denselyClear(const DenseMap& map, const std::vector<Vec3d>& path, double r) {
   for (std::size_t i = 1; i < path.size(); ++i) {

@@ -5,11 +5,11 @@
 #include "planner/planner_test_maps.hpp"
 
 #include "vdbmap/planner/assume_free_map.hpp"
+#include "vdbmap/planner/frontier.hpp"
 #include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
 #include "vdbmap/planner/recent_obstacle_map.hpp"
 #include "vdbmap/planner/viewpoint.hpp"
-#include "vdbmap/planner/frontier.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -545,11 +545,9 @@ class LookedUp : public MapQuery {
 
 TEST_CASE("Viewpoints over seen free space, read voxel by voxel, equal those over the same states looked up",
           "[planner][safety][viewpoint]") {
-  // An 8 x 6 x 3 m room known up to x = 4 m (a frontier plane there) whose map holds a ghost wall
-  // at x = 2.5 m with a door; the vehicle at x = 0.5 m sees along +x to 3.9 m, through the ghost.
-  DenseMap base(0.1, CoordBBox(Coord(-2), Coord(82, 62, 32)));
-  base.fill(CoordBBox(Coord(0), Coord(39, 59, 29)), Occupancy::Occupied);
-  base.fill(CoordBBox(Coord(1), Coord(39, 58, 28)), Occupancy::Free);
+  // The half-known room (a frontier plane at x = 3.9 m) whose map holds a ghost wall at x = 2.5 m
+  // with a door; the vehicle at x = 0.5 m sees along +x to 3.9 m, through the ghost.
+  DenseMap base = planner::test::halfKnownRoom();
   base.fill(CoordBBox(Coord(25, 1, 1), Coord(25, 58, 28)), Occupancy::Occupied);
   base.fill(CoordBBox(Coord(25, 26, 1), Coord(25, 34, 20)), Occupancy::Free);
   const CameraIntrinsics K = quarterCamera();
@@ -567,7 +565,7 @@ TEST_CASE("Viewpoints over seen free space, read voxel by voxel, equal those ove
   FrontierMap frontiers;
   frontiers.rebuild(base);
   REQUIRE_FALSE(frontiers.clusters().empty());
-  const LookedUp looked_up(reopened, CoordBBox(Coord(-2), Coord(82, 62, 32)));
+  const LookedUp looked_up(reopened, base.extent());
   REQUIRE(looked_up.boxReadsPay());
   const ViewpointConfig params;
   std::size_t total = 0, differ_from_plain = 0;

@@ -19,16 +19,6 @@ using openvdb::Coord;
 using openvdb::CoordBBox;
 
 namespace {
-/// An 8 x 6 x 3 m room whose half x < 4 m is known (walls occupied, inside free); the rest is
-/// unknown, so the plane x = 3.9 m is one big frontier. A pillar stands in the known half.
-DenseMap halfKnownRoom() {
-  DenseMap map(0.1, CoordBBox(Coord(-2), Coord(82, 62, 32)));
-  map.fill(CoordBBox(Coord(0), Coord(39, 59, 29)), Occupancy::Occupied);
-  map.fill(CoordBBox(Coord(1), Coord(39, 58, 28)), Occupancy::Free);
-  map.fill(CoordBBox(Coord(20, 25, 1), Coord(23, 28, 28)), Occupancy::Occupied);  // pillar
-  return map;
-}
-
 /// The cluster samples a camera at the viewpoint sees (FUEL's rule, look_into_unknown off),
 /// recounted with the brute-force ray test.
 int bruteSeen(const DenseMap& map, const FrontierCluster& cluster, const CameraFrustum& camera, const Viewpoint& v) {
@@ -155,7 +145,7 @@ TEST_CASE("Occupied and unknown voxels occlude; free space does not", "[planner]
 }
 
 TEST_CASE("Every viewpoint is clear, sees its cluster, and looks at it", "[planner][viewpoint]") {
-  const DenseMap map = halfKnownRoom();
+  const DenseMap map = test::halfKnownRoom();
   FrontierMap frontiers;  // FUEL defaults: min 100 voxels, split beyond 2 m
   frontiers.rebuild(map);
   REQUIRE(frontiers.clusters().size() == 2);  // the 5.8 m wide plane is split in halves of 2.9 m
@@ -203,7 +193,7 @@ TEST_CASE("Every viewpoint is clear, sees its cluster, and looks at it", "[plann
 
 TEST_CASE("Looking into the unknown, every viewpoint observes its cluster as the brute-force rule counts",
           "[planner][viewpoint]") {
-  const DenseMap map = halfKnownRoom();
+  const DenseMap map = test::halfKnownRoom();
   FrontierMap frontiers;
   frontiers.rebuild(map);
   const ViewpointConfig params = intoUnknown();
@@ -225,7 +215,7 @@ TEST_CASE("Looking into the unknown, every viewpoint observes its cluster as the
 TEST_CASE("observedSamples equals the brute-force rule for every entry reach, in and out of the frontier box",
           "[planner][viewpoint]") {
   // The half-known room with clutter: occupied and unknown voxels scattered in its known half.
-  DenseMap map = halfKnownRoom();
+  DenseMap map = test::halfKnownRoom();
   std::mt19937 rng(21);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   for (auto it = CoordBBox(Coord(1), Coord(38, 58, 28)).begin(); it; ++it) {
@@ -324,7 +314,7 @@ TEST_CASE("A free layer under unknown space seen edge-on is visible but not obse
 }
 
 TEST_CASE("Viewpoints respect the exploration box and the clearance", "[planner][viewpoint]") {
-  const DenseMap map = halfKnownRoom();
+  const DenseMap map = test::halfKnownRoom();
   FrontierMap frontiers;
   frontiers.rebuild(map);
   REQUIRE_FALSE(frontiers.clusters().empty());
@@ -394,7 +384,7 @@ TEST_CASE("A cluster the rings cannot see from gets the fallback's closer viewpo
 TEST_CASE("The fallback's threshold lets a small cluster pass by the fraction it sees", "[planner][viewpoint]") {
   // The frontier of the halfKnownRoom, cut down to a 4 x 4 voxel patch: 4 samples, far fewer than
   // min_visible_samples. Standing in the known half, a camera sees all of them.
-  DenseMap map = halfKnownRoom();
+  DenseMap map = test::halfKnownRoom();
   map.fill(CoordBBox(Coord(40, 0, 0), Coord(82, 62, 32)), Occupancy::Occupied);
   map.fill(CoordBBox(Coord(40, 28, 12), Coord(40, 31, 15)), Occupancy::Unknown);
   FrontierConfig fp;
