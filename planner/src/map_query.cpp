@@ -190,6 +190,11 @@ std::optional<openvdb::Coord> MapProbe::firstNotFree(const Vec3d& a_W, const Vec
 bool MapProbe::isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_m) {
   // Endpoints first (the usual reason for failure); they also validate the radius.
   if (!isClear(a_W, radius_m) || !isClear(b_W, radius_m)) return false;
+  return isSegmentClearFromClearEnds(a_W, b_W, radius_m);
+}
+
+bool MapProbe::isSegmentClearFromClearEnds(const Vec3d& a_W, const Vec3d& b_W, double radius_m) {
+  offsetsFor(radius_m);  // validates the radius
   const double r = radius_m / voxel_size_m_;
   // The voxels the segment crosses: a thin capsule may slip between voxel centres, so they count
   // too. Those of a capsule at least a voxel wide are within it (their centres are at most half a

@@ -14,10 +14,13 @@
 #include <ompl/util/RandomNumbers.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <unordered_set>
 
 namespace ob = ompl::base;
 namespace og = ompl::geometric;
@@ -113,10 +116,39 @@ struct PathPlanner::Checker {
 
   Checker(const MapQuery& map, double clearance, double step, const Eigen::AlignedBox3d& bounds)
       : probe(map), clearance_m(clearance), step_m(step), bounds_W(bounds) {}
-  bool isClear(const Vec3d& p) { return bounds_W.contains(p) && probe.isClear(p, clearance_m); }
-  bool isSegmentClear(const Vec3d& a, const Vec3d& b) {
-    return bounds_W.contains(a) && bounds_W.contains(b) && probe.isSegmentClear(a, b, clearance_m);
+  bool isClear(const Vec3d& p) {
+    if (!bounds_W.contains(p)) return false;
+    const Key key{p.x(), p.y(), p.z()};
+    if (clear.count(key)) return true;
+    if (!probe.isClear(p, clearance_m)) return false;
+    if (clear.size() >= kMaxClearPoints) clear.clear();
+    clear.insert(key);
+    return true;
   }
+  /// MapProbe::isSegmentClear, each end's ball read once for the planner's life: a search checks
+  /// every new edge from a tree node that an earlier check found clear, and the simplifier
+  /// re-checks edges between the path's nodes.
+  bool isSegmentClear(const Vec3d& a, const Vec3d& b) {
+    return isClear(a) && isClear(b) && probe.isSegmentClearFromClearEnds(a, b, clearance_m);
+  }
+
+ private:
+  /// Points found clear, by their exact coordinates (the map does not change while the planner
+  /// is used); the set is emptied when it holds this many.
+  static constexpr std::size_t kMaxClearPoints = std::size_t(1) << 16;
+  using Key = std::array<double, 3>;
+  struct KeyHash {
+    std::size_t operator()(const Key& k) const {
+      std::uint64_t h = 0;
+      for (double v : k) {
+        std::uint64_t bits;
+        std::memcpy(&bits, &v, sizeof bits);
+        h = splitmix64(h ^ bits);
+      }
+      return std::size_t(h);
+    }
+  };
+  std::unordered_set<Key, KeyHash> clear;
 };
 
 /// The OMPL side: a 3D box space whose validity and motion checks are the planner's own.

@@ -201,6 +201,7 @@ TEST_CASE("MapProbe::isSegmentClear gives the brute-force answer bit for bit, on
       REQUIRE(plain.isSegmentClear(a, b, r) == want);
       REQUIRE(on_cache.isSegmentClear(a, b, r) == want);
       REQUIRE(on_box.isSegmentClear(a, b, r) == want);
+      if (plain.isClear(a, r) && plain.isClear(b, r)) REQUIRE(on_cache.isSegmentClearFromClearEnds(a, b, r) == want);
       (want ? clear : blocked) += 1;
     }
     CHECK(clear > 50);

@@ -7,6 +7,9 @@
 
 #include <catch2/catch.hpp>
 
+#include <random>
+#include <vector>
+
 using namespace vdbmap;
 using namespace vdbmap::planner;
 
@@ -147,4 +150,30 @@ TEST_CASE("A path search on a CachedMap finds the same path as on its base", "[p
     CHECK(got.iterations == want.iterations);
     CHECK(cached.blocksRead() > 0);
   }
+}
+
+TEST_CASE("The planner's checks answer as a fresh probe after it remembered the clear points", "[planner][path]") {
+  // PathPlanner keeps the points it found clear and reads their balls once; every later answer,
+  // of segments between them and of the points themselves, must still be the probe's.
+  const DenseMap map = test::wallRoom(true);
+  PathConfig params;
+  params.clearance_m = 0.25;
+  PathPlanner planner(map, params);
+  MapProbe fresh(map);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> x(0.2, 9.8), y(0.2, 5.8), z(0.2, 2.8);
+  std::vector<Vec3d> points;
+  for (int i = 0; i < 200; ++i) points.emplace_back(x(rng), y(rng), z(rng));
+  int clear_segments = 0, blocked_segments = 0;
+  for (int round = 0; round < 2; ++round)  // the second round answers from what the first kept
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Vec3d &a = points[i], &b = points[(i * 7 + 3) % points.size()];
+      const bool inside = planner.searchBounds().contains(a) && planner.searchBounds().contains(b);
+      REQUIRE(planner.isClear(a) == (planner.searchBounds().contains(a) && fresh.isClear(a, params.clearance_m)));
+      const bool want = inside && fresh.isSegmentClear(a, b, params.clearance_m);
+      REQUIRE(planner.isSegmentClear(a, b) == want);
+      (want ? clear_segments : blocked_segments) += 1;
+    }
+  CHECK(clear_segments > 20);
+  CHECK(blocked_segments > 20);
 }

@@ -131,6 +131,9 @@ class MapProbe {
   /// capsule's voxels are enumerated layer by layer along the segment's main axis, each once.
   /// For a = b it is isClear(a, radius_m).
   bool isSegmentClear(const Vec3d& a_W, const Vec3d& b_W, double radius_m);
+  /// isSegmentClear for ends already known clear (isClear(a_W, radius_m) and isClear(b_W,
+  /// radius_m) were true on this map): the same answer, without reading the ends' balls again.
+  bool isSegmentClearFromClearEnds(const Vec3d& a_W, const Vec3d& b_W, double radius_m);
 
  private:
   /// Calls on_voxel(ijk) for the voxels the segment a-b passes through, in order from a's (exact

@@ -96,7 +96,8 @@ double polylineLength(const std::vector<Vec3d>& points);
 
 class PathPlanner {
  public:
-  /// The map must outlive the planner and not change during a query. Throws
+  /// The map must outlive the planner and not change while the planner is used (it keeps the
+  /// clearance answers it found, as the lattice search does). Throws
   /// std::invalid_argument for bad parameters.
   PathPlanner(const MapQuery& map, const PathConfig& params = {});
   ~PathPlanner();
