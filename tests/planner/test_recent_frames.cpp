@@ -454,6 +454,17 @@ TEST_CASE("RecentObstacleMap reads recent surface voxels occupied and everything
   CHECK(near > 100);
   CHECK(near < 1900);
 
+  // Many surface voxels over a box of several blocks of bits in every axis, none a whole number
+  // of blocks: each voxel reads occupied exactly when it is in the set.
+  SurfaceVoxels scattered;
+  std::uniform_int_distribution<int> sx(-7, 29), sy(-3, 25), sz(-2, 18);
+  for (int i = 0; i < 600; ++i) scattered[Coord(sx(rng), sy(rng), sz(rng))] = 1;
+  const RecentObstacleMap many(base, scattered);
+  auto many_reader = many.reader();
+  for (auto it = CoordBBox(Coord(-9, -5, -4), Coord(31, 27, 20)).begin(); it; ++it)
+    REQUIRE((many_reader->at(*it) == Occupancy::Occupied) ==
+            (scattered.count(*it) > 0 || base_reader->at(*it) == Occupancy::Occupied));
+
   // Surface voxels spread over a box too large for one bit per voxel are looked up instead.
   SurfaceVoxels spread;
   spread[Coord(5, 5, 5)] = 1;
