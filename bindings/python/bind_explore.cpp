@@ -169,6 +169,10 @@ void bindResult(py::module_& m) {
       .def_readonly("planner_ms_max", &ExplorationResult::planner_ms_max, "maximum of planner_ms")
       .def_readonly("map_update_ms_median", &ExplorationResult::map_update_ms_median,
                     "frontier and viewpoint refresh per frame")
+      .def_readonly("update_ms_median", &ExplorationResult::update_ms_median,
+                    "the planner's whole work per frame (the safety layer's frame, the update, replans)")
+      .def_readonly("update_ms_p99", &ExplorationResult::update_ms_p99, "99th percentile of the same (nearest rank)")
+      .def_readonly("update_ms_max", &ExplorationResult::update_ms_max, "maximum of the same")
       .def_readonly("frame_wall_ms_median", &ExplorationResult::frame_wall_ms_median, "everything per frame")
       .def_readonly("planner_counters", &ExplorationResult::planner_counters, "vdbmap.planner.ExplorationCounters")
       .def_readonly("keyframes_kept", &ExplorationResult::keyframes_kept, "keyframes the mapper keeps")

@@ -116,7 +116,7 @@ fs::path writeExploreRun(const std::string& name) {
   fs::create_directories(dir / "log");
   std::vector<vdbmap::io::StampedPose> truth, odom;
   std::string coverage = "t_s,coverage,coverage_seen,path_length_m,clusters,loop_closures,estimate_error_m,activity\n";
-  std::string cycles = "t_s,mapper_ms,planner_ms,frame_wall_ms,queued_frames,activity\n";
+  std::string cycles = "t_s,mapper_ms,planner_ms,update_ms,frame_wall_ms,queued_frames,activity\n";
   for (int i = 0; i <= 100; ++i) {
     const double t = 0.1 * i;
     vdbmap::Pose3d T = vdbmap::Pose3d::Identity();
@@ -124,8 +124,8 @@ fs::path writeExploreRun(const std::string& name) {
     truth.push_back({t, T});
     T.translation().y() = 0.01 * t;
     odom.push_back({t, T});
-    cycles += std::to_string(t) + ",5.0," + (i % 10 == 0 ? "40.0" : "0") + ",20.0," + std::to_string(i % 7) + "," +
-              (i >= 70 && i < 80 ? "loop_detour" : "to_target") + "\n";
+    cycles += std::to_string(t) + ",5.0," + (i % 10 == 0 ? "40.0,41.0" : "0,1.0") + ",20.0," + std::to_string(i % 7) +
+              "," + (i >= 70 && i < 80 ? "loop_detour" : "to_target") + "\n";
     if (i % 10 == 0)
       coverage += std::to_string(t) + "," + std::to_string(0.09 * t) + "," + std::to_string(0.095 * t) + "," +
                   std::to_string(t) + ",3,0,0.0,to_target\n";
@@ -218,6 +218,9 @@ TEST_CASE("an explore run's report holds its trajectories, events, time series a
   CHECK(cov.at("marks")[0].at("x").get<double>() == Approx(6.0));
   const json& planner = byId(data.at("plots"), "planner_ms");
   CHECK(planner.at("series")[0].at("y").size() == 11);  // every 10th frame replanned
+  REQUIRE(planner.at("series").size() == 2);            // and the whole update, every frame
+  CHECK(planner.at("series")[1].at("y").size() == 101);
+  CHECK(planner.at("series")[1].at("y")[10].get<double>() == Approx(41.0));
   const json& err = byId(data.at("plots"), "estimate_error");
   CHECK(err.at("series")[0].at("y").back().get<double>() == Approx(0.1).margin(1e-6));  // 0.01 m/s for 10 s
   // The scene: trajectories as written, the collision where the true path was at t = 4 s, the

@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 namespace fs = std::filesystem;
@@ -113,15 +114,28 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
     std::ifstream in(runs / "cycles.csv");
     std::string line;
     std::getline(in, line);
-    CHECK(line == "t_s,mapper_ms,planner_ms,frame_wall_ms,queued_frames,activity,replan");
+    CHECK(line == "t_s,mapper_ms,planner_ms,update_ms,frame_wall_ms,queued_frames,activity,replan");
     std::size_t starts = 0, none = 0;
+    double update_max = 0.0;
     while (std::getline(in, line)) {
       const std::string reason = line.substr(line.rfind(',') + 1);
       starts += reason == "start";
       none += reason == "none";
+      // The planner's whole work for the frame holds the replan's (both to 0.001 ms).
+      std::istringstream fields(line);
+      std::string t, mapper, planner, update;
+      std::getline(fields, t, ',');
+      std::getline(fields, mapper, ',');
+      std::getline(fields, planner, ',');
+      std::getline(fields, update, ',');
+      REQUIRE(std::stod(update) >= std::stod(planner) - 0.0015);
+      update_max = std::max(update_max, std::stod(update));
     }
     CHECK(starts >= 1);
     CHECK(none > frames / 2);
+    CHECK(s.at("update_ms_max").get<double>() == Approx(update_max).margin(0.0015));
+    CHECK(s.at("update_ms_p99").get<double>() <= s.at("update_ms_max").get<double>());
+    CHECK(s.at("update_ms_median").get<double>() <= s.at("update_ms_p99").get<double>());
   }
   const double t_end = s.at("exploration_time_s");
   CHECK(lineCount(runs / "coverage.csv") >= std::size_t(t_end) + 1);

@@ -480,8 +480,12 @@ json exploreRun(const fs::path& dir, const ReportConfig& config, ReportStats& st
         replan_t.push_back(t[i]);
         replan_ms.push_back(planner_ms[i]);
       }
-    plots.push_back(plot("planner_ms", "Planner time per replan (wall clock)", "time (s)", "ms",
-                         json::array({series("replan", replan_t, replan_ms, config.max_plot_points, "points")})));
+    json planner_series = json::array({series("replan", replan_t, replan_ms, config.max_plot_points, "points")});
+    if (c.numbers.count("update_ms"))  // runs before stop 73 lack it
+      planner_series.push_back(
+          series("whole update, every frame", t, column(c, cycles_csv, "update_ms"), config.max_plot_points));
+    plots.push_back(plot("planner_ms", "Planner time per replan and per frame (wall clock)", "time (s)", "ms",
+                         std::move(planner_series)));
     plots.push_back(plot("cycle_ms", "Mapper cycle per frame (integration, corrections, background)", "time (s)", "ms",
                          json::array({series("mapper cycle", t, column(c, cycles_csv, "mapper_ms"), config.max_plot_points)}),
                          loop_marks));

@@ -137,6 +137,9 @@ struct CycleSample {
   double t_s = 0.0;
   double mapper_ms = 0.0;         ///< integration, correction and background cycle
   double planner_ms = 0.0;        ///< frontier refresh and replan when the update replanned; 0 otherwise
+  /// The planner's whole work for the frame, replanned or not: the safety layer's frame
+  /// (ExplorationManager::addDepthFrame) and the update (refresh, checks of the way ahead, replan)
+  double update_ms = 0.0;
   double frame_wall_ms = 0.0;     ///< everything (render, map, planner, log)
   std::size_t queued_frames = 0;  ///< re-integration work left after the cycle
   planner::ExplorationActivity activity = planner::ExplorationActivity::Holding;
@@ -155,6 +158,11 @@ struct ExplorationResult {
   double planner_ms_median = 0.0;
   double planner_ms_max = 0.0;
   double map_update_ms_median = 0.0;  ///< frontier and viewpoint refresh per frame
+  /// The planner's whole work per frame (CycleSample::update_ms): what a vehicle's planner thread
+  /// must keep up with, replans included.
+  double update_ms_median = 0.0;
+  double update_ms_p99 = 0.0;
+  double update_ms_max = 0.0;
   double frame_wall_ms_median = 0.0;  ///< everything per frame (render, map, planner, log)
   double frame_wall_ms_p99 = 0.0;
   double frame_wall_ms_max = 0.0;
