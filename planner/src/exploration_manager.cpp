@@ -639,10 +639,11 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   std::optional<RecentObstacleMap> recent_map;
   // With the safety layer, flight may leave the map's thin structure to the recent surfaces.
   const MapQuery& flight_base = recent_ && !params_.safety.map_thin_obstacles ? map.sightMap() : map;
-  if (recent_)
-    recent_map.emplace(flight_base, recent_->surfaceVoxels(map.voxelSize()),
-                       params_.safety.seen_free_is_free ? recent_.get() : nullptr,
+  if (recent_) {
+    recent_->surfaceVoxels(map.voxelSize());  // counted at this voxel size
+    recent_map.emplace(flight_base, recent_->surfaceIndex(), params_.safety.seen_free_is_free ? recent_.get() : nullptr,
                        int(std::lround(verticalMarginAt_m(t_s) / map.voxelSize())));
+  }
   const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;
   // Retreats read the recent surfaces through recent_map_, for this update only.
   recent_map_ = recent_map ? &*recent_map : nullptr;

@@ -107,6 +107,7 @@ std::vector<double> RecentFrames::frameTimes() const {
 void RecentFrames::clear() {
   frames_.clear();
   voxels_.clear();
+  index_.clear();
   cleared_.clear();
 }
 
@@ -157,6 +158,7 @@ const SurfaceVoxels& RecentFrames::surfaceVoxels(double voxel_size_m) {
 
 void RecentFrames::recount() {
   voxels_.clear();
+  index_.clear();
   cleared_.clear();
   for (Frame& f : frames_) f.counted = false;
   for (Frame& f : frames_) count(f);
@@ -169,6 +171,7 @@ void RecentFrames::count(Frame& frame) {
       const openvdb::Coord& c = it->first;
       if (frameSeesVoxelFree(frame, c)) {
         cleared_[c] = frame.seq;
+        index_.erase(c);
         it = voxels_.erase(it);
       } else {
         ++it;
@@ -180,7 +183,8 @@ void RecentFrames::count(Frame& frame) {
   for (const Vec3f& s : frame.surface_S) frame.voxels.push_back(voxelOf(frame.T_W_S * s.cast<double>(), voxel_size_m_));
   std::sort(frame.voxels.begin(), frame.voxels.end());
   frame.voxels.erase(std::unique(frame.voxels.begin(), frame.voxels.end()), frame.voxels.end());
-  for (const openvdb::Coord& c : frame.voxels) ++voxels_[c];
+  for (const openvdb::Coord& c : frame.voxels)
+    if (++voxels_[c] == 1) index_.insert(c);
   frame.counted = true;
 }
 
@@ -190,7 +194,10 @@ void RecentFrames::uncount(Frame& frame) {
     if (const auto cleared = cleared_.find(c); cleared != cleared_.end() && frame.seq < cleared->second)
       continue;  // no longer counted there
     const auto it = voxels_.find(c);
-    if (--it->second == 0) voxels_.erase(it);
+    if (--it->second == 0) {
+      voxels_.erase(it);
+      index_.erase(c);
+    }
   }
   frame.voxels.clear();
   frame.counted = false;

@@ -86,9 +86,31 @@ class RecentObstacleReader : public MapReader {
 };
 }  // namespace
 
+namespace {
+std::unique_ptr<const SurfaceIndex> indexOf(const SurfaceVoxels& surface) {
+  auto index = std::make_unique<SurfaceIndex>();
+  for (const auto& [c, n] : surface) index->insert(c);
+  return index;
+}
+}  // namespace
+
 RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free,
                                      int vertical_margin_voxels)
-    : base_(&base), surface_(&surface), seen_free_(seen_free), vertical_margin_(vertical_margin_voxels) {
+    : RecentObstacleMap(base, indexOf(surface), nullptr, seen_free, vertical_margin_voxels) {}
+
+RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceIndex& surface, const RecentFrames* seen_free,
+                                     int vertical_margin_voxels)
+    : RecentObstacleMap(base, nullptr, &surface, seen_free, vertical_margin_voxels) {}
+
+RecentObstacleMap::RecentObstacleMap(const MapQuery& base, std::unique_ptr<const SurfaceIndex> owned,
+                                     const SurfaceIndex* surface, const RecentFrames* seen_free,
+                                     int vertical_margin_voxels)
+    : base_(&base),
+      owned_surface_(std::move(owned)),
+      surface_(owned_surface_ ? owned_surface_.get() : surface),
+      bounds_(surface_->bounds()),
+      seen_free_(seen_free),
+      vertical_margin_(vertical_margin_voxels) {
   if (vertical_margin_voxels < 0 || vertical_margin_voxels > 100)
     throw std::invalid_argument("RecentObstacleMap: vertical_margin_voxels must be in [0, 100], got " +
                                 std::to_string(vertical_margin_voxels));
@@ -100,16 +122,6 @@ RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& 
       free_bounds_.intersect(base.knownBounds());
       free_dim_ = free_bounds_.dim();
     }
-  }
-  for (const auto& [c, n] : surface) bounds_.expand(c);
-  if (bounds_.empty()) return;
-  dim_ = bounds_.dim();
-  const std::size_t volume = std::size_t(dim_.x()) * std::size_t(dim_.y()) * std::size_t(dim_.z());
-  if (volume > kMaxDenseVoxels) return;
-  bits_.assign((volume + 63) / 64, 0);
-  for (const auto& [c, n] : surface) {
-    const std::size_t i = boxIndex(bounds_.min(), dim_, c);
-    bits_[i / 64] |= std::uint64_t(1) << (i % 64);
   }
 }
 

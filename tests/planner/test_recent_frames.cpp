@@ -28,6 +28,23 @@ using openvdb::CoordBBox;
 using vdbmap::test::quarterCamera;
 
 namespace {
+/// The index RecentFrames keeps holds exactly the voxels of its surface set, with their bounds.
+void requireIndexIsSet(RecentFrames& recent) {
+  const SurfaceVoxels& set = recent.surfaceVoxels(0.1);  // the size counted already: no recount
+  const SurfaceIndex& index = recent.surfaceIndex();
+  REQUIRE(index.size() == set.size());
+  CoordBBox bounds;
+  for (const auto& [c, n] : set) {
+    REQUIRE(index.contains(c));
+    bounds.expand(c);
+  }
+  REQUIRE(index.bounds() == bounds);
+  std::size_t held = 0;  // and no voxel besides
+  if (!bounds.empty())
+    for (auto it = bounds.begin(); it; ++it) held += index.contains(*it);
+  REQUIRE(held == set.size());
+}
+
 /// Depth of a wall facing the camera at `distance_m` along its optical axis.
 DepthImage flatWall(const CameraIntrinsics& K, float distance_m) { return DepthImage(K.width, K.height, distance_m); }
 
@@ -224,6 +241,7 @@ TEST_CASE("A long window keeps every frame of the last dense_s and older ones sp
       reference.add(f * period_s, images[std::size_t(f)], K, poses[std::size_t(f)]);
   REQUIRE(reference.size() == kept.size());
   CHECK(recent.surfaceVoxels(0.1) == reference.surfaceVoxels(0.1));
+  requireIndexIsSet(recent);
 }
 
 TEST_CASE("A surface voxel counts each kept frame that saw it until a newer frame, kept or thinned, saw it free",
@@ -279,6 +297,7 @@ TEST_CASE("A surface voxel counts each kept frame that saw it until a newer fram
     }
   }
   CHECK(recent.surfaceVoxels(0.1) == expected);
+  requireIndexIsSet(recent);
   CHECK(expected.size() + 100 < all_kept.size());  // clearing took effect
 }
 
@@ -412,6 +431,7 @@ TEST_CASE("Surface voxels hold exactly each block's nearest point within range, 
   shift.translation() = Vec3d(0.5, -0.2, 0.1);
   recent.shift(shift);
   CHECK(voxelsOf(recent.surfaceVoxels(0.1)) == bruteVoxels(shift * T_W_S));
+  requireIndexIsSet(recent);
   // A new voxel size recounts from the stored points.
   CHECK(recent.surfaceVoxels(0.2).size() < bruteVoxels(shift * T_W_S).size());
 }

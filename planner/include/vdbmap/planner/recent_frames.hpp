@@ -30,6 +30,7 @@
 
 #include "vdbmap/camera.hpp"
 #include "vdbmap/planner/coord_hash.hpp"
+#include "vdbmap/planner/surface_index.hpp"
 #include "vdbmap/types.hpp"
 
 #include <openvdb/Types.h>
@@ -114,6 +115,8 @@ class RecentFrames {
   /// non-const call. With newer_free_clears a frame dropped by thinning (dense_s) still cleared
   /// what it saw free while it was the newest, until the next recount.
   const SurfaceVoxels& surfaceVoxels(double voxel_size_m);
+  /// The voxels of the last surfaceVoxels() as an index (kept with them; valid as long as they are).
+  const SurfaceIndex& surfaceIndex() const { return index_; }
 
  private:
   struct Frame {
@@ -146,6 +149,7 @@ class RecentFrames {
   std::deque<Frame> frames_;  ///< oldest first
   /// Voxel -> the number of counted frames that saw a surface in it after its clearing time.
   SurfaceVoxels voxels_;
+  SurfaceIndex index_;  ///< the voxels of voxels_
   /// Voxel -> the seq of the newest frame that saw it free while it held a surface; a frame added
   /// before that one no longer counts there. Forgotten once no such frame is kept.
   std::unordered_map<openvdb::Coord, std::uint64_t, CoordHash> cleared_;

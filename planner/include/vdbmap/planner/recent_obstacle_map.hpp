@@ -23,6 +23,7 @@
 
 #include "vdbmap/planner/map_query.hpp"
 #include "vdbmap/planner/recent_frames.hpp"
+#include "vdbmap/planner/surface_index.hpp"
 
 #include <atomic>
 #include <cstdint>
@@ -34,15 +35,19 @@ namespace vdbmap::planner {
 
 class RecentObstacleMap : public MapQuery {
  public:
-  /// `base` and `surface` (RecentFrames::surfaceVoxels at base.voxelSize()) must outlive the
-  /// wrapper. The surface is copied into a bit per voxel of its bounding box, so that a lookup
-  /// costs a few nanoseconds (paths check many voxels), unless that box holds more than
-  /// kMaxDenseVoxels (then the set is looked up).
+  /// `base` and `surface` (RecentFrames::surfaceIndex after surfaceVoxels at base.voxelSize(),
+  /// unchanged while the wrapper is used) must outlive the wrapper. The index answers a lookup in
+  /// a few nanoseconds (paths check many voxels).
   /// With `seen_free` (it must outlive the wrapper too), the voxels it saw free read free (above);
   /// each voxel's answer is computed once per wrapper, when first read.
   /// `vertical_margin_voxels` in [0, 100]: how far the base map's obstacles grow up and down (above).
+  RecentObstacleMap(const MapQuery& base, const SurfaceIndex& surface, const RecentFrames* seen_free = nullptr,
+                    int vertical_margin_voxels = 0);
+  /// As above, over a set of surface voxels (copied into an index of the wrapper's own).
   RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free = nullptr,
                     int vertical_margin_voxels = 0);
+  RecentObstacleMap(const RecentObstacleMap&) = delete;
+  RecentObstacleMap& operator=(const RecentObstacleMap&) = delete;
 
   double voxelSize() const override { return base_->voxelSize(); }
   /// The base map's bounds grown by the surface voxels.
@@ -53,12 +58,7 @@ class RecentObstacleMap : public MapQuery {
   bool boxReadsPay() const override { return !seen_free_ && base_->boxReadsPay(); }
 
   /// The voxel holds a recent surface.
-  bool isRecentSurface(const openvdb::Coord& ijk) const {
-    if (!bounds_.isInside(ijk)) return false;
-    if (bits_.empty()) return surface_->count(ijk) > 0;
-    const std::size_t i = boxIndex(bounds_.min(), dim_, ijk);
-    return (bits_[i / 64] >> (i % 64)) & 1u;
-  }
+  bool isRecentSurface(const openvdb::Coord& ijk) const { return surface_->contains(ijk); }
   /// A recent frame saw the voxel's centre free (false without `seen_free`).
   bool isSeenFree(const openvdb::Coord& ijk) const;
   /// The voxels isSeenFree() may be true for (empty without `seen_free`).
@@ -70,14 +70,16 @@ class RecentObstacleMap : public MapQuery {
   int verticalMarginVoxels() const { return vertical_margin_; }
 
  private:
-  static constexpr std::size_t kMaxDenseVoxels = std::size_t(1) << 27;   ///< 16 MB of bits
   static constexpr std::size_t kMaxCachedVoxels = std::size_t(1) << 25;  ///< 32 MB of answers
 
+  /// The surface is `owned` when given, else `surface`.
+  RecentObstacleMap(const MapQuery& base, std::unique_ptr<const SurfaceIndex> owned, const SurfaceIndex* surface,
+                    const RecentFrames* seen_free, int vertical_margin_voxels);
+
   const MapQuery* base_;
-  const SurfaceVoxels* surface_;
-  openvdb::CoordBBox bounds_;
-  openvdb::Coord dim_;
-  std::vector<std::uint64_t> bits_;  ///< one per voxel of bounds_, z fastest (empty: look up surface_)
+  std::unique_ptr<const SurfaceIndex> owned_surface_;  ///< when made from a set
+  const SurfaceIndex* surface_;
+  openvdb::CoordBBox bounds_;  ///< surface_->bounds()
 
   const RecentFrames* seen_free_ = nullptr;
   int vertical_margin_ = 0;
