@@ -107,8 +107,8 @@ RecentObstacleMap::RecentObstacleMap(const MapQuery& base, std::unique_ptr<const
                                      int vertical_margin_voxels)
     : base_(&base),
       owned_surface_(std::move(owned)),
-      surface_(owned_surface_ ? owned_surface_.get() : surface),
-      bounds_(surface_->bounds()),
+      surface_((owned_surface_ ? *owned_surface_ : *surface).view()),
+      bounds_(surface_.bounds),
       seen_free_(seen_free),
       vertical_margin_(vertical_margin_voxels) {
   if (vertical_margin_voxels < 0 || vertical_margin_voxels > 100)

@@ -7,7 +7,9 @@ namespace vdbmap::planner {
 namespace {
 /// Voxels added on every side when a box grows, so that a set that moves with the vehicle
 /// grows it rarely.
-constexpr int kGrowVoxels = 32;
+constexpr int kGrowVoxels = 8;
+/// The box is fitted to the set again when it holds this many times the set's bounds (with margin).
+constexpr std::size_t kShrinkFactor = 2;
 
 std::size_t volumeOf(const openvdb::CoordBBox& box) {
   const openvdb::Coord d = box.dim();
@@ -33,6 +35,12 @@ void SurfaceIndex::erase(const openvdb::Coord& ijk) {
     outside_.erase(ijk);
   --size_;
   count(ijk, -1);
+  // A set that moved on leaves most of the box empty: fit it again, so that lookups stay within
+  // few cache lines (rarely: only once the box is kShrinkFactor times the bounds with margin).
+  if (size_ > 0 && outside_.empty()) {
+    const openvdb::CoordBBox fitted = bounds_.expandBy(kGrowVoxels);
+    if (volumeOf(box_) > kShrinkFactor * volumeOf(fitted)) rebox(fitted);
+  }
 }
 
 void SurfaceIndex::clear() { *this = SurfaceIndex(); }
@@ -63,14 +71,13 @@ bool SurfaceIndex::reserve(const openvdb::Coord& ijk) {
 
 void SurfaceIndex::rebox(const openvdb::CoordBBox& box) {
   std::vector<openvdb::Coord> voxels(outside_.begin(), outside_.end());
-  if (!box_.empty())
-    for (int x = box_.min().x(); x <= box_.max().x(); ++x)
-      for (int y = box_.min().y(); y <= box_.max().y(); ++y) {
-        const std::size_t row = index(openvdb::Coord(x, y, box_.min().z()));
-        for (int z = 0; z < dim_.z(); ++z)
-          if ((bits_[(row + std::size_t(z)) / 64] >> ((row + std::size_t(z)) % 64)) & 1u)
-            voxels.emplace_back(x, y, box_.min().z() + z);
-      }
+  const std::size_t plane = std::size_t(dim_.y()) * std::size_t(dim_.z());
+  for (std::size_t w = 0; w < bits_.size(); ++w)
+    for (std::uint64_t word = bits_[w]; word != 0; word &= word - 1) {  // each set bit, lowest first
+      const std::size_t i = 64 * w + std::size_t(__builtin_ctzll(word)), in_plane = i % plane;
+      voxels.push_back(box_.min().offsetBy(int(i / plane), int(in_plane / std::size_t(dim_.z())),
+                                           int(in_plane % std::size_t(dim_.z()))));
+    }
   box_ = box;
   dim_ = box.dim();
   bits_.assign((volumeOf(box) + 63) / 64, 0);

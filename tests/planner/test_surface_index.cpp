@@ -41,7 +41,7 @@ TEST_CASE("SurfaceIndex holds exactly the voxels inserted and not erased, with e
   std::mt19937 rng(3);
   // A set that wanders as the vehicle does: inserts around a moving centre, erases of old voxels,
   // so that the box grows on every side and the bounds move in as well as out.
-  for (int step = 0; step < 40; ++step) {
+  for (int step = 0; step < 80; ++step) {  // far enough that the box is fitted to the set again
     const Coord centre(3 * step - 40, -2 * step + 15, step % 9 - 4);
     std::uniform_int_distribution<int> near(-12, 12);
     for (int i = 0; i < 300; ++i) {

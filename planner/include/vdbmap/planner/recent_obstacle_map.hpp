@@ -58,7 +58,7 @@ class RecentObstacleMap : public MapQuery {
   bool boxReadsPay() const override { return !seen_free_ && base_->boxReadsPay(); }
 
   /// The voxel holds a recent surface.
-  bool isRecentSurface(const openvdb::Coord& ijk) const { return surface_->contains(ijk); }
+  bool isRecentSurface(const openvdb::Coord& ijk) const { return surface_.contains(ijk); }
   /// A recent frame saw the voxel's centre free (false without `seen_free`).
   bool isSeenFree(const openvdb::Coord& ijk) const;
   /// The voxels isSeenFree() may be true for (empty without `seen_free`).
@@ -78,8 +78,8 @@ class RecentObstacleMap : public MapQuery {
 
   const MapQuery* base_;
   std::unique_ptr<const SurfaceIndex> owned_surface_;  ///< when made from a set
-  const SurfaceIndex* surface_;
-  openvdb::CoordBBox bounds_;  ///< surface_->bounds()
+  SurfaceIndex::View surface_;
+  openvdb::CoordBBox bounds_;  ///< surface_.bounds
 
   const RecentFrames* seen_free_ = nullptr;
   int vertical_margin_ = 0;

@@ -29,12 +29,26 @@ class SurfaceIndex {
   void erase(const openvdb::Coord& ijk);
   void clear();
 
-  bool contains(const openvdb::Coord& ijk) const {
-    if (!bounds_.isInside(ijk)) return false;
-    if (!box_.isInside(ijk)) return outside_.count(ijk) > 0;
-    const std::size_t i = index(ijk);
-    return (bits_[i / 64] >> (i % 64)) & 1u;
-  }
+  bool contains(const openvdb::Coord& ijk) const { return view().contains(ijk); }
+
+  /// The index's state as plain values, for readers that look up many voxels (the flight map
+  /// keeps one, so that a lookup reads no more than the bits): valid until the next change.
+  struct View {
+    openvdb::CoordBBox bounds, box;
+    openvdb::Coord dim;
+    const std::uint64_t* bits = nullptr;
+    const std::unordered_set<openvdb::Coord, CoordHash>* outside = nullptr;
+
+    bool contains(const openvdb::Coord& ijk) const {
+      if (!bounds.isInside(ijk)) return false;
+      if (!box.isInside(ijk)) return outside->count(ijk) > 0;
+      const openvdb::Coord d = ijk - box.min();
+      const std::size_t i =
+          (std::size_t(d.x()) * std::size_t(dim.y()) + std::size_t(d.y())) * std::size_t(dim.z()) + std::size_t(d.z());
+      return (bits[i / 64] >> (i % 64)) & 1u;
+    }
+  };
+  View view() const { return {bounds_, box_, dim_, bits_.data(), &outside_}; }
   std::size_t size() const { return size_; }
   bool empty() const { return size_ == 0; }
   /// The bounding box of the set's voxels (empty when the set is).
