@@ -84,9 +84,7 @@ class RecentObstacleReader : public MapReader {
   const RecentObstacleMap& map_;
   std::vector<Occupancy> tall_;  ///< readBox's taller box (kept to reuse its allocation)
 };
-}  // namespace
 
-namespace {
 std::unique_ptr<const SurfaceIndex> indexOf(const SurfaceVoxels& surface) {
   auto index = std::make_unique<SurfaceIndex>();
   for (const auto& [c, n] : surface) index->insert(c);
@@ -108,7 +106,6 @@ RecentObstacleMap::RecentObstacleMap(const MapQuery& base, std::unique_ptr<const
     : base_(&base),
       owned_surface_(std::move(owned)),
       surface_((owned_surface_ ? *owned_surface_ : *surface).view()),
-      bounds_(surface_.bounds),
       seen_free_(seen_free),
       vertical_margin_(vertical_margin_voxels) {
   if (vertical_margin_voxels < 0 || vertical_margin_voxels > 100)
@@ -145,7 +142,7 @@ bool RecentObstacleMap::nearSurface(const Vec3d& p_W, double radius_m) const {
   const openvdb::Coord lo = worldToVoxel(p_W - Vec3d::Constant(radius_m)),
                        hi = worldToVoxel(p_W + Vec3d::Constant(radius_m));
   openvdb::CoordBBox box(lo, hi);
-  box.intersect(bounds_);
+  box.intersect(surface_.bounds);
   if (box.empty()) return false;  // (iterating it would visit voxels outside it)
   for (auto it = box.begin(); it; ++it)
     if (isRecentSurface(*it) && (voxelCenter(*it) - p_W).norm() <= radius_m) return true;
@@ -154,7 +151,7 @@ bool RecentObstacleMap::nearSurface(const Vec3d& p_W, double radius_m) const {
 
 openvdb::CoordBBox RecentObstacleMap::knownBounds() const {
   openvdb::CoordBBox bounds = base_->knownBounds();
-  if (!bounds_.empty()) bounds.expand(bounds_);
+  if (!surface_.bounds.empty()) bounds.expand(surface_.bounds);
   return bounds;
 }
 

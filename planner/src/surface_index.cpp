@@ -46,7 +46,7 @@ void SurfaceIndex::erase(const openvdb::Coord& ijk) {
 void SurfaceIndex::clear() { *this = SurfaceIndex(); }
 
 void SurfaceIndex::setBit(const openvdb::Coord& ijk, bool on) {
-  const std::size_t i = index(ijk);
+  const std::size_t i = boxIndex(box_.min(), dim_, ijk);
   const std::uint64_t bit = std::uint64_t(1) << (i % 64);
   bits_[i / 64] = on ? bits_[i / 64] | bit : bits_[i / 64] & ~bit;
 }

@@ -66,7 +66,7 @@ class RecentObstacleMap : public MapQuery {
   /// Some recent surface voxel's centre lies within radius_m of p_W.
   bool nearSurface(const Vec3d& p_W, double radius_m) const;
   /// The bounding box of the recent surface voxels (empty when there are none).
-  const openvdb::CoordBBox& surfaceBounds() const { return bounds_; }
+  const openvdb::CoordBBox& surfaceBounds() const { return surface_.bounds; }
   int verticalMarginVoxels() const { return vertical_margin_; }
 
  private:
@@ -79,7 +79,6 @@ class RecentObstacleMap : public MapQuery {
   const MapQuery* base_;
   std::unique_ptr<const SurfaceIndex> owned_surface_;  ///< when made from a set
   SurfaceIndex::View surface_;
-  openvdb::CoordBBox bounds_;  ///< surface_.bounds
 
   const RecentFrames* seen_free_ = nullptr;
   int vertical_margin_ = 0;

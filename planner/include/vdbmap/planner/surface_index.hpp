@@ -11,6 +11,7 @@
 #pragma once
 
 #include "vdbmap/planner/coord_hash.hpp"
+#include "vdbmap/planner/map_query.hpp"  // boxIndex
 
 #include <openvdb/Types.h>
 
@@ -42,9 +43,7 @@ class SurfaceIndex {
     bool contains(const openvdb::Coord& ijk) const {
       if (!bounds.isInside(ijk)) return false;
       if (!box.isInside(ijk)) return outside->count(ijk) > 0;
-      const openvdb::Coord d = ijk - box.min();
-      const std::size_t i =
-          (std::size_t(d.x()) * std::size_t(dim.y()) + std::size_t(d.y())) * std::size_t(dim.z()) + std::size_t(d.z());
+      const std::size_t i = boxIndex(box.min(), dim, ijk);
       return (bits[i / 64] >> (i % 64)) & 1u;
     }
   };
@@ -58,11 +57,6 @@ class SurfaceIndex {
   static constexpr std::size_t kMaxVoxels = std::size_t(1) << 27;
 
  private:
-  std::size_t index(const openvdb::Coord& ijk) const {
-    const openvdb::Coord d = ijk - box_.min();
-    return (std::size_t(d.x()) * std::size_t(dim_.y()) + std::size_t(d.y())) * std::size_t(dim_.z()) +
-           std::size_t(d.z());
-  }
   /// Makes the bit box hold ijk (grown by a margin), or refits it to the set and ijk when that
   /// would be too large; false when ijk stays outside it.
   bool reserve(const openvdb::Coord& ijk);
