@@ -640,8 +640,8 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   // With the safety layer, flight may leave the map's thin structure to the recent surfaces.
   const MapQuery& flight_base = recent_ && !params_.safety.map_thin_obstacles ? map.sightMap() : map;
   if (recent_) {
-    recent_->surfaceVoxels(map.voxelSize());  // counted at this voxel size
-    recent_map.emplace(flight_base, recent_->surfaceIndex(), params_.safety.seen_free_is_free ? recent_.get() : nullptr,
+    recent_map.emplace(flight_base, recent_->surfaceIndex(map.voxelSize()),
+                       params_.safety.seen_free_is_free ? recent_.get() : nullptr,
                        int(std::lround(verticalMarginAt_m(t_s) / map.voxelSize())));
   }
   const MapQuery& flight_map = recent_map ? static_cast<const MapQuery&>(*recent_map) : map;

@@ -31,7 +31,7 @@ namespace {
 /// The index RecentFrames keeps holds exactly the voxels of its surface set, with their bounds.
 void requireIndexIsSet(RecentFrames& recent) {
   const SurfaceVoxels& set = recent.surfaceVoxels(0.1);  // the size counted already: no recount
-  const SurfaceIndex& index = recent.surfaceIndex();
+  const SurfaceIndex& index = recent.surfaceIndex(0.1);
   REQUIRE(index.size() == set.size());
   CoordBBox bounds;
   for (const auto& [c, n] : set) {

@@ -115,8 +115,12 @@ class RecentFrames {
   /// non-const call. With newer_free_clears a frame dropped by thinning (dense_s) still cleared
   /// what it saw free while it was the newest, until the next recount.
   const SurfaceVoxels& surfaceVoxels(double voxel_size_m);
-  /// The voxels of the last surfaceVoxels() as an index (kept with them; valid as long as they are).
-  const SurfaceIndex& surfaceIndex() const { return index_; }
+  /// The same voxels as surfaceVoxels(voxel_size_m), brought up to date as that does, as an index
+  /// (for lookups); valid until the next non-const call.
+  const SurfaceIndex& surfaceIndex(double voxel_size_m) {
+    surfaceVoxels(voxel_size_m);
+    return index_;
+  }
 
  private:
   struct Frame {

@@ -35,7 +35,7 @@ namespace vdbmap::planner {
 
 class RecentObstacleMap : public MapQuery {
  public:
-  /// `base` and `surface` (RecentFrames::surfaceIndex after surfaceVoxels at base.voxelSize(),
+  /// `base` and `surface` (RecentFrames::surfaceIndex(base.voxelSize()),
   /// unchanged while the wrapper is used) must outlive the wrapper. The index answers a lookup in
   /// a few nanoseconds (paths check many voxels).
   /// With `seen_free` (it must outlive the wrapper too), the voxels it saw free read free (above);
