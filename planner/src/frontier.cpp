@@ -203,34 +203,37 @@ void FrontierMap::floodComponents(std::vector<openvdb::Coord> pending) {
   // the order of their smallest voxel, and their voxels come out sorted: deterministic.
   std::sort(pending.begin(), pending.end());
   const std::size_t n = pending.size();
-  std::unordered_map<openvdb::Coord, std::uint32_t, CoordHash> index;
-  index.reserve(2 * n);
-  for (std::size_t i = 0; i < n; ++i) index.emplace(pending[i], std::uint32_t(i));
   std::vector<std::uint32_t> parent(n);
   for (std::size_t i = 0; i < n; ++i) parent[i] = std::uint32_t(i);
   auto root = [&parent](std::uint32_t i) {
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
+  // Adding a fixed offset keeps Coord order, so each neighbour offset's voxel is found by a
+  // cursor that only moves forward through the sorted voxels (a merge; no lookup table).
+  std::vector<std::size_t> cursor(kEarlierNeighbours.size(), 0);
   for (std::size_t i = 0; i < n; ++i)
-    for (const openvdb::Coord& d : kEarlierNeighbours) {
-      const auto it = index.find(pending[i] + d);
-      if (it == index.end()) continue;
-      const std::uint32_t a = root(std::uint32_t(i)), b = root(it->second);
+    for (std::size_t k = 0; k < kEarlierNeighbours.size(); ++k) {
+      const openvdb::Coord target = pending[i] + kEarlierNeighbours[k];
+      std::size_t& j = cursor[k];
+      while (pending[j] < target) ++j;  // stops at i at the latest: target < pending[i]
+      if (pending[j] != target) continue;
+      const std::uint32_t a = root(std::uint32_t(i)), b = root(std::uint32_t(j));
       if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the root is the smallest index
     }
-  std::unordered_map<std::uint32_t, ComponentId> id_of_root;
+  struct Numbered {
+    ComponentId id = 0;  // 0: not numbered yet (ids start at 1)
+    Component* component = nullptr;
+  };
+  std::vector<Numbered> of_root(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t r = root(std::uint32_t(i));
-    auto [it, fresh] = id_of_root.emplace(r, 0);
-    if (fresh) {
-      it->second = next_component_++;
-      components_.emplace(it->second, Component{});
+    Numbered& numbered = of_root[root(std::uint32_t(i))];
+    if (numbered.id == 0) {
+      numbered.id = next_component_++;
+      numbered.component = &components_.emplace(numbered.id, Component{}).first->second;
     }
-    Component& comp = components_.at(it->second);
-    comp.voxels.push_back(pending[i]);
-    comp.bbox.expand(pending[i]);
-    owner_[pending[i]] = it->second;
+    numbered.component->voxels.push_back(pending[i]);
+    numbered.component->bbox.expand(pending[i]);
   }
 }
 
@@ -271,7 +274,7 @@ std::vector<ClusterId> FrontierMap::makeClusters(const MapQuery& map, const std:
 FrontierUpdate FrontierMap::rebuild(const MapQuery& map) {
   FrontierUpdate update;
   for (const FrontierCluster& c : clusters_) update.removed.push_back(c.id);
-  owner_.clear();
+  frontier_voxels_.clear();
   components_.clear();
   clusters_.clear();
   voxel_size_m_ = 0.0;
@@ -283,13 +286,14 @@ FrontierUpdate FrontierMap::rebuild(const MapQuery& map) {
   }
   std::vector<openvdb::Coord> found = scanFrontiers(map, box);
   update.voxels_scanned = box.empty() ? 0 : std::size_t(box.volume());
+  frontier_voxels_.insert(found.begin(), found.end());
   const std::size_t first = next_component_;
   floodComponents(std::move(found));
   for (auto it = components_.lower_bound(first); it != components_.end(); ++it) {
     it->second.clusters = makeClusters(map, it->second.voxels, nullptr, &update.added);
   }
   update.components_reflooded = components_.size();
-  update.frontier_voxels = owner_.size();
+  update.frontier_voxels = frontier_voxels_.size();
   return update;
 }
 
@@ -320,7 +324,7 @@ FrontierUpdate FrontierMap::setMinClusterSize(const MapQuery& map, int min_clust
   std::sort(update.added.begin(), update.added.end());
   std::sort(update.removed.begin(), update.removed.end());
   dropClusters(update.removed);
-  update.frontier_voxels = owner_.size();
+  update.frontier_voxels = frontier_voxels_.size();
   return update;
 }
 
@@ -328,7 +332,7 @@ FrontierUpdate FrontierMap::update(const MapQuery& map, const openvdb::CoordBBox
   FrontierUpdate update;
   checkVoxelSize(map);
   if (dirty.empty()) {
-    update.frontier_voxels = owner_.size();
+    update.frontier_voxels = frontier_voxels_.size();
     return update;
   }
   // Voxels whose status may have changed, and the region whose components may have changed.
@@ -348,14 +352,18 @@ FrontierUpdate FrontierMap::update(const MapQuery& map, const openvdb::CoordBBox
     removed.push_back(id);
     for (const ClusterId cid : comp.clusters) reusable[find(cid)->voxels.front()].push_back(cid);
   }
+  // Voxels outside the scan stay frontier voxels; inside it, the scan says which are.
   for (const ComponentId id : removed) {
     for (const openvdb::Coord& c : components_.at(id).voxels) {
-      owner_.erase(c);
-      if (scan.empty() || !scan.isInside(c)) pending.push_back(c);
+      if (scan.empty() || !scan.isInside(c))
+        pending.push_back(c);
+      else
+        frontier_voxels_.erase(c);
     }
   }
   const std::vector<openvdb::Coord> found = scanFrontiers(map, scan);
   update.voxels_scanned = scan.empty() ? 0 : std::size_t(scan.volume());
+  frontier_voxels_.insert(found.begin(), found.end());
   pending.insert(pending.end(), found.begin(), found.end());
 
   const ComponentId first = next_component_;
@@ -371,7 +379,7 @@ FrontierUpdate FrontierMap::update(const MapQuery& map, const openvdb::CoordBBox
       if (cid != 0) update.removed.push_back(cid);
   std::sort(update.removed.begin(), update.removed.end());
   dropClusters(update.removed);
-  update.frontier_voxels = owner_.size();
+  update.frontier_voxels = frontier_voxels_.size();
   return update;
 }
 

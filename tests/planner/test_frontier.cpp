@@ -282,6 +282,8 @@ TEST_CASE("Incremental updates equal detection from scratch and report id change
     scratch.rebuild(map);
     REQUIRE(clusterSets(incremental) == clusterSets(scratch));
     REQUIRE(incremental.frontierVoxelCount() == scratch.frontierVoxelCount());
+    for (const FrontierCluster& c : scratch.clusters())
+      for (const Coord& v : c.voxels) REQUIRE(incremental.isFrontier(v));
     // A cluster is immutable under its id; ids change exactly as reported.
     std::set<ClusterId> expected_ids;
     for (const FrontierCluster& c : before) {

@@ -27,6 +27,7 @@
 #include <map>
 #include <optional>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace vdbmap::planner {
@@ -104,8 +105,8 @@ class FrontierMap {
   /// The cluster with this id, or nullptr.
   const FrontierCluster* find(ClusterId id) const;
 
-  bool isFrontier(const openvdb::Coord& ijk) const { return owner_.count(ijk) != 0; }
-  std::size_t frontierVoxelCount() const { return owner_.size(); }
+  bool isFrontier(const openvdb::Coord& ijk) const { return frontier_voxels_.count(ijk) != 0; }
+  std::size_t frontierVoxelCount() const { return frontier_voxels_.size(); }
   /// Components, including those too small to be clusters.
   std::size_t componentCount() const { return components_.size(); }
 
@@ -119,7 +120,7 @@ class FrontierMap {
 
   openvdb::CoordBBox boundsIndex(const MapQuery& map) const;
   std::vector<openvdb::Coord> scanFrontiers(const MapQuery& map, const openvdb::CoordBBox& box) const;
-  /// Groups `pending` (voxels not in owner_) into 26-connected components with fresh ids.
+  /// Groups `pending` (frontier voxels in no component) into 26-connected components with fresh ids.
   void floodComponents(std::vector<openvdb::Coord> pending);
   /// Clusters being taken apart, by their first voxel (an id set to 0 once reused).
   using ReusableClusters = std::map<openvdb::Coord, std::vector<ClusterId>>;
@@ -133,7 +134,8 @@ class FrontierMap {
 
   FrontierConfig params_;
   double voxel_size_m_ = 0.0;  ///< of the map seen first (0 before)
-  std::unordered_map<openvdb::Coord, ComponentId, CoordHash> owner_;  ///< frontier voxel -> component
+  /// Every frontier voxel (of some component); an update changes it inside its scan only.
+  std::unordered_set<openvdb::Coord, CoordHash> frontier_voxels_;
   std::map<ComponentId, Component> components_;
   std::vector<FrontierCluster> clusters_;
   ComponentId next_component_ = 1;
