@@ -1,6 +1,9 @@
 #include "vdbmap/planner/cached_map.hpp"
 
 #include <algorithm>
+#include <cstdint>
+#include <memory>
+#include <vector>
 
 namespace vdbmap::planner {
 
@@ -12,6 +15,12 @@ openvdb::Coord blockOf(const openvdb::Coord& ijk) {
   // Arithmetic shifts: floor division by 8, also for negative coordinates.
   return openvdb::Coord(ijk.x() >> kLog2Block, ijk.y() >> kLog2Block, ijk.z() >> kLog2Block);
 }
+/// The first voxel of a block (block coordinates).
+openvdb::Coord originOf(const openvdb::Coord& block) {
+  return openvdb::Coord(block.x() * kBlockSide, block.y() * kBlockSide, block.z() * kBlockSide);
+}
+/// The most voxels fillMissing reads at once (a buffer of one byte per voxel).
+constexpr std::uint64_t kMaxWideRead = std::uint64_t{1} << 21;
 }  // namespace
 
 struct CachedMap::Block {
@@ -46,6 +55,7 @@ class CachedMap::Reader : public MapReader {
           std::copy_n(&block->states[indexInBlock(openvdb::Coord(x, y, box.min().z()))], nz, out);
       return;
     }
+    fillMissing(lo_block, hi_block);
     for (int bx = lo_block.x(); bx <= hi_block.x(); ++bx)
       for (int by = lo_block.y(); by <= hi_block.y(); ++by)
         for (int bz = lo_block.z(); bz <= hi_block.z(); ++bz) {
@@ -90,16 +100,59 @@ class CachedMap::Reader : public MapReader {
     return beyond_.states;
   }
 
-  const Block* fill(std::atomic<const Block*>& slot, const openvdb::Coord& ijk) {
-    auto block = std::make_unique<Block>();
-    const openvdb::Coord lo(ijk.x() & ~(kBlockSide - 1), ijk.y() & ~(kBlockSide - 1), ijk.z() & ~(kBlockSide - 1));
-    base_->readBox(openvdb::CoordBBox(lo, lo.offsetBy(kBlockSide - 1)), block->states);
+  /// Fills the missing blocks among those from lo_block to hi_block (block coordinates) with one
+  /// read of the base where they are most of the blocks spanning them: a base read costs per box
+  /// too (the TSDF map reads a one-voxel border for its neighbour rules, and each leaf once per
+  /// box), so one box of many blocks is cheaper than each block alone. The states are the same.
+  void fillMissing(const openvdb::Coord& lo_block, const openvdb::Coord& hi_block) {
+    openvdb::CoordBBox missing;  // in block coordinates
+    std::size_t count = 0;
+    for (int bx = lo_block.x(); bx <= hi_block.x(); ++bx)
+      for (int by = lo_block.y(); by <= hi_block.y(); ++by)
+        for (int bz = lo_block.z(); bz <= hi_block.z(); ++bz) {
+          const openvdb::Coord b(bx, by, bz);
+          const std::atomic<const Block*>* slot = map_.slot(originOf(b));
+          if (!slot || slot->load(std::memory_order_acquire)) continue;
+          missing.expand(b);
+          ++count;
+        }
+    if (count < 2 || 2 * count < missing.volume()) return;  // block by block, as read
+    const openvdb::CoordBBox voxels(originOf(missing.min()), originOf(missing.max()).offsetBy(kBlockSide - 1));
+    if (voxels.volume() > kMaxWideRead) return;
+    const openvdb::Coord dim = voxels.dim();
+    wide_.resize(std::size_t(voxels.volume()));
+    base_->readBox(voxels, wide_.data());
+    for (int bx = missing.min().x(); bx <= missing.max().x(); ++bx)
+      for (int by = missing.min().y(); by <= missing.max().y(); ++by)
+        for (int bz = missing.min().z(); bz <= missing.max().z(); ++bz) {
+          const openvdb::Coord origin = originOf(openvdb::Coord(bx, by, bz));
+          std::atomic<const Block*>* slot = map_.slot(origin);
+          if (!slot || slot->load(std::memory_order_acquire)) continue;
+          auto block = std::make_unique<Block>();
+          for (int x = 0; x < kBlockSide; ++x)
+            for (int y = 0; y < kBlockSide; ++y)
+              std::copy_n(&wide_[std::size_t(boxIndex(voxels.min(), dim, origin.offsetBy(x, y, 0)))], kBlockSide,
+                          &block->states[indexInBlock(origin.offsetBy(x, y, 0))]);
+          publish(*slot, std::move(block));
+        }
+  }
+
+  /// Stores a block read into its slot, unless another reader stored one first (with the same
+  /// states); returns the block kept.
+  const Block* publish(std::atomic<const Block*>& slot, std::unique_ptr<Block> block) {
     const Block* expected = nullptr;
     if (slot.compare_exchange_strong(expected, block.get(), std::memory_order_acq_rel, std::memory_order_acquire)) {
       map_.blocks_read_.fetch_add(1, std::memory_order_relaxed);
       return block.release();
     }
-    return expected;  // another reader filled it first, with the same states
+    return expected;
+  }
+
+  const Block* fill(std::atomic<const Block*>& slot, const openvdb::Coord& ijk) {
+    auto block = std::make_unique<Block>();
+    const openvdb::Coord lo(ijk.x() & ~(kBlockSide - 1), ijk.y() & ~(kBlockSide - 1), ijk.z() & ~(kBlockSide - 1));
+    base_->readBox(openvdb::CoordBBox(lo, lo.offsetBy(kBlockSide - 1)), block->states);
+    return publish(slot, std::move(block));
   }
 
   const CachedMap& map_;
@@ -107,6 +160,7 @@ class CachedMap::Reader : public MapReader {
   openvdb::Coord last_coord_;  ///< block coordinates (voxel >> 3) of last_
   const Block* last_ = nullptr;
   Block beyond_;  ///< beyond()'s buffer
+  std::vector<Occupancy> wide_;  ///< fillMissing()'s buffer
 };
 
 CachedMap::CachedMap(const MapQuery& base, std::size_t max_blocks)

@@ -516,6 +516,40 @@ TEST_CASE("CachedMap reads every voxel as its base, inside and outside the cache
     REQUIRE(got_box == want_box);
   }
   CHECK(fresh.blocksRead() == 45);
+
+  // Boxes whose missing blocks are most of the blocks spanning them are read from the base in one
+  // piece, others block by block; either way the states are the base's, and each block is kept once.
+  const CachedMap partly(base);
+  auto mixed = partly.reader();
+  for (const Coord& c : {Coord(-12, -6, -2), Coord(5, 5, 5), Coord(17, 10, 8)}) REQUIRE(mixed->at(c) == want->at(c));
+  CHECK(partly.blocksRead() == 3);
+  for (const CoordBBox& box :
+       {CoordBBox(Coord(-12, -6, -2), Coord(2, 10, 8)), CoordBBox(Coord(-12, -6, -2), Coord(17, 10, 8))}) {
+    std::vector<Occupancy> got_box(box.volume()), want_box(box.volume());
+    mixed->readBox(box, got_box.data());
+    want->readBox(box, want_box.data());
+    REQUIRE(got_box == want_box);
+  }
+  CHECK(partly.blocksRead() == 45);
+}
+
+TEST_CASE("CachedMap reads boxes of a TSDF map, with its neighbour rules, as the map reads them", "[planner][map]") {
+  const TsdfVolume volume = postScene(true, Eigen::Vector2d(0.03, 0.03));
+  const TsdfMapQuery tsdf(volume);
+  const CachedMap cached(tsdf);
+  auto want = tsdf.reader();
+  auto got = cached.reader();
+  // A box over many blocks (one read), then boxes that overlap it and blocks beyond it.
+  for (const CoordBBox& box :
+       {CoordBBox(Coord(-20, -20, -6), Coord(20, 20, 10)), CoordBBox(Coord(-33, -5, -9), Coord(40, 3, 12)),
+        CoordBBox(Coord(-3, -3, -3), Coord(3, 3, 3))}) {
+    std::vector<Occupancy> got_box(box.volume()), want_box(box.volume());
+    got->readBox(box, got_box.data());
+    want->readBox(box, want_box.data());
+    REQUIRE(got_box == want_box);
+  }
+  for (auto it = CoordBBox(Coord(-34, -22, -9), Coord(41, 21, 12)).begin(); it; ++it)
+    REQUIRE(got->at(*it) == want->at(*it));
 }
 
 TEST_CASE("CachedMap readers on many threads agree with the base and read each block once", "[planner][map]") {
