@@ -59,7 +59,7 @@ class CachedMap::Reader : public MapReader {
     for (int bx = lo_block.x(); bx <= hi_block.x(); ++bx)
       for (int by = lo_block.y(); by <= hi_block.y(); ++by)
         for (int bz = lo_block.z(); bz <= hi_block.z(); ++bz) {
-          const openvdb::Coord origin(bx << kLog2Block, by << kLog2Block, bz << kLog2Block);
+          const openvdb::Coord origin = originOf(openvdb::Coord(bx, by, bz));
           openvdb::CoordBBox part(origin, origin.offsetBy(kBlockSide - 1));
           part.intersect(box);
           const Block* block = blockAt(origin);
@@ -150,7 +150,7 @@ class CachedMap::Reader : public MapReader {
 
   const Block* fill(std::atomic<const Block*>& slot, const openvdb::Coord& ijk) {
     auto block = std::make_unique<Block>();
-    const openvdb::Coord lo(ijk.x() & ~(kBlockSide - 1), ijk.y() & ~(kBlockSide - 1), ijk.z() & ~(kBlockSide - 1));
+    const openvdb::Coord lo = originOf(blockOf(ijk));
     base_->readBox(openvdb::CoordBBox(lo, lo.offsetBy(kBlockSide - 1)), block->states);
     return publish(slot, std::move(block));
   }

@@ -10,11 +10,6 @@ namespace {
 constexpr int kGrowVoxels = 8;
 /// The box is fitted to the set again when it holds this many times the set's bounds (with margin).
 constexpr std::size_t kShrinkFactor = 2;
-
-std::size_t volumeOf(const openvdb::CoordBBox& box) {
-  const openvdb::Coord d = box.dim();
-  return std::size_t(d.x()) * std::size_t(d.y()) * std::size_t(d.z());
-}
 }  // namespace
 
 void SurfaceIndex::insert(const openvdb::Coord& ijk) {
@@ -39,7 +34,7 @@ void SurfaceIndex::erase(const openvdb::Coord& ijk) {
   // few cache lines (rarely: only once the box is kShrinkFactor times the bounds with margin).
   if (size_ > 0 && outside_.empty()) {
     const openvdb::CoordBBox fitted = bounds_.expandBy(kGrowVoxels);
-    if (volumeOf(box_) > kShrinkFactor * volumeOf(fitted)) rebox(fitted);
+    if (box_.volume() > kShrinkFactor * fitted.volume()) rebox(fitted);
   }
 }
 
@@ -62,7 +57,7 @@ bool SurfaceIndex::reserve(const openvdb::Coord& ijk) {
   };
   for (const openvdb::CoordBBox& candidate : {withMargin(box_, kGrowVoxels), withMargin(bounds_, kGrowVoxels),
                                               withMargin(bounds_, kGrowVoxels / 4), withMargin(bounds_, 0)})
-    if (volumeOf(candidate) <= kMaxVoxels) {
+    if (candidate.volume() <= kMaxVoxels) {
       rebox(candidate);
       return true;
     }
@@ -80,7 +75,7 @@ void SurfaceIndex::rebox(const openvdb::CoordBBox& box) {
     }
   box_ = box;
   dim_ = box.dim();
-  bits_.assign((volumeOf(box) + 63) / 64, 0);
+  bits_.assign((box.volume() + 63) / 64, 0);
   outside_.clear();
   for (const openvdb::Coord& c : voxels) {
     if (box_.isInside(c))
