@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 
@@ -99,6 +100,22 @@ std::vector<openvdb::Coord> sampleVoxels(const std::vector<openvdb::Coord>& voxe
   }
   std::sort(samples.begin(), samples.end());
   return samples;
+}
+
+/// One sorted vector from sorted runs, merged pairwise (n log k for n voxels in k runs).
+std::vector<openvdb::Coord> mergeSortedRuns(std::vector<std::vector<openvdb::Coord>> runs) {
+  if (runs.empty()) return {};
+  while (runs.size() > 1) {
+    std::vector<std::vector<openvdb::Coord>> merged;
+    for (std::size_t i = 0; i + 1 < runs.size(); i += 2) {
+      std::vector<openvdb::Coord>& both = merged.emplace_back();
+      both.reserve(runs[i].size() + runs[i + 1].size());
+      std::merge(runs[i].begin(), runs[i].end(), runs[i + 1].begin(), runs[i + 1].end(), std::back_inserter(both));
+    }
+    if (runs.size() % 2 == 1) merged.push_back(std::move(runs.back()));
+    runs = std::move(merged);
+  }
+  return std::move(runs.front());
 }
 
 }  // namespace
@@ -201,7 +218,7 @@ void FrontierMap::floodComponents(std::vector<openvdb::Coord> pending) {
   // Union-find over the pending voxels: each voxel is joined with its 13 neighbours that come
   // before it in Coord order (the other 13 see it from their side). Components are numbered in
   // the order of their smallest voxel, and their voxels come out sorted: deterministic.
-  std::sort(pending.begin(), pending.end());
+  if (!std::is_sorted(pending.begin(), pending.end())) std::sort(pending.begin(), pending.end());
   const std::size_t n = pending.size();
   std::vector<std::uint32_t> parent(n);
   for (std::size_t i = 0; i < n; ++i) parent[i] = std::uint32_t(i);
@@ -352,19 +369,23 @@ FrontierUpdate FrontierMap::update(const MapQuery& map, const openvdb::CoordBBox
     removed.push_back(id);
     for (const ClusterId cid : comp.clusters) reusable[find(cid)->voxels.front()].push_back(cid);
   }
-  // Voxels outside the scan stay frontier voxels; inside it, the scan says which are.
+  // Voxels outside the scan stay frontier voxels; inside it, the scan says which are. Each
+  // component's voxels and the scan's come sorted, and no voxel is in two of them: the flood gets
+  // them merged, not sorted whole.
+  std::vector<std::vector<openvdb::Coord>> runs;
   for (const ComponentId id : removed) {
+    std::vector<openvdb::Coord>& kept = runs.emplace_back();
     for (const openvdb::Coord& c : components_.at(id).voxels) {
       if (scan.empty() || !scan.isInside(c))
-        pending.push_back(c);
+        kept.push_back(c);
       else
         frontier_voxels_.erase(c);
     }
   }
-  const std::vector<openvdb::Coord> found = scanFrontiers(map, scan);
+  std::vector<openvdb::Coord>& found = runs.emplace_back(scanFrontiers(map, scan));
   update.voxels_scanned = scan.empty() ? 0 : std::size_t(scan.volume());
   frontier_voxels_.insert(found.begin(), found.end());
-  pending.insert(pending.end(), found.begin(), found.end());
+  pending = mergeSortedRuns(std::move(runs));
 
   const ComponentId first = next_component_;
   floodComponents(std::move(pending));
