@@ -359,7 +359,6 @@ FrontierUpdate FrontierMap::update(const MapQuery& map, const openvdb::CoordBBox
 
   // Components touching the reach are taken apart; their voxels outside the scan keep their
   // status and are flooded again together with the new frontier voxels of the scan.
-  std::vector<openvdb::Coord> pending;
   std::vector<ComponentId> removed;
   ReusableClusters reusable;  // the taken-apart clusters, by first voxel
   for (const auto& [id, comp] : components_) {
@@ -385,10 +384,9 @@ FrontierUpdate FrontierMap::update(const MapQuery& map, const openvdb::CoordBBox
   std::vector<openvdb::Coord>& found = runs.emplace_back(scanFrontiers(map, scan));
   update.voxels_scanned = scan.empty() ? 0 : std::size_t(scan.volume());
   frontier_voxels_.insert(found.begin(), found.end());
-  pending = mergeSortedRuns(std::move(runs));
 
   const ComponentId first = next_component_;
-  floodComponents(std::move(pending));
+  floodComponents(mergeSortedRuns(std::move(runs)));
   for (auto it = components_.lower_bound(first); it != components_.end(); ++it) {
     ++update.components_reflooded;
     it->second.clusters = makeClusters(map, it->second.voxels, &reusable, &update.added);

@@ -119,8 +119,10 @@ class FrontierMap {
   };
 
   openvdb::CoordBBox boundsIndex(const MapQuery& map) const;
+  /// The frontier voxels inside `box`, sorted.
   std::vector<openvdb::Coord> scanFrontiers(const MapQuery& map, const openvdb::CoordBBox& box) const;
   /// Groups `pending` (frontier voxels in no component) into 26-connected components with fresh ids.
+  /// Sorted input (as both callers pass) is not sorted again.
   void floodComponents(std::vector<openvdb::Coord> pending);
   /// Clusters being taken apart, by their first voxel (an id set to 0 once reused).
   using ReusableClusters = std::map<openvdb::Coord, std::vector<ClusterId>>;
