@@ -130,7 +130,7 @@ void runExplore(const ExploreOptions& o) {
       " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
       std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " + o.view_score +
       " --revisit-rounds " + std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --lead-in " +
-      o.lead_in + " --budgets " + o.budgets + " --alc " + o.alc +
+      o.lead_in + " --budgets " + o.budgets + (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
       (config.planner.alc_enabled
            ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
            : std::string()) +

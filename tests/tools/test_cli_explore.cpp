@@ -225,5 +225,17 @@ TEST_CASE("vdbmap explore without --world flies the embedded house, whatever the
   CHECK(s.at("box").at("min")[1].get<double>() == Approx(-5.7));
   // s1 has no drift: the map holds every keyframe exactly where the camera was.
   CHECK(s.at("keyframe_error_rmse_m").get<double>() == 0.0);
+  // The run starts with the turn on the spot, and its summary says so.
+  CHECK(s.at("initial_turn") == true);
+  CHECK(s.at("activity_time_s").at("initial_turn").get<double>() > 0.0);
+  CHECK(s.at("description").get<std::string>().find("--no-initial-turn") == std::string::npos);
+
+  // Without the turn the summary's command repeats the run: it names the flag.
+  const fs::path no_turn = dir / "no_turn";
+  REQUIRE(run("explore --drift s1 --max-time-s 1 --no-initial-turn -o " + no_turn.string(), out) == 0);
+  const auto n = nlohmann::json::parse(slurp(no_turn / "summary.json"));
+  CHECK(n.at("initial_turn") == false);
+  CHECK(n.at("activity_time_s").at("initial_turn").get<double>() == 0.0);
+  CHECK(n.at("description").get<std::string>().find(" --no-initial-turn") != std::string::npos);
   fs::remove_all(dir);
 }
