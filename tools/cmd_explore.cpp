@@ -43,6 +43,7 @@ struct ExploreOptions {
   double safety_look_side_m = planner::SafetyConfig{}.look_side_m;
   std::string safety_look_steep = planner::SafetyConfig{}.look_steep ? "on" : "off";
   std::string safety_seen_until_arrival = planner::SafetyConfig{}.seen_until_arrival ? "on" : "off";
+  std::string safety_path_drift = planner::SafetyConfig{}.seen_drift_with_path ? "on" : "off";
   double safety_near_tolerance_m = planner::SafetyConfig{}.near_drift_tolerance_m;
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
@@ -111,6 +112,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.look_side_m = o.safety_look_side_m;
   config.planner.safety.look_steep = o.safety_look_steep == "on";
   config.planner.safety.seen_until_arrival = o.safety_seen_until_arrival == "on";
+  config.planner.safety.seen_drift_with_path = o.safety_path_drift == "on";
   config.planner.safety.near_drift_tolerance_m = o.safety_near_tolerance_m;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
@@ -144,7 +146,8 @@ void runExplore(const ExploreOptions& o) {
                  " --safety-vertical-margin-max " + std::to_string(o.safety_vertical_margin_max_m) +
                  " --safety-look-side " + std::to_string(o.safety_look_side_m) + " --safety-look-steep " +
                  o.safety_look_steep + " --safety-seen-until-arrival " + o.safety_seen_until_arrival +
-                 " --safety-near-tolerance " + std::to_string(o.safety_near_tolerance_m)
+                 " --safety-path-drift " + o.safety_path_drift + " --safety-near-tolerance " +
+                 std::to_string(o.safety_near_tolerance_m)
            : std::string());
   const Eigen::AlignedBox3d& b = config.planner.box_W;
   std::fprintf(stderr, "%s: %zu triangles; box [%.2f %.2f %.2f]-[%.2f %.2f %.2f]; start (%.2f %.2f %.2f)\n",
@@ -278,6 +281,12 @@ const Registration registration("explore", [](CLI::App& app) {
                   "With the safety layer, a point of the way counts as seen only by frames young enough when the "
                   "vehicle gets there: the recent window, or shorter where the declared drift of that age exceeds "
                   "the tolerance (on); or by any frame in the window (off)")
+      ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--safety-path-drift", o->safety_path_drift,
+                  "With the safety layer under declared drift, a frame's drift when the vehicle gets to a point of "
+                  "its way also counts the path flown since the frame (the yaw error turns every metre flown): at "
+                  "speed a way must have been seen more lately (s3: about 3 s at 1.5 m/s instead of 9.4 s) (on); "
+                  "or by the frame's age alone (off)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--safety-near-tolerance", o->safety_near_tolerance_m, kSafetyNearToleranceHelp)
       ->check(CLI::Range(0.0, 10.0));

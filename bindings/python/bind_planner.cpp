@@ -217,8 +217,13 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("yaw_rad_per_sqrt_s", &OdometryDrift::yaw_rad_per_sqrt_s,
                      "yaw random walk (one sigma after 1 s); [0, 10]")
       .def_readwrite("yaw_bias_rad_per_s", &OdometryDrift::yaw_bias_rad_per_s, "yaw-rate bias; [-1, 1]")
-      .def("displacement_m", &OdometryDrift::displacement_m, py::arg("t_s"), py::arg("lever_m"),
-           "expected displacement after t_s of a point lever_m from the camera")
+      .def(
+          "displacement_m",
+          [](const OdometryDrift& d, double t_s, double lever_m, double path_m) {
+            return d.displacement_m(t_s, lever_m, path_m);
+          },
+          py::arg("t_s"), py::arg("lever_m"), py::arg("path_m") = 0.0,
+          "expected displacement after t_s of a point lever_m from the camera, the vehicle flying path_m meanwhile")
       .def("axis_displacement_m", &OdometryDrift::axisDisplacement_m, py::arg("t_s"),
            "expected position error along one axis (one sigma, e.g. vertical) after t_s")
       .def("longest_within", &OdometryDrift::longestWithin, py::arg("tolerance_m"), py::arg("lever_m"),
@@ -258,6 +263,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("seen_until_arrival", &SafetyConfig::seen_until_arrival,
                      "a point of a way counts as seen only by frames at most seen_age_s() old when the vehicle gets "
                      "there (default True), else by any frame in the recent window")
+      .def_readwrite("seen_drift_with_path", &SafetyConfig::seen_drift_with_path,
+                     "with seen_until_arrival and a declared odometry, a frame's drift at arrival also counts the "
+                     "path flown since it (default False: its age alone)")
       .def_readwrite(
           "near_drift_tolerance_m", &SafetyConfig::near_drift_tolerance_m,
           "with seen_until_arrival and a declared odometry, near a recent surface a frame counts only "

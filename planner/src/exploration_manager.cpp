@@ -282,6 +282,7 @@ VehicleState ExplorationManager::command(double t_s) const {
 
 void ExplorationManager::shiftFrame(const Eigen::Isometry3d& shift) {
   shift_ = shift * shift_;
+  if (last_flown_W_) last_flown_W_ = shift * *last_flown_W_;  // a correction is not a path flown
   escapes_.shiftFrame(shift);
   if (recent_) recent_->shift(shift);
   pending_.frame_shift = true;
@@ -503,25 +504,33 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   // there (seen_until_arrival), else every one.
   const double seen_age_s =
       params_.safety.seen_until_arrival ? params_.safety.seenAge_s() : std::numeric_limits<double>::infinity();
-  const auto since = [&](double t) { return last_t_ + (std::min(t, t_end) - t_from) - seen_age_s; };
+  // With seen_drift_with_path, also by the path flown from a frame to the point.
+  const bool with_path =
+      params_.safety.seen_until_arrival && params_.safety.seen_drift_with_path && params_.safety.odometry;
+  const double length_now_m = with_path ? flownLengthAt(last_t_) : 0.0;
+  const auto arrival = [&](double t) { return last_t_ + (std::min(t, t_end) - t_from); };
+  const auto since = [&](double t, double along) {
+    return with_path ? oldestTrustedFrame_s(arrival(t), length_now_m + along, seen_age_s) : arrival(t) - seen_age_s;
+  };
   // Near a recent surface, only frames young enough at arrival that their drift cannot have moved
   // it by the clearance (nearSeenAge_s()): it may stand nearer than the frames that saw it say.
   const double near_age_s = params_.safety.seen_until_arrival ? params_.safety.nearSeenAge_s() : seen_age_s;
   const double near_surface_m = params_.safety.clearance_m + params_.safety.drift_tolerance_m;
-  const auto seenNow = [&](const Vec3d& way_W, const Vec3d& check_W, double t) {
-    if (!seenFree(probe, check_W, since(t))) return false;
+  const auto seenNow = [&](const Vec3d& way_W, const Vec3d& check_W, double t, double oldest_s) {
+    if (!seenFree(probe, check_W, oldest_s)) return false;
     if (near_age_s >= seen_age_s || !recent_map_ || !recent_map_->nearSurface(way_W, near_surface_m)) return true;
-    return seenFree(probe, check_W, since(t) + seen_age_s - near_age_s);
+    return seenFree(probe, check_W, std::max(oldest_s, arrival(t) - near_age_s));
   };
   for (double t = t_from + dt; along_m < way_m; t += dt) {
     const Vec3d p = shift * trajectory.sample(std::min(t, t_end)).position_W;
     along_m += (p - prev).norm();
+    const double oldest_s = since(t, along_m);
     const Eigen::Vector2d travel = (p - prev).head<2>();
     prev = p;
     // Within clearance_m of origin_W the way is where the vehicle already is (its own camera never
     // sees that space free), as the emergency stop leaves out what lies that near the vehicle.
     if (const std::optional<Vec3d> c = checkable(p);
-        c && (p - origin_W).norm() >= params_.safety.clearance_m && !seenNow(p, *c, t))
+        c && (p - origin_W).norm() >= params_.safety.clearance_m && !seenNow(p, *c, t, oldest_s))
       return UnseenPoint{*c, along_m, false};
     // Beside the way, side_m to the left and right of the horizontal travel (all four sides when
     // the way is vertical there): a way seen free down its middle may pass a wall no frame saw.
@@ -535,11 +544,50 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     for (std::size_t k = 0; k < n_lefts; ++k)
       for (const double sign : {1.0, -1.0}) {
         const std::optional<Vec3d> c = checkable(p + sign * lefts[k]);
-        if (c && !sideSeen(probe, *c, since(t))) return UnseenPoint{*c, along_m, true};
+        if (c && !sideSeen(probe, *c, oldest_s)) return UnseenPoint{*c, along_m, true};
       }
     if (t >= t_end) break;
   }
   return std::nullopt;
+}
+
+void ExplorationManager::recordFlownLength(const Vec3d& position_W, double t_s) {
+  const double step_m = last_flown_W_ ? (position_W - *last_flown_W_).norm() : 0.0;
+  flown_length_.emplace_back(t_s, flown_length_.empty() ? 0.0 : flown_length_.back().second + step_m);
+  last_flown_W_ = position_W;
+  // What a frame's age at arrival can reach back to: the window, and the way ahead's seconds.
+  const double keep_s = params_.safety.window_s() + 10.0;
+  while (flown_length_.size() > 2 && flown_length_[1].first < t_s - keep_s) flown_length_.pop_front();
+}
+
+double ExplorationManager::flownLengthAt(double t_s) const {
+  if (flown_length_.empty()) return 0.0;
+  const auto after = std::lower_bound(flown_length_.begin(), flown_length_.end(), t_s,
+                                      [](const std::pair<double, double>& e, double t) { return e.first < t; });
+  if (after == flown_length_.begin()) return after->second;
+  if (after == flown_length_.end()) return flown_length_.back().second;
+  const auto& [t0, s0] = *std::prev(after);
+  const auto& [t1, s1] = *after;
+  return s0 + (s1 - s0) * (t_s - t0) / (t1 - t0);
+}
+
+double ExplorationManager::oldestTrustedFrame_s(double arrival_s, double arrival_length_m, double seen_age_s) const {
+  const OdometryDrift& drift = *params_.safety.odometry;
+  const double tolerance_m = params_.safety.drift_tolerance_m, lever_m = params_.safety.drift_lever_m;
+  const auto trusted = [&](double frame_s) {
+    const double path_m = std::max(0.0, arrival_length_m - flownLengthAt(frame_s));
+    return drift.displacement_m(arrival_s - frame_s, lever_m, path_m) <= tolerance_m;
+  };
+  // The displacement grows as the frame gets older (both its age and the path since), so the
+  // oldest trusted frame is where it reaches the tolerance: bisection to a millisecond.
+  double newest = arrival_s - SafetyConfig::kMinSeenAge_s, oldest = arrival_s - seen_age_s;
+  if (oldest >= newest || trusted(oldest)) return std::min(oldest, newest);
+  if (!trusted(newest)) return newest;
+  while (newest - oldest > 1e-3) {
+    const double mid = 0.5 * (oldest + newest);
+    (trusted(mid) ? newest : oldest) = mid;
+  }
+  return newest;
 }
 
 bool ExplorationManager::lookSawWay(const MapQuery& map, double t_s) const {
@@ -631,6 +679,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   last_t_ = t_s;
   ++counters_.updates;
   if (!escaping(t_s)) escapes_.recordFlown(vehicle.position_W, t_s, base_map.voxelSize());  // not an escape's way
+  if (recent_ && params_.safety.seen_drift_with_path) recordFlownLength(vehicle.position_W, t_s);
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap free_map(base_map, free_boxes_);
   // The map does not change during an update: its voxels are read once per block for the many

@@ -23,6 +23,13 @@ double OdometryDrift::displacement_m(double t_s, double lever_m) const {
          lever_m * (yaw_rad_per_sqrt_s * root_t + std::abs(yaw_bias_rad_per_s) * t_s);
 }
 
+double OdometryDrift::displacement_m(double t_s, double lever_m, double path_m) const {
+  const double without_path = displacement_m(t_s, lever_m);
+  if (!(path_m >= 0.0 && std::isfinite(path_m)))
+    throw std::invalid_argument("OdometryDrift::displacement_m: path_m must be finite and >= 0");
+  return without_path + path_m * (yaw_rad_per_sqrt_s * std::sqrt(t_s / 3.0) + std::abs(yaw_bias_rad_per_s) * t_s / 2.0);
+}
+
 double OdometryDrift::axisDisplacement_m(double t_s) const {
   if (!(t_s >= 0.0 && std::isfinite(t_s)))
     throw std::invalid_argument("OdometryDrift::axisDisplacement_m: t_s must be finite and >= 0");

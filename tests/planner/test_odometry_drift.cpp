@@ -54,6 +54,40 @@ TEST_CASE("The displacement is the position walk over three axes plus the arc of
   CHECK(OdometryDrift{}.displacement_m(100.0, 2.0) == 0.0);
 }
 
+TEST_CASE("The path term is the yaw drift integrated along the path, as a simulated walk gives it",
+          "[planner][safety]") {
+  // Brute force: a straight flight at v for T seconds with a yaw random walk (and no other
+  // noise); the estimate's sideways error is the integral of the yaw error times v. Its standard
+  // deviation over many flights is the path term's walk part, q v T sqrt(T / 3).
+  OdometryDrift d;
+  d.yaw_rad_per_sqrt_s = 0.0158;  // s3's
+  const double v = 1.5, T = 6.0, dt = 0.005;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> step(0.0, d.yaw_rad_per_sqrt_s * std::sqrt(dt));
+  constexpr int kFlights = 4000;
+  double sum_sq = 0.0;
+  for (int k = 0; k < kFlights; ++k) {
+    double yaw = 0.0, sideways = 0.0;
+    for (double t = 0.0; t < T - 1e-9; t += dt) {
+      yaw += step(rng);
+      sideways += yaw * v * dt;
+    }
+    sum_sq += sideways * sideways;
+  }
+  const double simulated = std::sqrt(sum_sq / kFlights);
+  const double path_term = d.displacement_m(T, 0.0, v * T) - d.displacement_m(T, 0.0);
+  CHECK(path_term == Approx(simulated).epsilon(0.05));  // 4000 flights: about 1 % standard error
+  // A yaw-rate bias b turns the path by b t: the sideways error is b v T^2 / 2 exactly.
+  d = {};
+  d.yaw_bias_rad_per_s = -0.001;
+  CHECK(d.displacement_m(T, 2.0, v * T) - d.displacement_m(T, 2.0) == Approx(0.001 * v * T * T / 2.0));
+  // No path, no term; a path never lowers the displacement; misuse throws.
+  CHECK(d.displacement_m(T, 2.0, 0.0) == d.displacement_m(T, 2.0));
+  CHECK(d.displacement_m(T, 2.0, 1.0) <= d.displacement_m(T, 2.0, 5.0));
+  CHECK_THROWS(d.displacement_m(T, 2.0, -1.0));
+  CHECK_THROWS(d.displacement_m(T, 2.0, std::numeric_limits<double>::quiet_NaN()));
+}
+
 TEST_CASE("The axis displacement is one axis' position walk and bias, without the yaw's arc", "[planner][safety]") {
   OdometryDrift d;
   d.position_m_per_sqrt_s = 0.01;

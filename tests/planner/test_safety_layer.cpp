@@ -620,6 +620,52 @@ TEST_CASE("Near a surface seen seconds before, only frames young at arrival coun
   CHECK(c.nearSeenAge_s() == c.seenAge_s());
 }
 
+TEST_CASE("A frame counts for less time when the vehicle flies far since: the yaw drift turns the path flown",
+          "[planner][safety]") {
+  // The exact corridor, seen at t = 0 by a frame looking along it from x = 0.2 m, with s3's drift
+  // declared. At t = 5 s the vehicle, at rest and facing away, plans to the frontier at x = 6 m.
+  // By age alone the frame counts for 9.4 s, so the whole way is seen and the vehicle flies off
+  // looking back. Counting the path flown since the frame (seen_drift_with_path), the yaw drift
+  // of those seconds turns every metre of it: 2 m out, about 6.5 s after the frame, its drift is
+  // over drift_tolerance_m, and the vehicle faces the way before it gets there.
+  const DenseMap map = driftedMap(Vec3d::Zero());
+  OdometryDrift s3;
+  s3.position_m_per_sqrt_s = s3.yaw_rad_per_sqrt_s = std::sqrt(5e-2 / 200.0);
+  s3.yaw_bias_rad_per_s = 1e-3;
+  const Vec3d start(1.0, 1.3, 1.2);
+  const double t_plan = 5.0;
+  const auto yawOffTravelOut = [&](bool with_path) {
+    const CameraIntrinsics K = quarterCamera();
+    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
+    p.safety.enabled = true;
+    p.safety.odometry = s3;
+    p.safety.seen_drift_with_path = with_path;
+    const VehicleState s0 = planner::test::at(start, M_PI);
+    ExplorationManager m(p, s0, -60.0);  // the map is a minute old: not trusted as seen
+    const Pose3d ahead = lookingPose(Vec3d(0.2, start.y(), start.z()), 0.0), behind = lookingPose(start, M_PI);
+    m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
+    m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
+    REQUIRE(m.update(map, CoordBBox(), s0, t_plan).status == ExplorationStatus::Planned);
+    REQUIRE(m.command(1e9).position_W.x() > 3.5);  // on toward the frontier
+    double s = t_plan;
+    while ((m.command(s).position_W - start).norm() < 2.0) s += 0.01;
+    const VehicleState c = m.command(s);
+    const Eigen::Vector2d travel = (m.command(s + 0.5).position_W - c.position_W).head<2>();
+    return std::abs(wrapAngle(std::atan2(travel.y(), travel.x()) - c.yaw_rad));
+  };
+  // What the rule reads: 6.5 s and 2 m after a frame, s3's drift passes the tolerance only with
+  // the path; at rest the frame counts as long as before.
+  const SafetyConfig c;
+  CHECK(s3.displacement_m(6.5, c.drift_lever_m) < c.drift_tolerance_m);
+  CHECK(s3.displacement_m(6.5, c.drift_lever_m, 2.0) > c.drift_tolerance_m);
+  CHECK_FALSE(c.seen_drift_with_path);  // off by default
+  const double with_path = yawOffTravelOut(true);
+  const double by_age = yawOffTravelOut(false);
+  INFO("yaw off the travel 2 m out: " << with_path << " rad counting the path, " << by_age << " by age alone");
+  CHECK(with_path <= TrajectoryConfig{}.start_facing_rad);
+  CHECK(by_age > M_PI / 2);
+}
+
 TEST_CASE("Where the vehicle stands counts as seen: looks do not wait for its own position", "[planner][safety]") {
   // As above, the vehicle faces away from the way at t_plan = 9 s, and only the frame of t = 0
   // saw the way, including where the vehicle stands. The trajectory turns on the spot before it

@@ -53,6 +53,7 @@
 #include <Eigen/Geometry>
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -127,6 +128,13 @@ struct SafetyConfig {
   /// declared drift bears (s4), what its older frames saw free may lie a wall's clearance off.
   /// False: any frame in the window counts.
   bool seen_until_arrival = true;
+  /// With seen_until_arrival and a declared drift: a frame's drift at arrival also counts the
+  /// path the vehicle flies from the frame's capture to the point (OdometryDrift::displacement_m
+  /// with path_m). The yaw error turns every metre flown, so at speed a frame is trusted for less
+  /// time: at s3 9.4 s at rest, about 3.2 s at 1.5 m/s, never below kMinSeenAge_s. False (the
+  /// default until its runs are measured on every report world; docs/exploration.md, "Stop 76"):
+  /// by the frame's age alone.
+  bool seen_drift_with_path = false;
   /// With seen_until_arrival and a declared drift: where the way passes within clearance_m +
   /// drift_tolerance_m of a recent surface, a frame counts as having seen it only while its
   /// declared drift at arrival stays within this (nearSeenAge_s()). A surface seen some seconds
@@ -590,6 +598,15 @@ class ExplorationManager {
   std::optional<UnseenPoint> firstUnseen(const MapQuery& map, const Trajectory& trajectory,
                                          const Eigen::Isometry3d& shift, double t_from, double way_m,
                                          const Vec3d& origin_W) const;
+  /// With SafetyConfig::seen_drift_with_path: records the estimate's path flown up to t_s.
+  void recordFlownLength(const Vec3d& position_W, double t_s);
+  /// The estimate's path length flown by t_s (interpolated; clamped to the records kept).
+  double flownLengthAt(double t_s) const;
+  /// The capture time of the oldest frame that still counts at a point the vehicle reaches at
+  /// arrival_s, having flown arrival_length_m (flownLengthAt's scale) by then: its declared drift,
+  /// the path flown since included, within SafetyConfig::drift_tolerance_m; not older than
+  /// arrival_s - seen_age_s and not newer than arrival_s - SafetyConfig::kMinSeenAge_s.
+  double oldestTrustedFrame_s(double arrival_s, double arrival_length_m, double seen_age_s) const;
   /// During a look: the vehicle faces the point it looks for, and it is seen free (seenFree).
   bool lookSawWay(const MapQuery& map, double t_s) const;
   /// After a look saw the way: flies on along the rest of the trajectory the look interrupted
@@ -654,6 +671,10 @@ class ExplorationManager {
   TargetBook book_;                         ///< failures, blacklist, the current target
   Vec3d target_view_W_ = Vec3d::Zero();     ///< the viewpoint of book_'s target (FailedVisit)
   EscapePlanner escapes_;                   ///< the way flown, and the ways out of a blocked start
+  /// With SafetyConfig::seen_drift_with_path: the length of the estimate's path flown by each
+  /// update's time (t_s, metres since the start), over the recent window, and the last position.
+  std::deque<std::pair<double, double>> flown_length_;
+  std::optional<Vec3d> last_flown_W_;
   std::unique_ptr<ActiveLoopClosure> alc_;  ///< null without ALC
   std::size_t finish_views_flown_ = 0;      ///< flights of the detour before finishing so far
   std::unique_ptr<RecentFrames> recent_;    ///< null without the safety layer

@@ -6,7 +6,10 @@
 // of recent frames it trusts: a frame t seconds old sits, relative to the vehicle's current
 // estimate, where t seconds of drift moved it. A point lever_m from the camera moves by about
 //   displacement_m(t, lever_m) = sqrt(3) (q_p sqrt(t) + |b_p| t) + lever_m (q_yaw sqrt(t) + |b_yaw| t)
-// (one sigma of the position error over three axes, plus the arc of the yaw error).
+// (one sigma of the position error over three axes, plus the arc of the yaw error). When the
+// vehicle flies path_m meanwhile, the yaw error turns each metre of it, and the vehicle's estimate
+// moves from the frame's by about path_m (q_yaw sqrt(t / 3) + |b_yaw| t / 2) more (a yaw random
+// walk integrated along a path flown at constant speed).
 #pragma once
 
 namespace vdbmap::planner {
@@ -22,6 +25,8 @@ struct OdometryDrift {
   /// The expected displacement (above) after t_s >= 0 seconds of a point lever_m >= 0 from the
   /// camera. Throws std::invalid_argument for a negative or non-finite argument.
   double displacement_m(double t_s, double lever_m) const;
+  /// The same when the vehicle flies path_m >= 0 metres in those t_s seconds (above).
+  double displacement_m(double t_s, double lever_m, double path_m) const;
 
   /// The expected position error along one axis (one sigma, e.g. vertical) after t_s >= 0
   /// seconds: position_m_per_sqrt_s sqrt(t_s) + |position_bias_m_per_s| t_s. Throws
