@@ -43,7 +43,7 @@ struct ExploreOptions {
   double safety_look_side_m = planner::SafetyConfig{}.look_side_m;
   std::string safety_look_steep = planner::SafetyConfig{}.look_steep ? "on" : "off";
   std::string safety_seen_until_arrival = planner::SafetyConfig{}.seen_until_arrival ? "on" : "off";
-  std::string safety_path_drift = planner::SafetyConfig{}.seen_drift_with_path ? "on" : "off";
+  std::string safety_path_drift = planner::toString(planner::SafetyConfig{}.path_drift);
   double safety_near_tolerance_m = planner::SafetyConfig{}.near_drift_tolerance_m;
   std::string budgets = sim::toString(sim::BudgetMode::Counted);
   double epsilon = planner::AlcConfig{}.epsilon;
@@ -112,7 +112,9 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.look_side_m = o.safety_look_side_m;
   config.planner.safety.look_steep = o.safety_look_steep == "on";
   config.planner.safety.seen_until_arrival = o.safety_seen_until_arrival == "on";
-  config.planner.safety.seen_drift_with_path = o.safety_path_drift == "on";
+  for (const auto scope :
+       {planner::PathDriftScope::Off, planner::PathDriftScope::NearSurfaces, planner::PathDriftScope::Everywhere})
+    if (o.safety_path_drift == planner::toString(scope)) config.planner.safety.path_drift = scope;
   config.planner.safety.near_drift_tolerance_m = o.safety_near_tolerance_m;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
@@ -284,10 +286,11 @@ const Registration registration("explore", [](CLI::App& app) {
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--safety-path-drift", o->safety_path_drift,
                   "With the safety layer under declared drift, a frame's drift when the vehicle gets to a point of "
-                  "its way also counts the path flown since the frame (the yaw error turns every metre flown): at "
-                  "speed a way must have been seen more lately (s3: about 3 s at 1.5 m/s instead of 9.4 s) (on); "
-                  "or by the frame's age alone (off)")
-      ->check(CLI::IsMember({"on", "off"}));
+                  "its way also counts the path flown since the frame (the yaw error turns every metre flown), so "
+                  "at speed the way must have been seen more lately (s3: about 3 s at 1.5 m/s instead of 9.4 s): "
+                  "on (at every point of the way), near (where the way passes near a recent surface) or off (by "
+                  "the frame's age alone)")
+      ->check(CLI::IsMember({"off", "near", "on"}));
   sub->add_option("--safety-near-tolerance", o->safety_near_tolerance_m, kSafetyNearToleranceHelp)
       ->check(CLI::Range(0.0, 10.0));
   sub->add_option("--min-cluster-size", o->min_cluster_size,

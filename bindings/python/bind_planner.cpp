@@ -263,9 +263,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("seen_until_arrival", &SafetyConfig::seen_until_arrival,
                      "a point of a way counts as seen only by frames at most seen_age_s() old when the vehicle gets "
                      "there (default True), else by any frame in the recent window")
-      .def_readwrite("seen_drift_with_path", &SafetyConfig::seen_drift_with_path,
-                     "with seen_until_arrival and a declared odometry, a frame's drift at arrival also counts the "
-                     "path flown since it (default False: its age alone)")
+      .def_readwrite("path_drift", &SafetyConfig::path_drift,
+                     "where a frame's drift at arrival also counts the path flown since it (default Off: its age "
+                     "alone)")
       .def_readwrite(
           "near_drift_tolerance_m", &SafetyConfig::near_drift_tolerance_m,
           "with seen_until_arrival and a declared odometry, near a recent surface a frame counts only "
@@ -295,6 +295,11 @@ void bindExplorationParams(py::module_& m) {
            "drift, vertical_margin_m without a declared odometry, else grown with its vertical drift")
       .def("validate", &SafetyConfig::validate, "Raises ValueError naming the field and its allowed range.");
 
+  py::enum_<PathDriftScope>(m, "PathDriftScope",
+                            "Where the safety layer counts the path flown since a frame in its drift.")
+      .value("Off", PathDriftScope::Off, "nowhere: a frame's age alone")
+      .value("NearSurfaces", PathDriftScope::NearSurfaces, "where the way passes near a recent surface")
+      .value("Everywhere", PathDriftScope::Everywhere, "at every point of the way checked");
   py::enum_<FinalSweepScope>(m, "FinalSweepScope", "Which small clusters the final sweep visits.")
       .value("All", FinalSweepScope::All,
              "every small cluster, also those appearing during the sweep, until covered or blacklisted")

@@ -63,6 +63,15 @@ const char* toString(ExplorationStatus s) {
   return "?";
 }
 
+const char* toString(PathDriftScope scope) {
+  switch (scope) {
+    case PathDriftScope::Off: return "off";
+    case PathDriftScope::NearSurfaces: return "near";
+    case PathDriftScope::Everywhere: return "on";
+  }
+  return "?";
+}
+
 const char* toString(ExplorationPhase p) {
   switch (p) {
     case ExplorationPhase::InitialTurn: return "initial_turn";
@@ -504,22 +513,29 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
   // there (seen_until_arrival), else every one.
   const double seen_age_s =
       params_.safety.seen_until_arrival ? params_.safety.seenAge_s() : std::numeric_limits<double>::infinity();
-  // With seen_drift_with_path, also by the path flown from a frame to the point.
-  const bool with_path =
-      params_.safety.seen_until_arrival && params_.safety.seen_drift_with_path && params_.safety.odometry;
-  const double length_now_m = with_path ? flownLengthAt(last_t_) : 0.0;
+  // With path_drift, also by the path flown from a frame to the point.
+  const PathDriftScope path_scope =
+      params_.safety.seen_until_arrival && params_.safety.odometry ? params_.safety.path_drift : PathDriftScope::Off;
+  const double length_now_m = path_scope != PathDriftScope::Off ? flownLengthAt(last_t_) : 0.0;
   const auto arrival = [&](double t) { return last_t_ + (std::min(t, t_end) - t_from); };
+  const auto byPath = [&](double t, double along) {
+    return oldestTrustedFrame_s(arrival(t), length_now_m + along, seen_age_s);
+  };
   const auto since = [&](double t, double along) {
-    return with_path ? oldestTrustedFrame_s(arrival(t), length_now_m + along, seen_age_s) : arrival(t) - seen_age_s;
+    return path_scope == PathDriftScope::Everywhere ? byPath(t, along) : arrival(t) - seen_age_s;
   };
   // Near a recent surface, only frames young enough at arrival that their drift cannot have moved
-  // it by the clearance (nearSeenAge_s()): it may stand nearer than the frames that saw it say.
+  // it by the clearance (nearSeenAge_s(), and the path flown with PathDriftScope::NearSurfaces):
+  // it may stand nearer than the frames that saw it say.
   const double near_age_s = params_.safety.seen_until_arrival ? params_.safety.nearSeenAge_s() : seen_age_s;
+  const bool near_path = path_scope == PathDriftScope::NearSurfaces;
   const double near_surface_m = params_.safety.clearance_m + params_.safety.drift_tolerance_m;
-  const auto seenNow = [&](const Vec3d& way_W, const Vec3d& check_W, double t, double oldest_s) {
+  const auto seenNow = [&](const Vec3d& way_W, const Vec3d& check_W, double t, double along, double oldest_s) {
     if (!seenFree(probe, check_W, oldest_s)) return false;
-    if (near_age_s >= seen_age_s || !recent_map_ || !recent_map_->nearSurface(way_W, near_surface_m)) return true;
-    return seenFree(probe, check_W, std::max(oldest_s, arrival(t) - near_age_s));
+    if ((near_age_s >= seen_age_s && !near_path) || !recent_map_ || !recent_map_->nearSurface(way_W, near_surface_m))
+      return true;
+    const double near_oldest_s = std::max(oldest_s, arrival(t) - near_age_s);
+    return seenFree(probe, check_W, near_path ? std::max(near_oldest_s, byPath(t, along)) : near_oldest_s);
   };
   for (double t = t_from + dt; along_m < way_m; t += dt) {
     const Vec3d p = shift * trajectory.sample(std::min(t, t_end)).position_W;
@@ -530,7 +546,7 @@ std::optional<ExplorationManager::UnseenPoint> ExplorationManager::firstUnseen(c
     // Within clearance_m of origin_W the way is where the vehicle already is (its own camera never
     // sees that space free), as the emergency stop leaves out what lies that near the vehicle.
     if (const std::optional<Vec3d> c = checkable(p);
-        c && (p - origin_W).norm() >= params_.safety.clearance_m && !seenNow(p, *c, t, oldest_s))
+        c && (p - origin_W).norm() >= params_.safety.clearance_m && !seenNow(p, *c, t, along_m, oldest_s))
       return UnseenPoint{*c, along_m, false};
     // Beside the way, side_m to the left and right of the horizontal travel (all four sides when
     // the way is vertical there): a way seen free down its middle may pass a wall no frame saw.
@@ -679,7 +695,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   last_t_ = t_s;
   ++counters_.updates;
   if (!escaping(t_s)) escapes_.recordFlown(vehicle.position_W, t_s, base_map.voxelSize());  // not an escape's way
-  if (recent_ && params_.safety.seen_drift_with_path) recordFlownLength(vehicle.position_W, t_s);
+  if (recent_ && params_.safety.path_drift != PathDriftScope::Off) recordFlownLength(vehicle.position_W, t_s);
   if (alc_) alc_->addFlownPose(vehicle.position_W, vehicle.yaw_rad, t_s);
   const AssumeFreeMap free_map(base_map, free_boxes_);
   // The map does not change during an update: its voxels are read once per block for the many

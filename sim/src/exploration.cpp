@@ -472,7 +472,8 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
   j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.map_thin_obstacles;
   j["safety_free_clears"] = c.planner.safety.enabled && c.planner.safety.recent.newer_free_clears;
-  j["safety_path_drift"] = c.planner.safety.enabled && c.planner.safety.seen_drift_with_path;
+  j["safety_path_drift"] =
+      planner::toString(c.planner.safety.enabled ? c.planner.safety.path_drift : planner::PathDriftScope::Off);
   j["safety_near_drift_tolerance_m"] = c.planner.safety.enabled ? c.planner.safety.near_drift_tolerance_m : 0.0;
   // The vertical margin at the start and at the end (grown with the map's age under declared drift).
   j["safety_vertical_margin_m"] =

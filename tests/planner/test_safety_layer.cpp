@@ -625,21 +625,22 @@ TEST_CASE("A frame counts for less time when the vehicle flies far since: the ya
   // The exact corridor, seen at t = 0 by a frame looking along it from x = 0.2 m, with s3's drift
   // declared. At t = 5 s the vehicle, at rest and facing away, plans to the frontier at x = 6 m.
   // By age alone the frame counts for 9.4 s, so the whole way is seen and the vehicle flies off
-  // looking back. Counting the path flown since the frame (seen_drift_with_path), the yaw drift
-  // of those seconds turns every metre of it: 2 m out, about 6.5 s after the frame, its drift is
-  // over drift_tolerance_m, and the vehicle faces the way before it gets there.
+  // looking back. Counting the path flown since the frame (path_drift), the yaw drift of those
+  // seconds turns every metre of it: 2 m out, about 6.5 s after the frame, its drift is over
+  // drift_tolerance_m, and the vehicle faces the way before it gets there, whether the path counts
+  // everywhere or only near recent surfaces (there the way passes the block beside the gap).
   const DenseMap map = driftedMap(Vec3d::Zero());
   OdometryDrift s3;
   s3.position_m_per_sqrt_s = s3.yaw_rad_per_sqrt_s = std::sqrt(5e-2 / 200.0);
   s3.yaw_bias_rad_per_s = 1e-3;
   const Vec3d start(1.0, 1.3, 1.2);
   const double t_plan = 5.0;
-  const auto yawOffTravelOut = [&](bool with_path) {
+  const auto yawOffTravelOut = [&](PathDriftScope scope) {
     const CameraIntrinsics K = quarterCamera();
     ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
     p.safety.enabled = true;
     p.safety.odometry = s3;
-    p.safety.seen_drift_with_path = with_path;
+    p.safety.path_drift = scope;
     const VehicleState s0 = planner::test::at(start, M_PI);
     ExplorationManager m(p, s0, -60.0);  // the map is a minute old: not trusted as seen
     const Pose3d ahead = lookingPose(Vec3d(0.2, start.y(), start.z()), 0.0), behind = lookingPose(start, M_PI);
@@ -658,11 +659,14 @@ TEST_CASE("A frame counts for less time when the vehicle flies far since: the ya
   const SafetyConfig c;
   CHECK(s3.displacement_m(6.5, c.drift_lever_m) < c.drift_tolerance_m);
   CHECK(s3.displacement_m(6.5, c.drift_lever_m, 2.0) > c.drift_tolerance_m);
-  CHECK_FALSE(c.seen_drift_with_path);  // off by default
-  const double with_path = yawOffTravelOut(true);
-  const double by_age = yawOffTravelOut(false);
-  INFO("yaw off the travel 2 m out: " << with_path << " rad counting the path, " << by_age << " by age alone");
-  CHECK(with_path <= TrajectoryConfig{}.start_facing_rad);
+  CHECK(c.path_drift == PathDriftScope::Off);  // off by default
+  const double everywhere = yawOffTravelOut(PathDriftScope::Everywhere);
+  const double near = yawOffTravelOut(PathDriftScope::NearSurfaces);
+  const double by_age = yawOffTravelOut(PathDriftScope::Off);
+  INFO("yaw off the travel 2 m out: " << everywhere << " rad counting the path everywhere, " << near
+                                      << " near surfaces, " << by_age << " by age alone");
+  CHECK(everywhere <= TrajectoryConfig{}.start_facing_rad);
+  CHECK(near <= TrajectoryConfig{}.start_facing_rad);
   CHECK(by_age > M_PI / 2);
 }
 

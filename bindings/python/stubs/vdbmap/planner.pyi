@@ -227,7 +227,7 @@ class SafetyConfig:
     look_side_m: float
     look_steep: bool
     seen_until_arrival: bool
-    seen_drift_with_path: bool
+    path_drift: PathDriftScope
     near_drift_tolerance_m: float
     max_chained_looks: int
     seen_free_is_free: bool
@@ -243,6 +243,13 @@ class SafetyConfig:
     def validate(self) -> None: ...
     def __copy__(self) -> SafetyConfig: ...
     def __deepcopy__(self, memo: dict[Any, Any]) -> SafetyConfig: ...
+
+class PathDriftScope(_Enum):
+    """Where the safety layer counts the path flown since a frame in its drift."""
+    Off: ClassVar[PathDriftScope]
+    NearSurfaces: ClassVar[PathDriftScope]
+    Everywhere: ClassVar[PathDriftScope]
+    def __init__(self, value: int) -> None: ...
 
 class FinalSweepScope(_Enum):
     """Which small clusters the final sweep visits."""

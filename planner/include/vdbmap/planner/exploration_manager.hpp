@@ -84,6 +84,15 @@ namespace vdbmap::planner {
 /// Paths and trajectories are planned with the recent surfaces as obstacles too (and, with
 /// seen_free_is_free, the space recent frames saw free as free), and (face_travel) their yaw faces
 /// the way while moving.
+/// Where the safety layer's checks of the way count the path flown since a frame in its drift
+/// (SafetyConfig::path_drift).
+enum class PathDriftScope {
+  Off,           ///< nowhere: a frame's age alone
+  NearSurfaces,  ///< where the way passes within clearance_m + drift_tolerance_m of a recent surface
+  Everywhere,    ///< at every point of the way checked
+};
+const char* toString(PathDriftScope scope);
+
 struct SafetyConfig {
   bool enabled = false;
   /// Trajectories to targets face the direction of travel while moving
@@ -128,13 +137,13 @@ struct SafetyConfig {
   /// declared drift bears (s4), what its older frames saw free may lie a wall's clearance off.
   /// False: any frame in the window counts.
   bool seen_until_arrival = true;
-  /// With seen_until_arrival and a declared drift: a frame's drift at arrival also counts the
-  /// path the vehicle flies from the frame's capture to the point (OdometryDrift::displacement_m
-  /// with path_m). The yaw error turns every metre flown, so at speed a frame is trusted for less
-  /// time: at s3 9.4 s at rest, about 3.2 s at 1.5 m/s, never below kMinSeenAge_s. False (the
+  /// With seen_until_arrival and a declared drift, where a frame's drift at arrival also counts
+  /// the path the vehicle flies from the frame's capture to the point (OdometryDrift::displacement_m
+  /// with path_m): the yaw error turns every metre flown, so at speed a frame is trusted for less
+  /// time (at s3 9.4 s at rest, about 3.2 s at 1.5 m/s, never below kMinSeenAge_s). Off (the
   /// default until its runs are measured on every report world; docs/exploration.md, "Stop 76"):
   /// by the frame's age alone.
-  bool seen_drift_with_path = false;
+  PathDriftScope path_drift = PathDriftScope::Off;
   /// With seen_until_arrival and a declared drift: where the way passes within clearance_m +
   /// drift_tolerance_m of a recent surface, a frame counts as having seen it only while its
   /// declared drift at arrival stays within this (nearSeenAge_s()). A surface seen some seconds
@@ -598,7 +607,7 @@ class ExplorationManager {
   std::optional<UnseenPoint> firstUnseen(const MapQuery& map, const Trajectory& trajectory,
                                          const Eigen::Isometry3d& shift, double t_from, double way_m,
                                          const Vec3d& origin_W) const;
-  /// With SafetyConfig::seen_drift_with_path: records the estimate's path flown up to t_s.
+  /// With SafetyConfig::path_drift: records the estimate's path flown up to t_s.
   void recordFlownLength(const Vec3d& position_W, double t_s);
   /// The estimate's path length flown by t_s (interpolated; clamped to the records kept).
   double flownLengthAt(double t_s) const;
@@ -671,7 +680,7 @@ class ExplorationManager {
   TargetBook book_;                         ///< failures, blacklist, the current target
   Vec3d target_view_W_ = Vec3d::Zero();     ///< the viewpoint of book_'s target (FailedVisit)
   EscapePlanner escapes_;                   ///< the way flown, and the ways out of a blocked start
-  /// With SafetyConfig::seen_drift_with_path: the length of the estimate's path flown by each
+  /// With SafetyConfig::path_drift: the length of the estimate's path flown by each
   /// update's time (t_s, metres since the start), over the recent window, and the last position.
   std::deque<std::pair<double, double>> flown_length_;
   std::optional<Vec3d> last_flown_W_;
