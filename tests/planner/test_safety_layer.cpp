@@ -310,7 +310,7 @@ TEST_CASE(
   CHECK(p.safety.seenAge_s() == SafetyConfig::kMinSeenAge_s);
   p.safety.odometry.reset();
   CHECK(p.safety.seenAge_s() == 10.0);  // unknown drift: the window
-  p.safety.max_window_s = 5.0;  // shorter than the base window: no widening
+  p.safety.max_window_s = 5.0;          // shorter than the base window: no widening
   CHECK(windowOf(OdometryDrift{}) == 10.0);
 }
 
@@ -570,6 +570,43 @@ TEST_CASE("A way seen only by frames that leave the window before the vehicle ge
   CHECK(yawOffTravel(false) > M_PI / 2);  // flies off looking back
 }
 
+namespace {
+/// s3's drift as the simulator declares it (sim::odometryDriftOf).
+OdometryDrift s3Drift() {
+  OdometryDrift s3;
+  s3.position_m_per_sqrt_s = s3.yaw_rad_per_sqrt_s = std::sqrt(5e-2 / 200.0);
+  s3.yaw_bias_rad_per_s = 1e-3;
+  return s3;
+}
+
+/// In the exact corridor, with s3's drift declared and the layer set by `configure`: a frame looks
+/// along the corridor from x = 0.2 m at t = 0, and at t_plan the vehicle, at rest at `start` and
+/// facing away (its frame sees the wall behind it), plans to the frontier at x = 6 m through the
+/// gap beside the block (x 3-3.5 m). Returns the angle between its yaw and its direction of travel
+/// (toward where it is 0.5 s later) where `reached(position)` first holds.
+template <class Configure, class Reached>
+double yawOffTravelWhere(const DenseMap& map, const Vec3d& start, double t_plan, Configure&& configure,
+                         Reached&& reached) {
+  const CameraIntrinsics K = quarterCamera();
+  ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
+  p.safety.enabled = true;
+  p.safety.odometry = s3Drift();
+  configure(p.safety);
+  const VehicleState s0 = planner::test::at(start, M_PI);
+  ExplorationManager m(p, s0, -60.0);  // the map is a minute old: not trusted as seen
+  const Pose3d ahead = lookingPose(Vec3d(0.2, start.y(), start.z()), 0.0), behind = lookingPose(start, M_PI);
+  m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
+  m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
+  REQUIRE(m.update(map, CoordBBox(), s0, t_plan).status == ExplorationStatus::Planned);
+  REQUIRE(m.command(1e9).position_W.x() > 3.5);  // through the gap, toward the frontier
+  double s = t_plan;
+  while (!reached(m.command(s).position_W)) s += 0.01;
+  const VehicleState c = m.command(s);
+  const Eigen::Vector2d travel = (m.command(s + 0.5).position_W - c.position_W).head<2>();
+  return std::abs(wrapAngle(std::atan2(travel.y(), travel.x()) - c.yaw_rad));
+}
+}  // namespace
+
 TEST_CASE("Near a surface seen seconds before, only frames young at arrival count: the vehicle faces the way first",
           "[planner][safety]") {
   // The exact corridor, seen at t = 0 by a frame looking along it from x = 0.2 m, with s3's drift
@@ -580,29 +617,13 @@ TEST_CASE("Near a surface seen seconds before, only frames young at arrival coun
   // at arrival count (nearSeenAge_s): the flight faces the way before it gets there. Without that
   // rule (off by default) the whole way counts as seen, and it flies past the block looking back.
   const DenseMap map = driftedMap(Vec3d::Zero());
-  OdometryDrift s3;
-  s3.position_m_per_sqrt_s = s3.yaw_rad_per_sqrt_s = std::sqrt(5e-2 / 200.0);
-  s3.yaw_bias_rad_per_s = 1e-3;
+  const OdometryDrift s3 = s3Drift();
   const Vec3d start(1.0, 1.3, 1.2);
   const double t_plan = 4.0;
   const auto yawOffTravelAtBlock = [&](double near_drift_tolerance_m) {
-    const CameraIntrinsics K = quarterCamera();
-    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
-    p.safety.enabled = true;
-    p.safety.odometry = s3;
-    p.safety.near_drift_tolerance_m = near_drift_tolerance_m;
-    const VehicleState s0 = planner::test::at(start, M_PI);
-    ExplorationManager m(p, s0, -60.0);  // the map is a minute old: not trusted as seen
-    const Pose3d ahead = lookingPose(Vec3d(0.2, start.y(), start.z()), 0.0), behind = lookingPose(start, M_PI);
-    m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
-    m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
-    REQUIRE(m.update(map, CoordBBox(), s0, t_plan).status == ExplorationStatus::Planned);
-    REQUIRE(m.command(1e9).position_W.x() > 3.5);  // through the gap
-    double s = t_plan;
-    while (m.command(s).position_W.x() < 2.7) s += 0.01;  // 0.3 m before the block
-    const VehicleState c = m.command(s);
-    const Eigen::Vector2d travel = (m.command(s + 0.5).position_W - c.position_W).head<2>();
-    return std::abs(wrapAngle(std::atan2(travel.y(), travel.x()) - c.yaw_rad));
+    return yawOffTravelWhere(
+        map, start, t_plan, [&](SafetyConfig& c) { c.near_drift_tolerance_m = near_drift_tolerance_m; },
+        [](const Vec3d& p) { return p.x() >= 2.7; });  // 0.3 m before the block
   };
   SafetyConfig c;
   c.odometry = s3;
@@ -630,29 +651,13 @@ TEST_CASE("A frame counts for less time when the vehicle flies far since: the ya
   // drift_tolerance_m, and the vehicle faces the way before it gets there, whether the path counts
   // everywhere or only near recent surfaces (there the way passes the block beside the gap).
   const DenseMap map = driftedMap(Vec3d::Zero());
-  OdometryDrift s3;
-  s3.position_m_per_sqrt_s = s3.yaw_rad_per_sqrt_s = std::sqrt(5e-2 / 200.0);
-  s3.yaw_bias_rad_per_s = 1e-3;
+  const OdometryDrift s3 = s3Drift();
   const Vec3d start(1.0, 1.3, 1.2);
   const double t_plan = 5.0;
   const auto yawOffTravelOut = [&](PathDriftScope scope) {
-    const CameraIntrinsics K = quarterCamera();
-    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 3, 2.5)));
-    p.safety.enabled = true;
-    p.safety.odometry = s3;
-    p.safety.path_drift = scope;
-    const VehicleState s0 = planner::test::at(start, M_PI);
-    ExplorationManager m(p, s0, -60.0);  // the map is a minute old: not trusted as seen
-    const Pose3d ahead = lookingPose(Vec3d(0.2, start.y(), start.z()), 0.0), behind = lookingPose(start, M_PI);
-    m.addDepthFrame(0.0, renderTrue(K, ahead), K, ahead);
-    m.addDepthFrame(t_plan, renderTrue(K, behind), K, behind);
-    REQUIRE(m.update(map, CoordBBox(), s0, t_plan).status == ExplorationStatus::Planned);
-    REQUIRE(m.command(1e9).position_W.x() > 3.5);  // on toward the frontier
-    double s = t_plan;
-    while ((m.command(s).position_W - start).norm() < 2.0) s += 0.01;
-    const VehicleState c = m.command(s);
-    const Eigen::Vector2d travel = (m.command(s + 0.5).position_W - c.position_W).head<2>();
-    return std::abs(wrapAngle(std::atan2(travel.y(), travel.x()) - c.yaw_rad));
+    return yawOffTravelWhere(
+        map, start, t_plan, [&](SafetyConfig& c) { c.path_drift = scope; },
+        [&](const Vec3d& p) { return (p - start).norm() >= 2.0; });
   };
   // What the rule reads: 6.5 s and 2 m after a frame, s3's drift passes the tolerance only with
   // the path; at rest the frame counts as long as before.
