@@ -27,6 +27,7 @@ struct BenchAlcOptions {
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   double safety_near_tolerance_m = planner::SafetyConfig{}.near_drift_tolerance_m;
+  std::string safety_path_drift = planner::toString(planner::SafetyConfig{}.path_drift);
   bool keep_runs = false;
   bool resume = false;
   std::size_t jobs = 1;
@@ -49,6 +50,7 @@ void runBenchAlc(const BenchAlcOptions& o) {
   c.safety.seen_free_is_free = o.safety_seen_free == "on";
   c.safety.map_thin_obstacles = o.safety_map_thin == "on";
   c.safety.near_drift_tolerance_m = o.safety_near_tolerance_m;
+  c.safety.path_drift = parsePathDrift(o.safety_path_drift);
   c.keep_runs = o.keep_runs;
   c.resume = o.resume;
   c.jobs = o.jobs;
@@ -89,7 +91,8 @@ const GroupRegistration registration("bench", "alc", [](CLI::App& bench) {
   sub->add_option("--min-finish-coverage", o->min_finish_coverage,
                   "Count a run that ends below this coverage of the observable surface as incomplete")
       ->check(CLI::Range(0.0, 1.0));
-  addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin, o->safety_near_tolerance_m);
+  addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin, o->safety_near_tolerance_m,
+                   o->safety_path_drift);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep each run's log and map in OUTDIR/runs/ (large)");
   sub->add_flag("--resume", o->resume,
                 "Keep the runs an earlier call with the same options left in OUTDIR (their summary.json) and run "

@@ -112,9 +112,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.look_side_m = o.safety_look_side_m;
   config.planner.safety.look_steep = o.safety_look_steep == "on";
   config.planner.safety.seen_until_arrival = o.safety_seen_until_arrival == "on";
-  for (const auto scope :
-       {planner::PathDriftScope::Off, planner::PathDriftScope::NearSurfaces, planner::PathDriftScope::Everywhere})
-    if (o.safety_path_drift == planner::toString(scope)) config.planner.safety.path_drift = scope;
+  config.planner.safety.path_drift = parsePathDrift(o.safety_path_drift);
   config.planner.safety.near_drift_tolerance_m = o.safety_near_tolerance_m;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
@@ -284,12 +282,7 @@ const Registration registration("explore", [](CLI::App& app) {
                   "vehicle gets there: the recent window, or shorter where the declared drift of that age exceeds "
                   "the tolerance (on); or by any frame in the window (off)")
       ->check(CLI::IsMember({"on", "off"}));
-  sub->add_option("--safety-path-drift", o->safety_path_drift,
-                  "With the safety layer under declared drift, a frame's drift when the vehicle gets to a point of "
-                  "its way also counts the path flown since the frame (the yaw error turns every metre flown), so "
-                  "at speed the way must have been seen more lately (s3: about 3 s at 1.5 m/s instead of 9.4 s): "
-                  "on (at every point of the way), near (where the way passes near a recent surface) or off (by "
-                  "the frame's age alone)")
+  sub->add_option("--safety-path-drift", o->safety_path_drift, kSafetyPathDriftHelp)
       ->check(CLI::IsMember({"off", "near", "on"}));
   sub->add_option("--safety-near-tolerance", o->safety_near_tolerance_m, kSafetyNearToleranceHelp)
       ->check(CLI::Range(0.0, 10.0));

@@ -4,10 +4,13 @@
 // registers the group, and each member registers itself with a `GroupRegistration`.
 #pragma once
 
+#include "vdbmap/planner/exploration_manager.hpp"
+
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -65,8 +68,22 @@ inline constexpr const char* kSafetyNearToleranceHelp =
 
 /// `--safety on|off`, `--safety-seen-free on|off`, `--safety-map-thin on|off` and
 /// `--safety-near-tolerance M` of the benchmarks (as `vdbmap explore`'s).
+/// `--safety-path-drift`'s values, as planner::toString names them.
+inline planner::PathDriftScope parsePathDrift(const std::string& value) {
+  for (const auto scope :
+       {planner::PathDriftScope::Off, planner::PathDriftScope::NearSurfaces, planner::PathDriftScope::Everywhere})
+    if (value == planner::toString(scope)) return scope;
+  throw std::invalid_argument("--safety-path-drift: '" + value + "' is not off, near or on");
+}
+
+inline constexpr const char* kSafetyPathDriftHelp =
+    "With the safety layer under declared drift, a frame's drift when the vehicle gets to a point of its way also "
+    "counts the path flown since the frame (the yaw error turns every metre flown), so at speed the way must have "
+    "been seen more lately (s3: about 3 s at 1.5 m/s instead of 9.4 s): on (at every point of the way), near (where "
+    "the way passes near a recent surface) or off (by the frame's age alone)";
+
 inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& seen_free, std::string& map_thin,
-                             double& near_tolerance_m) {
+                             double& near_tolerance_m, std::string& path_drift) {
   sub.add_option("--safety", safety, "The drift-free safety layer of recent depth frames (as vdbmap explore --safety)")
       ->check(CLI::IsMember({"on", "off"}));
   sub.add_option("--safety-seen-free", seen_free,
@@ -78,6 +95,7 @@ inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& se
                  "explore --safety-map-thin)")
       ->check(CLI::IsMember({"on", "off"}));
   sub.add_option("--safety-near-tolerance", near_tolerance_m, kSafetyNearToleranceHelp)->check(CLI::Range(0.0, 10.0));
+  sub.add_option("--safety-path-drift", path_drift, kSafetyPathDriftHelp)->check(CLI::IsMember({"off", "near", "on"}));
 }
 
 /// `--drift`, one of driftLevels().

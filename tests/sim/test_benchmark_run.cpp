@@ -4,10 +4,13 @@
 #include "internal/benchmark_run.hpp"
 
 #include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <filesystem>
+#include <fstream>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -103,4 +106,40 @@ TEST_CASE("A benchmark's header says when the safety layer's near-surface rule i
   CHECK(safetyDescription(safety, "s3").find("(near surfaces only frames drifted at most 0.10 m: 2.6 s)") !=
         std::string::npos);
   CHECK(safetyDescription(safety, "s1").find("near surfaces") == std::string::npos);  // no drift: nothing to go by
+  CHECK(safetyDescription(safety, "s3").find("path flown") == std::string::npos);
+  safety.path_drift = vdbmap::planner::PathDriftScope::NearSurfaces;
+  CHECK(safetyDescription(safety, "s3").find("(the path flown counts in a frame's drift: near)") != std::string::npos);
+}
+
+TEST_CASE("Resuming refuses a run flown with another path-drift scope, and reads older runs as flown without it",
+          "[sim][bench]") {
+  namespace fs = std::filesystem;
+  using namespace vdbmap::sim;
+  const fs::path dir = fs::temp_directory_path() / "vdbmap_bench_identity_path_drift";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  BenchmarkWorld world;
+  world.name = "room";
+  world.mesh = dir / "room.ply";
+  vdbmap::planner::SafetyConfig safety;
+  safety.enabled = true;
+  const auto identityWith = [&](vdbmap::planner::PathDriftScope scope) {
+    safety.path_drift = scope;
+    return internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, safety, LoopClosureMode::PoseGraph);
+  };
+  const auto record = [&](const nlohmann::json& summary) { std::ofstream(dir / "summary.json") << summary.dump(); };
+  // Recorded with `near`, asked without it: the error names the option.
+  record(identityWith(vdbmap::planner::PathDriftScope::NearSurfaces));
+  const nlohmann::json off = identityWith(vdbmap::planner::PathDriftScope::Off);
+  CHECK(off.at("safety_path_drift") == "off");
+  CHECK_THROWS_WITH(internal::startingPoint(true, dir, off), Catch::Contains("was run with safety_path_drift"));
+  // A summary from before the option has no key: it ran without it, so the identity check passes
+  // and what fails is reading the (incomplete) summary itself.
+  nlohmann::json older = off;
+  older.erase("safety_path_drift");
+  record(older);
+  CHECK_THROWS_WITH(internal::startingPoint(true, dir, off), !Catch::Contains("was run with"));
+  CHECK_THROWS_WITH(internal::startingPoint(true, dir, identityWith(vdbmap::planner::PathDriftScope::NearSurfaces)),
+                    Catch::Contains("safety_path_drift = (not recorded)"));
+  fs::remove_all(dir);
 }

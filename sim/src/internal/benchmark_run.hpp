@@ -54,6 +54,9 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
          (at_level.nearSeenAge_s() < at_level.seenAge_s()
               ? " (near surfaces only frames drifted at most " + format("%.2f", safety.near_drift_tolerance_m) +
                     " m: " + format("%.1f", at_level.nearSeenAge_s()) + " s)"
+              : std::string()) +
+         (safety.path_drift != planner::PathDriftScope::Off
+              ? std::string(" (the path flown counts in a frame's drift: ") + planner::toString(safety.path_drift) + ")"
               : std::string());
 }
 
@@ -79,6 +82,7 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
       {"safety_map_thin", !safety.enabled || safety.map_thin_obstacles},
       {"safety_free_clears", safety.enabled && safety.recent.newer_free_clears},
       {"safety_near_drift_tolerance_m", safety.enabled ? safety.near_drift_tolerance_m : 0.0},
+      {"safety_path_drift", planner::toString(safety.enabled ? safety.path_drift : planner::PathDriftScope::Off)},
       {"loop_closure", toString(loop_closure)}};
   if (!world.office) identity["world"] = std::filesystem::absolute(world.mesh).lexically_normal().string();
   return identity;
@@ -86,11 +90,11 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
 
 /// Where a benchmark's planned run starts. Resuming: the run an earlier call left in `run_dir` (its
 /// summary.json), when it was run as `identity` says (runIdentity; a summary without
-/// "safety_near_drift_tolerance_m" predates that rule and ran without it), else nothing when there
-/// is none; throws std::runtime_error naming the file and the first key (in alphabetical order)
-/// that differs, so that a resumed table never mixes runs made with other options. Not resuming:
-/// nothing, after removing the summary.json an earlier call left there, so that this call, if
-/// stopped before it reaches the run, does not leave it to a later resume.
+/// "safety_near_drift_tolerance_m" or "safety_path_drift" predates that rule and ran without it), else nothing when
+/// there is none; throws std::runtime_error naming the file and the first key (in alphabetical order) that differs, so
+/// that a resumed table never mixes runs made with other options. Not resuming: nothing, after removing the
+/// summary.json an earlier call left there, so that this call, if stopped before it reaches the run, does not leave it
+/// to a later resume.
 inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::filesystem::path& run_dir,
                                                        const nlohmann::json& identity) {
   const std::filesystem::path file = run_dir / "summary.json";
@@ -103,6 +107,7 @@ inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::f
   for (const auto& [key, value] : identity.items()) {
     const auto it = recorded.find(key);
     if (it == recorded.end() && key == "safety_near_drift_tolerance_m" && value == 0.0) continue;
+    if (it == recorded.end() && key == "safety_path_drift" && value == "off") continue;
     if (value.is_null() && (it == recorded.end() || it->is_null())) continue;
     if (it == recorded.end() || *it != value)
       throw std::runtime_error(file.string() + " was run with " + key + " = " +
