@@ -66,8 +66,6 @@ inline constexpr const char* kSafetyNearToleranceHelp =
     "the vehicle faces the way or looks before it passes (0: off, the same frames count as elsewhere; else below "
     "the 0.2 m the window's frames may drift)";
 
-/// `--safety on|off`, `--safety-seen-free on|off`, `--safety-map-thin on|off` and
-/// `--safety-near-tolerance M` of the benchmarks (as `vdbmap explore`'s).
 /// `--safety-path-drift`'s values, as planner::toString names them.
 inline planner::PathDriftScope parsePathDrift(const std::string& value) {
   for (const auto scope :
@@ -82,6 +80,9 @@ inline constexpr const char* kSafetyPathDriftHelp =
     "been seen more lately (s3: about 3 s at 1.5 m/s instead of 9.4 s): on (at every point of the way), near (where "
     "the way passes near a recent surface) or off (by the frame's age alone)";
 
+/// `--safety on|off`, `--safety-seen-free on|off`, `--safety-map-thin on|off`,
+/// `--safety-near-tolerance M` and `--safety-path-drift off|near|on` of the benchmarks (as `vdbmap
+/// explore`'s).
 inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& seen_free, std::string& map_thin,
                              double& near_tolerance_m, std::string& path_drift) {
   sub.add_option("--safety", safety, "The drift-free safety layer of recent depth frames (as vdbmap explore --safety)")

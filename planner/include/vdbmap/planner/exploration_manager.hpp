@@ -63,6 +63,15 @@
 
 namespace vdbmap::planner {
 
+/// Where the safety layer's checks of the way count the path flown since a frame in its drift
+/// (SafetyConfig::path_drift).
+enum class PathDriftScope {
+  Off,           ///< nowhere: a frame's age alone
+  NearSurfaces,  ///< where the way passes within clearance_m + drift_tolerance_m of a recent surface
+  Everywhere,    ///< at every point of the way checked
+};
+const char* toString(PathDriftScope scope);
+
 /// The drift-free safety layer near the vehicle: the last seconds of depth frames
 /// (ExplorationManager::addDepthFrame, recent_frames.hpp). With it, every update
 ///  - checks that the rest of the trajectory keeps clearance_m from the recent frames' surfaces
@@ -84,15 +93,6 @@ namespace vdbmap::planner {
 /// Paths and trajectories are planned with the recent surfaces as obstacles too (and, with
 /// seen_free_is_free, the space recent frames saw free as free), and (face_travel) their yaw faces
 /// the way while moving.
-/// Where the safety layer's checks of the way count the path flown since a frame in its drift
-/// (SafetyConfig::path_drift).
-enum class PathDriftScope {
-  Off,           ///< nowhere: a frame's age alone
-  NearSurfaces,  ///< where the way passes within clearance_m + drift_tolerance_m of a recent surface
-  Everywhere,    ///< at every point of the way checked
-};
-const char* toString(PathDriftScope scope);
-
 struct SafetyConfig {
   bool enabled = false;
   /// Trajectories to targets face the direction of travel while moving
