@@ -78,7 +78,7 @@ inline constexpr const char* kSafetyPathDriftHelp =
     "With the safety layer under declared drift, a frame's drift when the vehicle gets to a point of its way also "
     "counts the path flown since the frame (the yaw error turns every metre flown), so at speed the way must have "
     "been seen more lately (s3: about 3 s at 1.5 m/s instead of 9.4 s): on (at every point of the way), near (where "
-    "the way passes near a recent surface; the default) or off (by the frame's age alone)";
+    "the way passes near a recent surface) or off (by the frame's age alone)";
 
 /// `--safety on|off`, `--safety-seen-free on|off`, `--safety-map-thin on|off`,
 /// `--safety-near-tolerance M` and `--safety-path-drift off|near|on` of the benchmarks (as `vdbmap

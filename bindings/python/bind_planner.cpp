@@ -264,8 +264,8 @@ void bindExplorationParams(py::module_& m) {
                      "a point of a way counts as seen only by frames at most seen_age_s() old when the vehicle gets "
                      "there (default True), else by any frame in the recent window")
       .def_readwrite("path_drift", &SafetyConfig::path_drift,
-                     "where a frame's drift at arrival also counts the path flown since it (default NearSurfaces: "
-                     "where the way passes near a recent surface; Off: its age alone)")
+                     "where a frame's drift at arrival also counts the path flown since it (default Off: its age "
+                     "alone)")
       .def_readwrite(
           "near_drift_tolerance_m", &SafetyConfig::near_drift_tolerance_m,
           "with seen_until_arrival and a declared odometry, near a recent surface a frame counts only "

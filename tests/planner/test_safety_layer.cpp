@@ -616,19 +616,13 @@ TEST_CASE("Near a surface seen seconds before, only frames young at arrival coun
   // the clearance (s3's drift after 5 s at 2 m: 0.14 m), so there only frames at most 2.6 s old
   // at arrival count (nearSeenAge_s): the flight faces the way before it gets there. Without that
   // rule (off by default) the whole way counts as seen, and it flies past the block looking back.
-  // The path flown is left out of the frame's drift here (path_drift Off), which would face the
-  // way too (the next test).
   const DenseMap map = driftedMap(Vec3d::Zero());
   const OdometryDrift s3 = s3Drift();
   const Vec3d start(1.0, 1.3, 1.2);
   const double t_plan = 4.0;
   const auto yawOffTravelAtBlock = [&](double near_drift_tolerance_m) {
     return yawOffTravelWhere(
-        map, start, t_plan,
-        [&](SafetyConfig& c) {
-          c.near_drift_tolerance_m = near_drift_tolerance_m;
-          c.path_drift = PathDriftScope::Off;
-        },
+        map, start, t_plan, [&](SafetyConfig& c) { c.near_drift_tolerance_m = near_drift_tolerance_m; },
         [](const Vec3d& p) { return p.x() >= 2.7; });  // 0.3 m before the block
   };
   SafetyConfig c;
@@ -670,7 +664,7 @@ TEST_CASE("A frame counts for less time when the vehicle flies far since: the ya
   const SafetyConfig c;
   CHECK(s3.displacement_m(6.5, c.drift_lever_m) < c.drift_tolerance_m);
   CHECK(s3.displacement_m(6.5, c.drift_lever_m, 2.0) > c.drift_tolerance_m);
-  CHECK(c.path_drift == PathDriftScope::NearSurfaces);  // near surfaces by default
+  CHECK(c.path_drift == PathDriftScope::Off);  // off by default
   const double everywhere = yawOffTravelOut(PathDriftScope::Everywhere);
   const double near = yawOffTravelOut(PathDriftScope::NearSurfaces);
   const double by_age = yawOffTravelOut(PathDriftScope::Off);

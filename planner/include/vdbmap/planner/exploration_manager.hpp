@@ -140,10 +140,10 @@ struct SafetyConfig {
   /// With seen_until_arrival and a declared drift, where a frame's drift at arrival also counts
   /// the path the vehicle flies from the frame's capture to the point (OdometryDrift::displacement_m
   /// with path_m): the yaw error turns every metre flown, so at speed a frame is trusted for less
-  /// time (at s3 9.4 s at rest, about 3.2 s at 1.5 m/s, never below kMinSeenAge_s). By default
-  /// only where the way passes near a recent surface, where a wall may stand: everywhere, the looks
-  /// grow two- to threefold (docs/exploration.md, "Stop 76", "Stop 77"). Off: by the frame's age.
-  PathDriftScope path_drift = PathDriftScope::NearSurfaces;
+  /// time (at s3 9.4 s at rest, about 3.2 s at 1.5 m/s, never below kMinSeenAge_s). Off (the
+  /// default until its runs are measured on every report world; docs/exploration.md, "Stop 76"):
+  /// by the frame's age alone.
+  PathDriftScope path_drift = PathDriftScope::Off;
   /// With seen_until_arrival and a declared drift: where the way passes within clearance_m +
   /// drift_tolerance_m of a recent surface, a frame counts as having seen it only while its
   /// declared drift at arrival stays within this (nearSeenAge_s()). A surface seen some seconds
