@@ -38,13 +38,16 @@ DenseMap closedRoom() {
 }
 
 /// ALC for hand-fed histories: on from the start, clusters once viewpoints are 1 s old, a 2 s
-/// give-up timeout and a 3 s suspension.
+/// give-up timeout and a 3 s suspension. Path budgets are counted (the wall-clock limits far above
+/// what the searches take), so a loaded machine plans as an idle one does.
 ExplorationManagerConfig alcParams() {
   ExplorationManagerConfig p;
   p.box_W = Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(12, 6, 3));
   p.initial_turn = false;
-  p.path.time_limit_s = 0.05;
-  p.cost_path.time_limit_s = 0.005;
+  p.path.time_limit_s = 1.0;
+  p.path.max_iterations = 3000;
+  p.cost_path.time_limit_s = 1.0;
+  p.cost_path.max_iterations = 300;
   p.alc_enabled = true;
   p.alc.initial_period_s = 0.0;
   p.alc.clusters.min_age_s = 1.0;
