@@ -202,8 +202,8 @@ const Registration registration("integrate", [](CLI::App& app) {
                   "background frame per cycle")
       ->check(CLI::PositiveNumber);
   sub->add_option("--cycle-budget-frames", o->budget_frames,
-                  "Also stop a cycle's background work after this many frames (0 = no limit; a count "
-                  "makes runs repeat exactly)")
+                  "Also stop a cycle's background work after this many frames (0 = no limit; with a "
+                  "--cycle-budget-ms the cycles never reach, e.g. 1e6, runs repeat exactly)")
       ->check(CLI::Range(0, 1000000));
   sub->add_option("--submap-frames", o->submap_frames, "submap: frames per rigid submap")->check(CLI::Range(1, 1000000));
   sub->add_option("--on-bad-frame", o->on_bad_frame, "A corrupt or missing frame: fail the run, or skip and list it")
