@@ -82,8 +82,12 @@ void bindConfig(py::module_& m) {
             self.simulator.drift = py::isinstance<py::str>(drift)
                                        ? DriftConfig::preset(drift.cast<std::string>(), self.simulator.drift.seed)
                                        : drift.cast<DriftConfig>();
+            // As `vdbmap explore --drift` does: the safety layer is told what the odometry drifts.
+            self.planner.safety.odometry = odometryDriftOf(self.simulator.drift);
           },
-          "simulator.drift (edited in place); set a DriftConfig or a level name 's1'..'s4' (keeping the drift's seed)")
+          "simulator.drift (edited in place); set a DriftConfig or a level name 's1'..'s4' (keeping the drift's "
+          "seed), which also declares it to the safety layer (planner.safety.odometry = odometry_drift_of(drift)) "
+          "as `vdbmap explore --drift` does; an edit in place does not")
       .def_property(
           "seed", [](const ExplorationConfig& self) { return self.simulator.drift.seed; },
           [](ExplorationConfig& self, std::uint64_t seed) {
@@ -92,8 +96,10 @@ void bindConfig(py::module_& m) {
             self.planner.path.seed = seed;
             self.planner.cost_path.seed = seed;
             self.planner.tour.seed = seed;
+            self.planner.alc.tour.seed = seed;
           },
-          "the drift's seed; setting it also seeds the planner (path, cost_path, tour), as `vdbmap explore --seed`")
+          "the drift's seed; setting it also seeds the planner (path, cost_path, tour, alc.tour), as `vdbmap "
+          "explore --seed`")
       .def_property(
           "voxel_size_m", [](const ExplorationConfig& self) { return self.mapper.tsdf.voxel_size_m; },
           [](ExplorationConfig& self, double v) { self.mapper.tsdf.voxel_size_m = v; }, "mapper.tsdf.voxel_size_m")

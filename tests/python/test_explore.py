@@ -53,6 +53,7 @@ def tiny_config(drift="s1"):
     config.box = (ROOM_MIN, ROOM_MAX)
     config.start = START
     config.max_time_s = 120.0
+    config.set_budgets("counted")  # the same run however loaded the machine is
     return config
 
 
@@ -216,9 +217,14 @@ def test_exploration_config_defaults_and_shortcuts(room):
 
     config.seed = 11
     assert (config.simulator.drift.seed, config.planner.path.seed, config.planner.cost_path.seed,
-            config.planner.tour.seed) == (11, 11, 11, 11)
+            config.planner.tour.seed, config.planner.alc.tour.seed) == (11, 11, 11, 11, 11)
+    assert config.planner.safety.odometry is None
     config.drift = "s3"
     assert config.simulator.drift.sigma2_xyz_m2ps2 == 5e-2 and config.simulator.drift.seed == 11
+    # Setting a drift declares it to the safety layer, as `vdbmap explore --drift s3` does.
+    declared, expected = config.planner.safety.odometry, sim.odometry_drift_of(config.simulator.drift)
+    assert declared.position_m_per_sqrt_s == expected.position_m_per_sqrt_s > 0.0
+    assert declared.yaw_rad_per_sqrt_s == expected.yaw_rad_per_sqrt_s > 0.0
     config.drift = sim.DriftConfig(mu_xyz_mps=0.01)
     assert config.simulator.drift.mu_xyz_mps == 0.01
     config.drift.sigma2_yaw_rad2ps2 = 0.03  # the shortcut is the nested struct itself
