@@ -2,17 +2,37 @@
 #pragma once
 
 #include "vdbmap/planner/dense_map.hpp"
+#include "vdbmap/planner/path_planner.hpp"
 #include "vdbmap/planner/vehicle_state.hpp"
 
 #include <catch2/catch.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <optional>
 #include <vector>
 
 namespace vdbmap::planner::test {
+
+/// CPU time of the calling thread in seconds: unlike the wall clock it does not run on while a
+/// loaded machine leaves the thread waiting, yet it runs on as long as the thread keeps working,
+/// so a search that ignores its deadline still shows.
+inline double threadCpuSeconds() {
+  timespec now{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+  return static_cast<double>(now.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec);
+}
+
+/// Path searches bounded by a count of RRTConnect iterations, their time limit far above what they
+/// take, so that a search ends the same on a loaded machine as on an idle one.
+inline PathConfig countedPaths(std::uint64_t max_iterations = 3000) {
+  PathConfig p;
+  p.time_limit_s = 10.0;
+  p.max_iterations = max_iterations;
+  return p;
+}
 
 /// The vehicle at rest at p with this yaw.
 inline VehicleState at(const Vec3d& p, double yaw = 0.0) {

@@ -37,7 +37,7 @@ TEST_CASE("motionCost is FUEL's max of travel time (with the direction term) and
 
 TEST_CASE("CostEvaluator legs: straight, around a wall, moving, unreachable", "[planner][cost]") {
   const DenseMap map = costRoom();
-  CostEvaluator eval(map);
+  CostEvaluator eval(map, {}, test::countedPaths());
   const FlatPose a{Vec3d(1, 1, 1), 0.0};
   SECTION("straight") {
     const LegCost leg = eval.cost(a, FlatPose{Vec3d(4, 5, 1), 0.0});
@@ -69,7 +69,7 @@ TEST_CASE("CostEvaluator legs: straight, around a wall, moving, unreachable", "[
 
 TEST_CASE("PairCostTable plans each new pair once and forgets pairs of removed targets", "[planner][cost]") {
   const DenseMap map = costRoom();
-  PairCostTable table;
+  PairCostTable table({}, test::countedPaths());
   std::vector<TourTarget> targets{{1, {Vec3d(1, 1, 1), 0.0}},
                                   {2, {Vec3d(4, 5, 1), 1.0}},
                                   {5, {Vec3d(8, 1, 1), 0.0}},
@@ -100,9 +100,9 @@ TEST_CASE("PairCostTable with a budget plans the shortest legs first and estimat
                                         {2, {Vec3d(4, 5, 1), 0.0}},
                                         {5, {Vec3d(8, 1, 1), 0.0}},
                                         {9, {Vec3d(8, 4.7, 1.5), 0.0}}};
-  PairCostTable all;
+  PairCostTable all({}, test::countedPaths());
   REQUIRE(all.update(map, targets) == 6);
-  PairCostTable budgeted;
+  PairCostTable budgeted({}, test::countedPaths());
   // Straight legs, shortest first: 5-9 (3.7 m), 2-9 (4.0 m), 1-2 (5 m), 2-5 (5.7 m), 1-5 (7 m), 1-9 (7.9 m).
   CHECK(budgeted.update(map, targets, 2) == 2);
   CHECK(budgeted.pairCount() == 6);

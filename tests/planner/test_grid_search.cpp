@@ -191,6 +191,7 @@ TEST_CASE("The expansion budget ends a search with NoPath", "[planner][grid]") {
   PathConfig config;
   config.search = PathSearch::Grid;
   config.grid.max_expansions = 10;
+  config.time_limit_s = 10.0;  // the budget, not the clock, ends the search
   PathPlanner planner(map, config);
   const PathResult r = planner.plan(Vec3d(2, 1, 1), Vec3d(8, 1.2, 1.4));
   CHECK(r.status == PathStatus::NoPath);

@@ -23,15 +23,6 @@ DenseMap roomWithWall() {
   return map;
 }
 
-/// Path searches bounded by a count of iterations (the time limit far above what they take), so
-/// that a leg's cost is the same on a loaded machine as on an idle one.
-PathConfig countedPaths() {
-  PathConfig p;
-  p.time_limit_s = 1.0;
-  p.max_iterations = 3000;
-  return p;
-}
-
 /// `count` layers of 1-5 viewpoints each, anywhere in that room.
 std::vector<std::vector<Viewpoint>> randomLayers(std::mt19937& rng, std::size_t count) {
   std::uniform_real_distribution<double> x(0.5, 9.5), y(0.5, 5.5), z(0.6, 2.4), yaw(-M_PI, M_PI);
@@ -150,8 +141,8 @@ TEST_CASE("refineLocalTour's lazy search gives the shortest path over every plan
     VehicleState vehicle = vehicleAt(1.0 + 0.3 * trial, rng);
     vehicle.velocity_W = trial % 2 ? Vec3d(0.0, 1.0, 0.0) : Vec3d::Zero();  // the direction term, sometimes
     const std::vector<std::vector<Viewpoint>> layers = randomLayers(rng, std::size_t(2 + trial % 5));
-    const RefinementResult all = shortestLayeredPath(layeredCosts(map, vehicle, layers, {}, countedPaths()));
-    const RefinementResult lazy = refineLocalTour(map, vehicle, layers, {}, countedPaths());
+    const RefinementResult all = shortestLayeredPath(layeredCosts(map, vehicle, layers, {}, test::countedPaths()));
+    const RefinementResult lazy = refineLocalTour(map, vehicle, layers, {}, test::countedPaths());
     CHECK(lazy.cost_s == all.cost_s);
     CHECK(lazy.choice == all.choice);
     planned += lazy.planned_edges;
@@ -159,13 +150,14 @@ TEST_CASE("refineLocalTour's lazy search gives the shortest path over every plan
     for (std::size_t l = 1; l < layers.size(); ++l) edges += layers[l - 1].size() * layers[l].size();
 
     // A budget the search needs anyway changes nothing.
-    const RefinementResult enough = refineLocalTour(map, vehicle, layers, {}, countedPaths(), int(lazy.planned_edges));
+    const RefinementResult enough =
+        refineLocalTour(map, vehicle, layers, {}, test::countedPaths(), int(lazy.planned_edges));
     CHECK(enough.choice == lazy.choice);
     CHECK(enough.cost_s == lazy.cost_s);
     // A smaller one stops after the round that reaches it (a round plans at most one edge per
     // layer), with a path no dearer than the true shortest: unplanned edges count at their bound.
     const int half = std::max(1, int(lazy.planned_edges) / 2);
-    const RefinementResult cut = refineLocalTour(map, vehicle, layers, {}, countedPaths(), half);
+    const RefinementResult cut = refineLocalTour(map, vehicle, layers, {}, test::countedPaths(), half);
     CHECK(cut.planned_edges >= std::min<std::size_t>(std::size_t(half), lazy.planned_edges));
     CHECK(cut.planned_edges < std::size_t(half) + layers.size());
     CHECK(cut.cost_s <= lazy.cost_s);
@@ -185,8 +177,8 @@ TEST_CASE("A refinement edge's cost depends on its two poses, not on their place
   std::vector<std::vector<Viewpoint>> swapped = layers;
   std::reverse(swapped[0].begin(), swapped[0].end());
   std::reverse(swapped[1].begin(), swapped[1].end());
-  const LayeredCosts a = layeredCosts(map, vehicle, layers, {}, countedPaths());
-  const LayeredCosts b = layeredCosts(map, vehicle, swapped, {}, countedPaths());
+  const LayeredCosts a = layeredCosts(map, vehicle, layers, {}, test::countedPaths());
+  const LayeredCosts b = layeredCosts(map, vehicle, swapped, {}, test::countedPaths());
   for (Eigen::Index k = 0; k < 3; ++k) {
     CHECK(a.first[std::size_t(k)] == b.first[std::size_t(2 - k)]);
     for (Eigen::Index j = 0; j < 2; ++j) CHECK(a.between[0](k, j) == b.between[0](2 - k, 1 - j));
@@ -219,8 +211,8 @@ TEST_CASE("refineLocalTour with a cache gives the same path and plans edges betw
     std::vector<std::vector<Viewpoint>> layers = randomLayers(rng, std::size_t(3 + trial % 3));
 
     LegCostCache cache;
-    const RefinementResult first = refineLocalTour(map, vehicle, layers, {}, {}, 0, &cache);
-    const RefinementResult fresh = shortestLayeredPath(layeredCosts(map, vehicle, layers));
+    const RefinementResult first = refineLocalTour(map, vehicle, layers, {}, test::countedPaths(), 0, &cache);
+    const RefinementResult fresh = shortestLayeredPath(layeredCosts(map, vehicle, layers, {}, test::countedPaths()));
     CHECK(first.choice == fresh.choice);
     CHECK(first.cost_s == fresh.cost_s);
     CHECK(first.reused_edges == 0);
@@ -230,8 +222,9 @@ TEST_CASE("refineLocalTour with a cache gives the same path and plans edges betw
     vehicle.position_W.x() += 0.3;
     const std::size_t kept = cache.size();
     CHECK(kept + layers[0].size() >= first.planned_edges);  // every edge between viewpoints was kept
-    const RefinementResult again = refineLocalTour(map, vehicle, layers, {}, {}, 0, &cache);
-    const RefinementResult again_fresh = shortestLayeredPath(layeredCosts(map, vehicle, layers));
+    const RefinementResult again = refineLocalTour(map, vehicle, layers, {}, test::countedPaths(), 0, &cache);
+    const RefinementResult again_fresh =
+        shortestLayeredPath(layeredCosts(map, vehicle, layers, {}, test::countedPaths()));
     CHECK(again.choice == again_fresh.choice);
     CHECK(again.cost_s == again_fresh.cost_s);
     CHECK(again.reused_edges == kept);
@@ -241,8 +234,9 @@ TEST_CASE("refineLocalTour with a cache gives the same path and plans edges betw
     // A viewpoint that moved: its legs are forgotten and planned anew.
     const FlatPose old{layers[1][0].position_W, layers[1][0].yaw_rad};
     layers[1][0].position_W.y() = std::min(5.5, layers[1][0].position_W.y() + 0.5);
-    const RefinementResult moved = refineLocalTour(map, vehicle, layers, {}, {}, 0, &cache);
-    const RefinementResult moved_fresh = shortestLayeredPath(layeredCosts(map, vehicle, layers));
+    const RefinementResult moved = refineLocalTour(map, vehicle, layers, {}, test::countedPaths(), 0, &cache);
+    const RefinementResult moved_fresh =
+        shortestLayeredPath(layeredCosts(map, vehicle, layers, {}, test::countedPaths()));
     CHECK(moved.choice == moved_fresh.choice);
     CHECK(moved.cost_s == moved_fresh.cost_s);
     for (const Viewpoint& v : layers[0]) CHECK_FALSE(cache.find(FlatPose{v.position_W, v.yaw_rad}, old).has_value());

@@ -71,7 +71,7 @@ TEST_CASE("A straight 10 m leg from rest takes exactly the bang-cruise-bang time
 TEST_CASE("Along a planned path: limits at every sample, clear of the map, from rest to rest at the goal yaw",
           "[planner][trajectory]") {
   const DenseMap map = test::wallRoom();
-  PathConfig pp;
+  const PathConfig pp = test::countedPaths(5000);
   TrajectoryConfig tp;
   tp.clearance_m = pp.clearance_m;
   PathPlanner planner(map, pp);

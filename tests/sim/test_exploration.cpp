@@ -89,6 +89,7 @@ TEST_CASE("Each collision event is listed in the run's events, when it began", "
   const World world(twoRooms());
   ExplorationConfig config = twoRoomConfig("s1");
   config.vehicle_radius_m = 0.6;
+  setBudgets(config, BudgetMode::Counted);  // the same flight on a loaded machine
   const ExplorationResult r = runExploration(world, config);
   REQUIRE(r.collisions >= 1);
   std::vector<double> starts;
