@@ -109,6 +109,42 @@ def pcd_binary_compressed():
     return header + struct.pack('<II', len(lzf), len(soa)) + lzf
 
 
+def keyframe_store(version, frames, unit_id='0123456789abcdef0123456789abcdef'):
+    """A keyframe store file (docs/formats.md, "map.keyframes") written by hand: frames are
+    (id, stamp, kind, payload codes as bytes, count, camera or None, compressed); both poses a
+    translation along x by the id in decimetres; unit 1 mm, stride 1. Version 3 ends each record
+    with its CRC-32, versions 1 and 2 do not; version 1 has no unit id."""
+    unit = b'' if version == 1 else unit_id.encode()
+    out = b'VDBMAPKF' + struct.pack('<IIQ', version, len(unit), len(frames)) + unit
+    for frame_id, stamp, kind, codes, count, camera, compressed in frames:
+        pose = struct.pack('<16d', 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0.1 * frame_id, 0, 0, 1)  # column-major
+        payload = zlib.compress(codes, 1) if compressed else codes
+        record = struct.pack('<Qd', frame_id, stamp) + pose + pose
+        record += struct.pack('<BBBBiId', 1, kind, int(compressed), int(camera is not None), 1, count, 0.001)
+        if camera is not None:
+            record += struct.pack('<ii4d', *camera)
+        record += struct.pack('<Q', len(payload)) + payload
+        out += record + (struct.pack('<I', zlib.crc32(record) & 0xffffffff) if version >= 3 else b'')
+    return out
+
+
+def keyframe_store_seeds():
+    """fuzz_keyframes' seeds: a depth frame (8x6, row-delta 16-bit codes) and a point frame (two
+    points, three 32-bit codes each) in every version, and raw (uncompressed) codes."""
+    depth_mm = [1000 + 10 * u + 100 * v for v in range(6) for u in range(8)]
+    deltas = []
+    for v in range(6):
+        row = depth_mm[8 * v:8 * v + 8]
+        deltas += [row[0]] + [(row[u] - row[u - 1]) & 0xffff for u in range(1, 8)]
+    depth_codes = struct.pack('<48H', *deltas)
+    point_codes = struct.pack('<6i', 1000, 2000, 3000, 500, -250, 2000)
+    camera = (8, 6, 6.0, 6.0, 3.5, 2.5)
+    frames = [(0, 1.0, 0, depth_codes, 48, camera, True), (7, 1.5, 1, point_codes, 2, None, True)]
+    raw = [(f[0], f[1], f[2], f[3], f[4], f[5], False) for f in frames]
+    return {'store_v3.keyframes': keyframe_store(3, frames), 'store_v2.keyframes': keyframe_store(2, frames),
+            'store_v1.keyframes': keyframe_store(1, frames), 'raw_v3.keyframes': keyframe_store(3, raw)}
+
+
 def committed_seeds():
     """{target: {file name: bytes}}: the hand-made seeds kept under fuzz/seeds/."""
     # Stamps from 1 s on: a ROS bag index refuses time 0 (the bag seeds are made from this log).
@@ -167,6 +203,7 @@ def committed_seeds():
         'fuzz_pcd': {'binary_compressed.pcd': pcd_binary_compressed(), 'ascii.pcd': points_pcd_ascii().encode()},
         'fuzz_tum': {'trajectory.txt': tum_traj.encode()},
         'fuzz_tsplib': {'tiny4.atsp': tsplib.encode()},
+        'fuzz_keyframes': keyframe_store_seeds(),
     }
 
 

@@ -49,6 +49,72 @@ void patch(const fs::path& path, std::size_t offset, const void* bytes, std::siz
 const testing::AnalyticScene kScene = testing::AnalyticScene::demoRoom();
 constexpr int kFrames = 8;
 
+template <typename T>
+T valueAt(const std::string& bytes, std::size_t at) {
+  REQUIRE(at + sizeof(T) <= bytes.size());
+  T v;
+  std::memcpy(&v, bytes.data() + at, sizeof(T));
+  return v;
+}
+
+/// One keyframe record of a store file, as docs/formats.md lays it out: from its id to its
+/// payload's end (in version 3 a CRC-32 of those bytes follows), where its payload size and
+/// payload lie, and what its codes are.
+struct StoreRecord {
+  std::size_t begin = 0, compressed_at = 0, count_at = 0, payload_size_at = 0, payload_begin = 0, payload_end = 0;
+  bool depth = false, compressed = false;
+  std::uint32_t count = 0;  ///< pixels or points
+};
+
+struct StoreFile {
+  std::uint32_t version = 0;
+  std::size_t header_end = 0;  ///< where the first record begins
+  std::vector<StoreRecord> records;
+};
+
+/// Walks a store file's records (the test's own reading of the layout, not the library's).
+StoreFile parseStore(const std::string& bytes) {
+  StoreFile f;
+  f.version = valueAt<std::uint32_t>(bytes, 8);
+  const std::uint32_t id_bytes = valueAt<std::uint32_t>(bytes, 12);
+  const std::uint64_t count = valueAt<std::uint64_t>(bytes, 16);
+  std::size_t pos = f.header_end = 24 + id_bytes;
+  for (std::uint64_t k = 0; k < count; ++k) {
+    StoreRecord r;
+    r.begin = pos;
+    pos += 8 + 8 + 2 * 16 * 8 + 1;  // id, stamp, two poses, integrated
+    r.depth = bytes.at(pos) == 0;
+    r.compressed_at = pos + 1;
+    r.compressed = bytes.at(r.compressed_at) != 0;
+    const bool has_camera = bytes.at(pos + 2) != 0;
+    r.count_at = pos + 3 + 4;
+    r.count = valueAt<std::uint32_t>(bytes, r.count_at);
+    pos += 3 + 4 + 4 + 8 + (has_camera ? 8 + 4 * 8 : 0);  // flags, stride, count, unit, camera
+    r.payload_size_at = pos;
+    r.payload_begin = pos + 8;
+    r.payload_end = r.payload_begin + valueAt<std::uint64_t>(bytes, pos);
+    pos = r.payload_end + (f.version >= 3 ? 4 : 0);
+    f.records.push_back(r);
+  }
+  REQUIRE(pos == bytes.size());
+  return f;
+}
+
+/// A version 3 store as the version 2 writer wrote it (no checksums), or version 1 (nor unit id).
+std::string legacyStore(const std::string& v3, std::uint32_t version) {
+  const StoreFile f = parseStore(v3);
+  REQUIRE(f.version == 3);
+  std::string out = v3.substr(0, f.header_end);
+  out.replace(8, 4, reinterpret_cast<const char*>(&version), 4);
+  if (version == 1) {
+    const std::uint32_t none = 0;
+    out.erase(24);
+    out.replace(12, 4, reinterpret_cast<const char*>(&none), 4);
+  }
+  for (const StoreRecord& r : f.records) out.append(v3, r.begin, r.payload_end - r.begin);
+  return out;
+}
+
 }  // namespace
 
 TEST_CASE("a keyframe store saved and loaded holds the same frames, poses and data", "[mapper][saved]") {
@@ -106,21 +172,134 @@ TEST_CASE("bad keyframe store files are refused naming the file, the keyframe an
   CHECK_THROWS_AS(KeyframeStore::load(dir / "missing.keyframes"), FileError);
 }
 
-TEST_CASE("a version 1 keyframe store (no unit id) still loads", "[mapper][saved]") {
+TEST_CASE("a keyframe store with any one byte damaged is refused naming the file, and the keyframe within a record",
+          "[mapper][saved][hostile]") {
+  // Two depth frames and a point frame; each record's CRC-32 covers what no other check can:
+  // a stride, a unit or a code changed is a frame the map never integrated.
+  const fs::path dir = test::freshDir("vdbmap_saved_every_byte");
+  Mapper mapper(config(ConsistencyMode::All));
+  for (int i = 0; i < 2; ++i)
+    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()),
+                    test::circleOdometry(i));
+  mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
+  const fs::path good = dir / "good.keyframes", bad = dir / "bad.keyframes";
+  mapper.keyframes().save(good);
+  REQUIRE(KeyframeStore::load(good).size() == 3);
+  const std::string bytes = test::readBytes(good);
+  const StoreFile layout = parseStore(bytes);
+  REQUIRE(layout.version == 3);
+  REQUIRE(layout.records.size() == 3);
+  std::size_t refused = 0;
+  for (std::size_t at = 0; at < bytes.size(); ++at) {
+    std::string damaged = bytes;
+    damaged[at] = char(damaged[at] ^ 0xff);
+    { std::ofstream(bad, std::ios::binary | std::ios::trunc) << damaged; }
+    std::size_t record = 0;
+    while (record + 1 < layout.records.size() && layout.records[record + 1].begin <= at) ++record;
+    const bool in_record = at >= layout.header_end;
+    try {
+      (void)KeyframeStore::load(bad);
+      FAIL_CHECK("byte " << at << " damaged, and the store loaded");
+    } catch (const FileError& e) {
+      const std::string what = e.what();
+      INFO("byte " << at << ": " << what);
+      CHECK(what.find("bad.keyframes") != std::string::npos);
+      if (in_record) CHECK(what.find("keyframe " + std::to_string(record)) != std::string::npos);
+      ++refused;
+    }
+  }
+  CHECK(refused == bytes.size());
+}
+
+TEST_CASE("a keyframe record's count beyond what its payload holds is refused before anything is allocated for it",
+          "[mapper][saved][hostile]") {
+  const fs::path dir = test::freshDir("vdbmap_saved_counts");
+  Mapper mapper(config(ConsistencyMode::All));
+  mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
+  mapper.keyframes().save(dir / "good.keyframes");
+  const std::string bytes = test::readBytes(dir / "good.keyframes");
+  const StoreRecord r = parseStore(bytes).records.at(0);
+  REQUIRE_FALSE(r.depth);
+  // 2^32 - 1 points ask for 51 GB of codes, from a payload of a few bytes: refused by the payload's size.
+  std::string damaged = bytes;
+  const std::uint32_t huge = 0xffffffffu;
+  damaged.replace(r.count_at, 4, reinterpret_cast<const char*>(&huge), 4);
+  std::ofstream(dir / "huge.keyframes", std::ios::binary) << damaged;
+  CHECK_THROWS_WITH(KeyframeStore::load(dir / "huge.keyframes"),
+                    Catch::Contains("keyframe 0 (id 7)") &&
+                        Catch::Contains("count 4294967295 needs 51539607540 bytes") &&
+                        Catch::Contains("more than a compressed payload"));
+  // A payload said to be raw codes must hold exactly the count's.
+  damaged = bytes;
+  damaged[r.compressed_at] = 0;
+  std::ofstream(dir / "raw.keyframes", std::ios::binary) << damaged;
+  CHECK_THROWS_WITH(KeyframeStore::load(dir / "raw.keyframes"), Catch::Contains("keyframe 0 (id 7)") &&
+                                                                    Catch::Contains("raw payload of") &&
+                                                                    Catch::Contains("count 2 needs 24"));
+}
+
+TEST_CASE("a version 2 keyframe store (no checksums) whose payload does not decode is refused naming the keyframe",
+          "[mapper][saved][hostile]") {
+  const fs::path dir = test::freshDir("vdbmap_saved_v2_payload");
+  Mapper mapper(config(ConsistencyMode::All));
+  for (int i = 0; i < 2; ++i)
+    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()),
+                    test::circleOdometry(i));
+  mapper.keyframes().save(dir / "v3.keyframes");
+  std::string v2 = legacyStore(test::readBytes(dir / "v3.keyframes"), 2);
+  std::ofstream(dir / "v2.keyframes", std::ios::binary) << v2;
+  REQUIRE(KeyframeStore::load(dir / "v2.keyframes").size() == 2);
+  // A byte of the second frame's zlib stream changed: its Adler-32 (or the stream) no longer holds.
+  const StoreRecord r = parseStore(v2).records.at(1);
+  const std::size_t middle = (r.payload_begin + r.payload_end) / 2;
+  v2[middle] = char(v2[middle] ^ 0xff);
+  std::ofstream(dir / "v2_bad.keyframes", std::ios::binary | std::ios::trunc) << v2;
+  CHECK_THROWS_WITH(KeyframeStore::load(dir / "v2_bad.keyframes"), Catch::Contains("v2_bad.keyframes") &&
+                                                                       Catch::Contains("keyframe 1 (id 1)") &&
+                                                                       Catch::Contains("payload"));
+}
+
+TEST_CASE("keyframe stores that another writer made from docs/formats.md load in every version", "[mapper][saved]") {
+  // fuzz/make_corpus.py writes them with Python's struct and zlib (fuzz_keyframes' seeds): an
+  // 8x6 depth frame (id 0) and two points (id 7), compressed, and raw in version 3.
+  const fs::path seeds = fs::path(VDBMAP_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_keyframes";
+  for (const char* name : {"store_v1.keyframes", "store_v2.keyframes", "store_v3.keyframes", "raw_v3.keyframes"}) {
+    INFO(name);
+    const KeyframeStore store = KeyframeStore::load(seeds / name);
+    REQUIRE(store.size() == 2);
+    CHECK(KeyframeStore::savedUnitId(seeds / name) ==
+          (std::string(name) == "store_v1.keyframes" ? "" : "0123456789abcdef0123456789abcdef"));
+    const Keyframe& depth = store.at(0);
+    REQUIRE(depth.data.isDepth());
+    const DepthImage image = depth.data.decodeDepth();
+    REQUIRE((image.width == 8 && image.height == 6));
+    for (int v = 0; v < 6; ++v)
+      for (int u = 0; u < 8; ++u) CHECK(image.at(u, v) == Approx(1.0 + 0.01 * u + 0.1 * v).margin(1e-6));
+    const Keyframe& points = store.at(7);
+    CHECK(points.timestamp == 1.5);
+    CHECK(points.T_W_S_latest.translation().isApprox(Vec3d(0.7, 0, 0)));
+    const PointCloud p = points.data.decode();
+    REQUIRE(p.size() == 2);
+    CHECK(p[0].isApprox(Vec3f(1, 2, 3)));
+    CHECK(p[1].isApprox(Vec3f(0.5f, -0.25f, 2.0f)));
+  }
+}
+
+TEST_CASE("version 1 and 2 keyframe stores (no unit id, no checksums) still load", "[mapper][saved]") {
   const fs::path dir = test::freshDir("vdbmap_saved_v1");
   Mapper mapper(config(ConsistencyMode::All));
   for (int i = 0; i < 2; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
-  mapper.keyframes().save(dir / "v2.keyframes");
-  // Version 1: the same file without the unit id, its size field 0 (then reserved).
-  std::string bytes = test::readBytes(dir / "v2.keyframes");
-  REQUIRE(KeyframeStore::savedUnitId(dir / "v2.keyframes").size() == 32);
-  bytes.erase(24, 32);
-  const std::uint32_t one = 1, none = 0;
-  bytes.replace(8, 4, reinterpret_cast<const char*>(&one), 4);
-  bytes.replace(12, 4, reinterpret_cast<const char*>(&none), 4);
-  std::ofstream(dir / "v1.keyframes", std::ios::binary) << bytes;
+  mapper.keyframes().save(dir / "v3.keyframes");
+  // Version 1: the same file without the unit id, its size field 0 (then reserved), and without
+  // the records' checksums (version 3).
+  const std::string v3 = test::readBytes(dir / "v3.keyframes");
+  REQUIRE(KeyframeStore::savedUnitId(dir / "v3.keyframes").size() == 32);
+  std::ofstream(dir / "v1.keyframes", std::ios::binary) << legacyStore(v3, 1);
+  std::ofstream(dir / "v2.keyframes", std::ios::binary) << legacyStore(v3, 2);
   CHECK(KeyframeStore::savedUnitId(dir / "v1.keyframes").empty());
   CHECK(KeyframeStore::load(dir / "v1.keyframes").size() == 2);
+  CHECK(KeyframeStore::savedUnitId(dir / "v2.keyframes") == KeyframeStore::savedUnitId(dir / "v3.keyframes"));
+  CHECK(KeyframeStore::load(dir / "v2.keyframes").size() == 2);
 }
 
 TEST_CASE("a keyframe store whose payloads zlib wrote (every store saved before libdeflate) decodes the same",
@@ -133,41 +312,17 @@ TEST_CASE("a keyframe store whose payloads zlib wrote (every store saved before 
   mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
   mapper.keyframes().save(dir / "new.keyframes");
   // Every payload inflated and deflated again by zlib's compress2 at level 1, as the store did
-  // before; the layout is docs/formats.md's.
-  const std::string in = test::readBytes(dir / "new.keyframes");
-  std::string out;
-  std::size_t pos = 0;
-  const auto copy = [&](std::size_t n) {
-    REQUIRE(pos + n <= in.size());
-    out.append(in, pos, n);
-    pos += n;
-  };
-  const auto u32At = [&](std::size_t at) {
-    std::uint32_t v;
-    std::memcpy(&v, in.data() + at, 4);
-    return v;
-  };
-  const auto u64At = [&](std::size_t at) {
-    std::uint64_t v;
-    std::memcpy(&v, in.data() + at, 8);
-    return v;
-  };
-  const std::uint32_t id_bytes = u32At(12);
-  const std::uint64_t count = u64At(16);
-  copy(24 + id_bytes);
+  // before, in a version 2 file (no checksums) as the stores of then were.
+  const std::string in = legacyStore(test::readBytes(dir / "new.keyframes"), 2);
+  const StoreFile layout = parseStore(in);
+  std::string out = in.substr(0, layout.header_end);
   int replaced = 0;
-  for (std::uint64_t k = 0; k < count; ++k) {
-    copy(8 + 8 + 2 * 16 * 8);  // id, stamp, two poses
-    const bool depth = in[pos + 1] == 0, compressed = in[pos + 2] != 0, has_camera = in[pos + 3] != 0;
-    const std::uint32_t points = u32At(pos + 8);         // pixels or points
-    copy(4 + 4 + 4 + 8 + (has_camera ? 8 + 4 * 8 : 0));  // flags, stride, count, unit, camera
-    const std::uint64_t n = u64At(pos);
-    pos += 8;
-    REQUIRE(compressed);
-    const std::string payload = in.substr(pos, n);
-    pos += n;
+  for (const StoreRecord& r : layout.records) {
+    REQUIRE(r.compressed);
+    out.append(in, r.begin, r.payload_size_at - r.begin);
+    const std::string payload = in.substr(r.payload_begin, r.payload_end - r.payload_begin);
     // The raw codes: a 16-bit code per pixel, or three 32-bit codes per point.
-    std::vector<Bytef> raw(std::size_t(points) * (depth ? 2 : 12));
+    std::vector<Bytef> raw(std::size_t(r.count) * (r.depth ? 2 : 12));
     uLongf raw_n = uLongf(raw.size());
     REQUIRE(uncompress(raw.data(), &raw_n, reinterpret_cast<const Bytef*>(payload.data()), uLong(payload.size())) ==
             Z_OK);
@@ -180,7 +335,6 @@ TEST_CASE("a keyframe store whose payloads zlib wrote (every store saved before 
     out.append(reinterpret_cast<const char*>(packed.data()), packed_n);
     replaced += std::string(reinterpret_cast<const char*>(packed.data()), packed_n) != payload;
   }
-  REQUIRE(pos == in.size());
   CHECK(replaced >= 1);  // zlib's streams are not libdeflate's, so the file really changed
   std::ofstream(dir / "zlib.keyframes", std::ios::binary) << out;
   const KeyframeStore loaded = KeyframeStore::load(dir / "zlib.keyframes");

@@ -1,20 +1,24 @@
 // The keyframe store's file (docs/formats.md, "MAP.keyframes"): a little-endian binary file.
-//   header:   "VDBMAPKF", u32 version (2), u32 unit id bytes (0 in version 1), u64 keyframe count,
-//             the unit id (ASCII, the save's AtomicFileSet::unitId(); version 2)
+//   header:   "VDBMAPKF", u32 version (3), u32 unit id bytes (0 in version 1), u64 keyframe count,
+//             the unit id (ASCII, the save's AtomicFileSet::unitId(); since version 2)
 //   each:     u64 id, f64 timestamp, f64[16] T_W_S_integrated, f64[16] T_W_S_latest (column-major),
 //             u8 integrated, u8 kind (0 depth, 1 points), u8 compressed, u8 has camera,
 //             i32 stride, u32 count, f64 unit_m,
 //             [camera: i32 width, i32 height, f64 fx, fy, cx, cy],
-//             u64 payload bytes, the payload as stored (zlib or raw codes)
+//             u64 payload bytes, the payload as stored (zlib or raw codes),
+//             u32 CRC-32 of the record's bytes from its id to its payload's end (since version 3)
 #include "vdbmap/keyframe_store.hpp"
 
 #include "vdbmap/atomic_file.hpp"
 #include "vdbmap/file_error.hpp"
 
+#include <libdeflate.h>
+
 #include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 namespace vdbmap {
@@ -22,7 +26,13 @@ namespace {
 
 constexpr char kMagic[8] = {'V', 'D', 'B', 'M', 'A', 'P', 'K', 'F'};
 /// 2: the header holds the unit id of the save (the map's), checked by Mapper::load.
-constexpr std::uint32_t kVersion = 2;
+/// 3: each record ends with its CRC-32, so that a damaged stride, unit or payload cannot load as a
+/// frame the map never integrated.
+constexpr std::uint32_t kVersion = 3;
+constexpr std::uint32_t kFirstChecksummedVersion = 3;
+/// Deflate expands its input at most 1032-fold: a payload of n compressed bytes that claims more
+/// codes than that is refused before anything is allocated for them.
+constexpr std::uint64_t kMaxInflateRatio = 1032;
 constexpr std::uint32_t kMaxUnitIdBytes = 64;
 /// The smallest keyframe record (no camera, empty payload): what bounds a count read from a file.
 constexpr std::uint64_t kMinRecordBytes = 8 + 8 + 2 * 16 * 8 + 4 + 4 + 4 + 8 + 8;
@@ -64,7 +74,12 @@ class Reader {
     in_.read(static_cast<char*>(out), std::streamsize(n));
     if (!in_) fail(std::string("cannot read ") + field);
     pos_ += n;
+    crc_ = std::uint32_t(libdeflate_crc32(crc_, out, std::size_t(n)));
   }
+  /// Starts the CRC-32 of the bytes read from here on.
+  void startChecksum() { crc_ = 0; }
+  /// The CRC-32 of the bytes read since startChecksum().
+  std::uint32_t checksum() const { return crc_; }
   Pose3d pose(const char* field) {
     Eigen::Matrix4d m;
     bytes(m.data(), 16 * sizeof(double), field);
@@ -86,8 +101,12 @@ class Reader {
   std::filesystem::path path_;
   std::ifstream in_;
   std::uint64_t size_ = 0, pos_ = 0;
+  std::uint32_t crc_ = 0;
   std::string record_;
 };
+
+/// Bytes of codes per pixel (a 16-bit row delta) or per point (three 32-bit coordinates).
+std::uint64_t codeBytes(bool depth) { return depth ? 2 : 12; }
 
 }  // namespace
 
@@ -143,9 +162,30 @@ struct KeyframeStoreFile {
     }
     const auto n = in.get<std::uint64_t>("payload size");
     if (n > in.left()) in.fail("payload of " + std::to_string(n) + " bytes, the file has " + std::to_string(in.left()) + " left");
+    // What decoding will allocate, bounded by the payload before anything is allocated for it.
+    const std::uint64_t codes = std::uint64_t(f.count_) * codeBytes(f.kind_ == EncodedFrame::Kind::Depth);
+    if (!f.compressed_ && n != codes)
+      in.fail("raw payload of " + std::to_string(n) + " bytes, count " + std::to_string(f.count_) + " needs " +
+              std::to_string(codes));
+    if (f.compressed_ && codes > kMaxInflateRatio * n)
+      in.fail("count " + std::to_string(f.count_) + " needs " + std::to_string(codes) +
+              " bytes of codes, more than a compressed payload of " + std::to_string(n) + " bytes holds");
     f.payload_.resize(n);
     in.bytes(f.payload_.data(), n, "payload");
     return f;
+  }
+
+  /// Whether the payload decodes to `count` codes; for files without checksums, whose payloads
+  /// nothing else vouches for.
+  static void checkDecodes(Reader& in, const EncodedFrame& f) {
+    try {
+      if (f.kind_ == EncodedFrame::Kind::Depth)
+        (void)f.decodeDepth();
+      else
+        (void)f.decode();
+    } catch (const std::runtime_error& e) {
+      in.fail(std::string("payload: ") + e.what());
+    }
   }
 };
 
@@ -164,58 +204,69 @@ void KeyframeStore::stageSave(const std::filesystem::path& path, AtomicFileSet& 
     put(os, std::uint32_t(unit.size()));
     put(os, std::uint64_t(frames_.size()));
     os.write(unit.data(), std::streamsize(unit.size()));
+    std::ostringstream record;
     for (const auto& [id, kf] : frames_) {
-      put(os, std::uint64_t(kf.id));
-      put(os, kf.timestamp);
-      putPose(os, kf.T_W_S_integrated);
-      putPose(os, kf.T_W_S_latest);
-      put(os, std::uint8_t(kf.integrated ? 1 : 0));
-      KeyframeStoreFile::write(os, kf.data);
+      record.str(std::string());
+      put(record, std::uint64_t(kf.id));
+      put(record, kf.timestamp);
+      putPose(record, kf.T_W_S_integrated);
+      putPose(record, kf.T_W_S_latest);
+      put(record, std::uint8_t(kf.integrated ? 1 : 0));
+      KeyframeStoreFile::write(record, kf.data);
+      const std::string bytes = record.str();
+      os.write(bytes.data(), std::streamsize(bytes.size()));
+      put(os, std::uint32_t(libdeflate_crc32(0, bytes.data(), bytes.size())));
     }
   });
 }
 
 namespace {
 
-/// Reads the header; returns the keyframe count and sets `unit_id`.
-std::uint64_t readHeader(Reader& in, std::string& unit_id) {
+struct StoreHeader {
+  std::uint32_t version = 0;
+  std::uint64_t count = 0;
+  std::string unit_id;
+};
+
+StoreHeader readHeader(Reader& in) {
+  StoreHeader header;
   char magic[8];
   in.bytes(magic, sizeof(magic), "the header");
   if (std::memcmp(magic, kMagic, sizeof(magic)) != 0) in.fail("not a vdbmap keyframe store (no VDBMAPKF header)");
-  const auto version = in.get<std::uint32_t>("version");
+  const auto version = header.version = in.get<std::uint32_t>("version");
   if (version < 1 || version > kVersion)
     in.fail("keyframe store of version " + std::to_string(version) + ", this build reads versions 1 to " +
             std::to_string(kVersion));
   const auto id_bytes = in.get<std::uint32_t>("unit id size");
   if (version == 1 ? id_bytes != 0 : id_bytes > kMaxUnitIdBytes)
     in.fail("unit id of " + std::to_string(id_bytes) + " bytes (at most " + std::to_string(kMaxUnitIdBytes) + ")");
-  const auto count = in.get<std::uint64_t>("keyframe count");
-  unit_id.assign(id_bytes, '\0');
-  in.bytes(unit_id.data(), id_bytes, "the unit id");
-  for (char c : unit_id)
+  header.count = in.get<std::uint64_t>("keyframe count");
+  header.unit_id.assign(id_bytes, '\0');
+  in.bytes(header.unit_id.data(), id_bytes, "the unit id");
+  for (char c : header.unit_id)
     if (!std::isxdigit(static_cast<unsigned char>(c))) in.fail("the unit id is not hexadecimal");
-  return count;
+  return header;
 }
 
 }  // namespace
 
 std::string KeyframeStore::savedUnitId(const std::filesystem::path& path) {
   Reader in(path);
-  std::string unit_id;
-  readHeader(in, unit_id);
-  return unit_id;
+  return readHeader(in).unit_id;
 }
 
 KeyframeStore KeyframeStore::load(const std::filesystem::path& path) {
   if (!littleEndian()) throw FileError("cannot read " + path.string() + ": keyframe stores are little-endian");
   Reader in(path);
-  std::string unit_id;
-  const std::uint64_t count = readHeader(in, unit_id);
-  if (count > in.left() / kMinRecordBytes)
+  const StoreHeader header = readHeader(in);
+  const std::uint64_t count = header.count;
+  const bool checksummed = header.version >= kFirstChecksummedVersion;
+  if (count > in.left() / (kMinRecordBytes + (checksummed ? 4 : 0)))
     in.fail("says " + std::to_string(count) + " keyframes, more than its " + std::to_string(in.left()) + " bytes can hold");
   KeyframeStore store;
   for (std::uint64_t k = 0; k < count; ++k) {
     in.setRecord("keyframe " + std::to_string(k));
+    in.startChecksum();
     Keyframe kf;
     kf.id = in.get<std::uint64_t>("id");
     in.setRecord("keyframe " + std::to_string(k) + " (id " + std::to_string(kf.id) + ")");
@@ -225,6 +276,12 @@ KeyframeStore KeyframeStore::load(const std::filesystem::path& path) {
     kf.T_W_S_latest = in.pose("T_W_S_latest");
     kf.integrated = in.get<std::uint8_t>("integrated") != 0;
     kf.data = KeyframeStoreFile::read(in);
+    if (checksummed) {
+      const std::uint32_t computed = in.checksum();
+      if (in.get<std::uint32_t>("checksum") != computed) in.fail("the record's CRC-32 does not match: it is damaged");
+    } else {
+      KeyframeStoreFile::checkDecodes(in, kf.data);
+    }
     if (store.contains(kf.id)) in.fail("id listed twice");
     store.add(std::move(kf));
   }
