@@ -44,7 +44,6 @@ namespace vdbmap {
 namespace {
 
 constexpr int kCoordBias = 1 << 20;
-constexpr std::uint64_t kCoordMask = (std::uint64_t(1) << 21) - 1;
 /// Above this many bits (16 MiB) the frame's bounding box is too big for a dense bit set.
 constexpr std::uint64_t kMaxDenseBits = std::uint64_t(1) << 27;
 
