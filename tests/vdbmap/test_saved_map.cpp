@@ -49,6 +49,16 @@ void patch(const fs::path& path, std::size_t offset, const void* bytes, std::siz
 const testing::AnalyticScene kScene = testing::AnalyticScene::demoRoom();
 constexpr int kFrames = 8;
 
+/// Adds depth frames 0..depth_frames-1 of the demo room seen along the drifting circle, and with
+/// `points` a point frame of two points (id 7).
+void addFrames(Mapper& mapper, int depth_frames, bool points = false) {
+  for (int i = 0; i < depth_frames; ++i)
+    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()),
+                    test::circleOdometry(i));
+  if (points)
+    mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
+}
+
 template <typename T>
 T valueAt(const std::string& bytes, std::size_t at) {
   REQUIRE(at + sizeof(T) <= bytes.size());
@@ -120,8 +130,7 @@ std::string legacyStore(const std::string& v3, std::uint32_t version) {
 TEST_CASE("a keyframe store saved and loaded holds the same frames, poses and data", "[mapper][saved]") {
   const fs::path dir = test::freshDir("vdbmap_saved_store");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 3; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
-  mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
+  addFrames(mapper, 3, true);
   mapper.keyframes().save(dir / "s.keyframes");
   const KeyframeStore loaded = KeyframeStore::load(dir / "s.keyframes");
   REQUIRE(loaded.size() == mapper.keyframes().size());
@@ -142,7 +151,7 @@ TEST_CASE("a keyframe store saved and loaded holds the same frames, poses and da
 TEST_CASE("bad keyframe store files are refused naming the file, the keyframe and the field", "[mapper][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_hostile");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
+  addFrames(mapper, 2);
   const fs::path good = dir / "good.keyframes", bad = dir / "bad.keyframes";
   mapper.keyframes().save(good);
   const auto fresh = [&] { fs::copy_file(good, bad, fs::copy_options::overwrite_existing); };
@@ -178,10 +187,7 @@ TEST_CASE("a keyframe store with any one byte damaged is refused naming the file
   // a stride, a unit or a code changed is a frame the map never integrated.
   const fs::path dir = test::freshDir("vdbmap_saved_every_byte");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i)
-    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()),
-                    test::circleOdometry(i));
-  mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
+  addFrames(mapper, 2, true);
   const fs::path good = dir / "good.keyframes", bad = dir / "bad.keyframes";
   mapper.keyframes().save(good);
   REQUIRE(KeyframeStore::load(good).size() == 3);
@@ -215,7 +221,7 @@ TEST_CASE("a keyframe record's count beyond what its payload holds is refused be
           "[mapper][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_counts");
   Mapper mapper(config(ConsistencyMode::All));
-  mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
+  addFrames(mapper, 0, true);
   mapper.keyframes().save(dir / "good.keyframes");
   const std::string bytes = test::readBytes(dir / "good.keyframes");
   const StoreRecord r = parseStore(bytes).records.at(0);
@@ -242,9 +248,7 @@ TEST_CASE("a version 2 keyframe store (no checksums) whose payload does not deco
           "[mapper][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_v2_payload");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i)
-    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()),
-                    test::circleOdometry(i));
+  addFrames(mapper, 2);
   mapper.keyframes().save(dir / "v3.keyframes");
   std::string v2 = legacyStore(test::readBytes(dir / "v3.keyframes"), 2);
   std::ofstream(dir / "v2.keyframes", std::ios::binary) << v2;
@@ -288,7 +292,7 @@ TEST_CASE("keyframe stores that another writer made from docs/formats.md load in
 TEST_CASE("version 1 and 2 keyframe stores (no unit id, no checksums) still load", "[mapper][saved]") {
   const fs::path dir = test::freshDir("vdbmap_saved_v1");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
+  addFrames(mapper, 2);
   mapper.keyframes().save(dir / "v3.keyframes");
   // Version 1: the same file without the unit id, its size field 0 (then reserved), and without
   // the records' checksums (version 3).
@@ -306,10 +310,7 @@ TEST_CASE("a keyframe store whose payloads zlib wrote (every store saved before 
           "[mapper][saved]") {
   const fs::path dir = test::freshDir("vdbmap_saved_zlib");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 3; ++i)
-    mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()),
-                    test::circleOdometry(i));
-  mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
+  addFrames(mapper, 3, true);
   mapper.keyframes().save(dir / "new.keyframes");
   // Every payload inflated and deflated again by zlib's compress2 at level 1, as the store did
   // before, in a version 2 file (no checksums) as the stores of then were.
@@ -355,8 +356,7 @@ TEST_CASE("a saved map corrected after loading equals integrating its frames fro
     const fs::path dir = test::freshDir("vdbmap_saved_correct");
     {
       Mapper mapper(config(mode));
-      for (int i = 0; i < kFrames; ++i)
-        mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
+      addFrames(mapper, kFrames);
       mapper.reintegrateAll(Vec3d::Zero());
       mapper.save(dir / "map.vdb");
       CHECK(fs::exists(dir / "map.keyframes"));
@@ -386,8 +386,7 @@ TEST_CASE("a saved map is refused without its exact state or with another run's 
   for (const char* name : {"a", "b"}) {
     Mapper mapper(config(ConsistencyMode::All));
     const int n = std::string(name) == "a" ? 3 : 2;
-    for (int i = 0; i < n; ++i)
-      mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
+    addFrames(mapper, n);
     mapper.save(dir / (std::string(name) + ".vdb"));
   }
   fs::copy_file(dir / "b.keyframes", dir / "a.keyframes", fs::copy_options::overwrite_existing);
@@ -406,7 +405,7 @@ TEST_CASE("a saved map is refused without its exact state or with another run's 
 TEST_CASE("a map and an exact companion of different saves are refused, naming both files", "[tsdf][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_unit");
   Mapper mapper(config(ConsistencyMode::All));
-  for (int i = 0; i < 2; ++i) mapper.addFrame(i, 0.1 * i, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(i), 5.0), camera()), test::circleOdometry(i));
+  addFrames(mapper, 2);
   const TsdfVolume& volume = mapper.volume();
   volume.save(dir / "a.vdb");
   volume.save(dir / "b.vdb");  // the same state, another save (as a second writer, or a later save)
@@ -438,7 +437,7 @@ TEST_CASE("a map and an exact companion of different saves are refused, naming b
 TEST_CASE("a map name that is a companion's name is refused before anything is written", "[tsdf][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_names");
   Mapper mapper(config(ConsistencyMode::All));
-  mapper.addFrame(0, 0.0, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera()), test::circleOdometry(0));
+  addFrames(mapper, 1);
   CHECK_THROWS_WITH(mapper.volume().save(dir / "x.exact.vdb"), Catch::Contains("x.exact.vdb") && Catch::Contains("companion"));
   CHECK_THROWS_WITH(mapper.save(dir / "x.keyframes"), Catch::Contains("x.keyframes") && Catch::Contains("keyframe store"));
   CHECK(fs::is_empty(dir));
@@ -476,7 +475,7 @@ TEST_CASE("a save removes temporaries that a killed save of the same map left, a
   const fs::path other = dir / ("n.vdb.tmp." + std::to_string(dead) + ".0");           // another map's
   for (const fs::path& p : {stale, stale_companion, live, other}) std::ofstream(p) << "half a file";
   Mapper mapper(config(ConsistencyMode::None));
-  mapper.addFrame(0, 0.0, SensorFrame::depth(kScene.renderDepth(*camera(), test::circlePose(0), 5.0), camera()), test::circleOdometry(0));
+  addFrames(mapper, 1);
   mapper.volume().save(dir / "m.vdb");
   CHECK_FALSE(fs::exists(stale));
   CHECK_FALSE(fs::exists(stale_companion));
