@@ -109,11 +109,13 @@ void rewriteVdbFile(const std::filesystem::path& from, const std::filesystem::pa
   openvdb::MetaMap::Ptr meta;
   {
     openvdb::io::File file(from.string());
-    file.open();
+    // Read whole: a delay-loaded grid reads its leaves when it is written, after this file and
+    // the grids it shared its stream with are gone (AddressSanitizer: heap-use-after-free).
+    file.open(/*delayLoad=*/false);
     meta = file.getMetadata();
     if (grid_names.empty()) {
-      const openvdb::GridPtrVecPtr all = file.getGrids();  // held: the loop must not outlive it
-      for (const openvdb::GridBase::Ptr& g : *all) grids.push_back(g->deepCopyGrid());
+      const openvdb::GridPtrVecPtr all = file.getGrids();
+      grids.assign(all->begin(), all->end());
     } else {
       for (const std::string& name : grid_names) grids.push_back(file.readGrid(name));
     }
