@@ -79,25 +79,16 @@ void bindConfig(py::module_& m) {
           py::cpp_function([](ExplorationConfig& self) -> DriftConfig& { return self.simulator.drift; },
                            py::return_value_policy::reference_internal),
           [](ExplorationConfig& self, py::handle drift) {
-            self.simulator.drift = py::isinstance<py::str>(drift)
-                                       ? DriftConfig::preset(drift.cast<std::string>(), self.simulator.drift.seed)
-                                       : drift.cast<DriftConfig>();
-            // As `vdbmap explore --drift` does: the safety layer is told what the odometry drifts.
-            self.planner.safety.odometry = odometryDriftOf(self.simulator.drift);
+            setDrift(self, py::isinstance<py::str>(drift)
+                               ? DriftConfig::preset(drift.cast<std::string>(), self.simulator.drift.seed)
+                               : drift.cast<DriftConfig>());
           },
           "simulator.drift (edited in place); set a DriftConfig or a level name 's1'..'s4' (keeping the drift's "
           "seed), which also declares it to the safety layer (planner.safety.odometry = odometry_drift_of(drift)) "
           "as `vdbmap explore --drift` does; an edit in place does not")
       .def_property(
           "seed", [](const ExplorationConfig& self) { return self.simulator.drift.seed; },
-          [](ExplorationConfig& self, std::uint64_t seed) {
-            // The seeds `vdbmap explore --seed` sets: the drift's and the planner's sampling.
-            self.simulator.drift.seed = seed;
-            self.planner.path.seed = seed;
-            self.planner.cost_path.seed = seed;
-            self.planner.tour.seed = seed;
-            self.planner.alc.tour.seed = seed;
-          },
+          [](ExplorationConfig& self, std::uint64_t seed) { setSeed(self, seed); },
           "the drift's seed; setting it also seeds the planner (path, cost_path, tour, alc.tour), as `vdbmap "
           "explore --seed`")
       .def_property(

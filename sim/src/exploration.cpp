@@ -388,16 +388,25 @@ planner::OdometryDrift odometryDriftOf(const DriftConfig& drift) {
   return o;
 }
 
-ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,
-                                       double voxel_size_m) {
-  ExplorationConfig config;
-  config.simulator.drift = DriftConfig::preset(drift_level, seed);
-  config.planner.safety.odometry = odometryDriftOf(config.simulator.drift);
-  config.mapper.tsdf.voxel_size_m = voxel_size_m;
+void setDrift(ExplorationConfig& config, const DriftConfig& drift) {
+  config.simulator.drift = drift;
+  config.planner.safety.odometry = odometryDriftOf(drift);
+}
+
+void setSeed(ExplorationConfig& config, std::uint64_t seed) {
+  config.simulator.drift.seed = seed;
   config.planner.path.seed = seed;
   config.planner.cost_path.seed = seed;
   config.planner.tour.seed = seed;
   config.planner.alc.tour.seed = seed;
+}
+
+ExplorationConfig explorationConfigFor(const World& world, const std::string& drift_level, std::uint64_t seed,
+                                       double voxel_size_m) {
+  ExplorationConfig config;
+  setDrift(config, DriftConfig::preset(drift_level, seed));
+  setSeed(config, seed);
+  config.mapper.tsdf.voxel_size_m = voxel_size_m;
   config.planner.box_W = defaultExplorationBox(world);
   config.start.position_W = defaultStartPosition(world, config.planner.box_W);
   config.start.yaw_rad = 0.0;

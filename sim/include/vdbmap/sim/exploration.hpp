@@ -247,6 +247,13 @@ void setReintegrationBudget(ReintegrationConfig& reintegration, BudgetMode mode)
 /// declares its noise: SafetyConfig::odometry.
 planner::OdometryDrift odometryDriftOf(const DriftConfig& drift);
 
+/// What `vdbmap explore --drift` sets: the simulator's drift, declared to the planner's safety
+/// layer (SafetyConfig::odometry = odometryDriftOf(drift)).
+void setDrift(ExplorationConfig& config, const DriftConfig& drift);
+/// What `vdbmap explore --seed` seeds: the drift, and the planner's path sampling (path,
+/// cost_path) and tours (tour, alc.tour).
+void setSeed(ExplorationConfig& config, std::uint64_t seed);
+
 /// `vdbmap explore`'s set-up of a world: drift `drift_level` (Table I) seeded with `seed`, which
 /// also seeds the planner's path sampling and tours, and declared to its safety layer
 /// (odometryDriftOf); voxel size; the default box and start (yaw 0); counted budgets
