@@ -59,6 +59,14 @@ void addFrames(Mapper& mapper, int depth_frames, bool points = false) {
     mapper.addFrame(7, 0.5, SensorFrame::points({Vec3f(1, 2, 3), Vec3f(0.5f, -0.25f, 2.0f)}), test::circleOdometry(7));
 }
 
+/// Saves a keyframe store of addFrames(depth_frames, points) to `file`; returns its bytes.
+std::string savedStore(const fs::path& file, int depth_frames, bool points = false) {
+  Mapper mapper(config(ConsistencyMode::All));
+  addFrames(mapper, depth_frames, points);
+  mapper.keyframes().save(file);
+  return test::readBytes(file);
+}
+
 template <typename T>
 T valueAt(const std::string& bytes, std::size_t at) {
   REQUIRE(at + sizeof(T) <= bytes.size());
@@ -186,12 +194,9 @@ TEST_CASE("a keyframe store with any one byte damaged is refused naming the file
   // Two depth frames and a point frame; each record's CRC-32 covers what no other check can:
   // a stride, a unit or a code changed is a frame the map never integrated.
   const fs::path dir = test::freshDir("vdbmap_saved_every_byte");
-  Mapper mapper(config(ConsistencyMode::All));
-  addFrames(mapper, 2, true);
   const fs::path good = dir / "good.keyframes", bad = dir / "bad.keyframes";
-  mapper.keyframes().save(good);
+  const std::string bytes = savedStore(good, 2, true);
   REQUIRE(KeyframeStore::load(good).size() == 3);
-  const std::string bytes = test::readBytes(good);
   const StoreFile layout = parseStore(bytes);
   REQUIRE(layout.version == 3);
   REQUIRE(layout.records.size() == 3);
@@ -220,10 +225,7 @@ TEST_CASE("a keyframe store with any one byte damaged is refused naming the file
 TEST_CASE("a keyframe record's count beyond what its payload holds is refused before anything is allocated for it",
           "[mapper][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_counts");
-  Mapper mapper(config(ConsistencyMode::All));
-  addFrames(mapper, 0, true);
-  mapper.keyframes().save(dir / "good.keyframes");
-  const std::string bytes = test::readBytes(dir / "good.keyframes");
+  const std::string bytes = savedStore(dir / "good.keyframes", 0, true);
   const StoreRecord r = parseStore(bytes).records.at(0);
   REQUIRE_FALSE(r.depth);
   // 2^32 - 1 points ask for 51 GB of codes, from a payload of a few bytes: refused by the payload's size.
@@ -247,10 +249,7 @@ TEST_CASE("a keyframe record's count beyond what its payload holds is refused be
 TEST_CASE("a version 2 keyframe store (no checksums) whose payload does not decode is refused naming the keyframe",
           "[mapper][saved][hostile]") {
   const fs::path dir = test::freshDir("vdbmap_saved_v2_payload");
-  Mapper mapper(config(ConsistencyMode::All));
-  addFrames(mapper, 2);
-  mapper.keyframes().save(dir / "v3.keyframes");
-  std::string v2 = legacyStore(test::readBytes(dir / "v3.keyframes"), 2);
+  std::string v2 = legacyStore(savedStore(dir / "v3.keyframes", 2), 2);
   std::ofstream(dir / "v2.keyframes", std::ios::binary) << v2;
   REQUIRE(KeyframeStore::load(dir / "v2.keyframes").size() == 2);
   // A byte of the second frame's zlib stream changed: its Adler-32 (or the stream) no longer holds.
@@ -291,12 +290,9 @@ TEST_CASE("keyframe stores that another writer made from docs/formats.md load in
 
 TEST_CASE("version 1 and 2 keyframe stores (no unit id, no checksums) still load", "[mapper][saved]") {
   const fs::path dir = test::freshDir("vdbmap_saved_v1");
-  Mapper mapper(config(ConsistencyMode::All));
-  addFrames(mapper, 2);
-  mapper.keyframes().save(dir / "v3.keyframes");
   // Version 1: the same file without the unit id, its size field 0 (then reserved), and without
   // the records' checksums (version 3).
-  const std::string v3 = test::readBytes(dir / "v3.keyframes");
+  const std::string v3 = savedStore(dir / "v3.keyframes", 2);
   REQUIRE(KeyframeStore::savedUnitId(dir / "v3.keyframes").size() == 32);
   std::ofstream(dir / "v1.keyframes", std::ios::binary) << legacyStore(v3, 1);
   std::ofstream(dir / "v2.keyframes", std::ios::binary) << legacyStore(v3, 2);
