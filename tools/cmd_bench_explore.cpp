@@ -26,6 +26,7 @@ struct BenchExploreOptions {
   std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
   double safety_near_tolerance_m = planner::SafetyConfig{}.near_drift_tolerance_m;
   std::string safety_path_drift = planner::toString(planner::SafetyConfig{}.path_drift);
+  bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
   bool keep_runs = false;
   bool resume = false;
   std::size_t jobs = 1;
@@ -45,6 +46,7 @@ void runBenchExplore(const BenchExploreOptions& o) {
   c.safety.map_thin_obstacles = o.safety_map_thin == "on";
   c.safety.near_drift_tolerance_m = o.safety_near_tolerance_m;
   c.safety.path_drift = parsePathDrift(o.safety_path_drift);
+  c.look_into_unknown = o.look_into_unknown;
   c.keep_runs = o.keep_runs;
   c.resume = o.resume;
   c.jobs = o.jobs;
@@ -76,6 +78,7 @@ const GroupRegistration registration("bench", "explore", [](CLI::App& bench) {
   sub->add_option("--alc", o->alc, "Active loop closure on or off")->check(CLI::IsMember({"on", "off"}));
   addSafetyOptions(*sub, o->safety, o->safety_seen_free, o->safety_map_thin, o->safety_near_tolerance_m,
                    o->safety_path_drift);
+  addViewScoreOption(*sub, o->look_into_unknown);
   sub->add_flag("--keep-runs", o->keep_runs, "Also keep every run's log and map (large)");
   sub->add_flag("--resume", o->resume,
                 "Keep the runs an earlier call with the same options left in OUTDIR (their summary.json) and run "

@@ -54,7 +54,7 @@ struct ExploreOptions {
   int revisit_rounds = planner::ExplorationManagerConfig{}.revisit_rounds;
   int final_min_cluster_size = planner::ExplorationManagerConfig{}.final_min_cluster_size;
   std::string final_sweep = planner::toString(planner::ExplorationManagerConfig{}.final_sweep);
-  std::string view_score = planner::ViewpointConfig{}.look_into_unknown ? "into-unknown" : "voxel";
+  bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
   bool no_initial_turn = false;
   bool overwrite = false;
   bool report = false;
@@ -116,7 +116,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.near_drift_tolerance_m = o.safety_near_tolerance_m;
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
-  config.planner.viewpoint.look_into_unknown = o.view_score == "into-unknown";
+  config.planner.viewpoint.look_into_unknown = o.look_into_unknown;
   config.planner.final_min_cluster_size = o.final_min_cluster_size;
   for (auto scope :
        {planner::FinalSweepScope::All, planner::FinalSweepScope::Pockets, planner::FinalSweepScope::PocketsOnce})
@@ -130,9 +130,10 @@ void runExplore(const ExploreOptions& o) {
   std::string description =
       "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " + std::to_string(o.seed) +
       " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
-      std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " + o.view_score +
-      " --revisit-rounds " + std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --lead-in " +
-      o.lead_in + " --budgets " + o.budgets + (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
+      std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " +
+      planner::viewScoreName(o.look_into_unknown) + " --revisit-rounds " + std::to_string(o.revisit_rounds) +
+      " --w-dir " + std::to_string(o.w_dir) + " --lead-in " + o.lead_in + " --budgets " + o.budgets +
+      (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
       (config.planner.alc_enabled
            ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
            : std::string()) +
@@ -300,12 +301,7 @@ const Registration registration("explore", [](CLI::App& app) {
                   "what remains of them, until covered or blacklisted), once (each such pocket until one visit of "
                   "it is over: shorter sweeps, fewer loop closures)")
       ->check(CLI::IsMember({"all", "pockets", "once"}));
-  sub->add_option("--view-score", o->view_score,
-                  "What a viewpoint counts as seeing a frontier voxel, to score viewpoints and judge visits: "
-                  "into-unknown (the camera looks into an unknown neighbour of it, which the visit then makes "
-                  "known) or voxel (FUEL: it sees the free voxel itself, also where the unknown beside it stays out "
-                  "of sight, e.g. on a shelf board seen edge-on)")
-      ->check(CLI::IsMember({"into-unknown", "voxel"}));
+  addViewScoreOption(*sub, o->look_into_unknown);
   sub->add_option("--revisit-rounds", o->revisit_rounds,
                   "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
                   "more try each, with viewpoints computed in the map as it is then")

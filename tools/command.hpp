@@ -5,6 +5,7 @@
 #pragma once
 
 #include "vdbmap/planner/exploration_manager.hpp"
+#include "vdbmap/planner/viewpoint.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -65,6 +66,19 @@ inline constexpr const char* kSafetyNearToleranceHelp =
     "(s3: 0.1 m keeps frames 2.6 s old): a surface seen seconds before may stand nearer than it looks, so "
     "the vehicle faces the way or looks before it passes (0: off, the same frames count as elsewhere; else below "
     "the 0.2 m the window's frames may drift)";
+
+/// `--view-score into-unknown|voxel` (planner::ViewpointConfig::look_into_unknown, named by
+/// planner::viewScoreName), as `vdbmap explore` and the benchmarks take it.
+inline void addViewScoreOption(CLI::App& sub, bool& look_into_unknown) {
+  sub.add_option_function<std::string>(
+         "--view-score",
+         [&look_into_unknown](const std::string& value) { look_into_unknown = value == planner::viewScoreName(true); },
+         "What a viewpoint counts as seeing a frontier voxel, to score viewpoints and judge visits: into-unknown (the "
+         "camera looks into an unknown neighbour of it, which the visit then makes known) or voxel (FUEL: it sees the "
+         "free voxel itself, also where the unknown beside it stays out of sight, e.g. on a shelf board seen edge-on)")
+      ->check(CLI::IsMember({planner::viewScoreName(true), planner::viewScoreName(false)}))
+      ->default_str(planner::viewScoreName(look_into_unknown));
+}
 
 /// `--safety-path-drift`'s values, as planner::toString names them.
 inline planner::PathDriftScope parsePathDrift(const std::string& value) {

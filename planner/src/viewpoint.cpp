@@ -71,6 +71,8 @@ void ViewpointFallback::validate() const {
     fail("ViewpointFallback", "min_visible_fraction", "(0, 1]");
 }
 
+const char* viewScoreName(bool look_into_unknown) { return look_into_unknown ? "into-unknown" : "voxel"; }
+
 void ViewpointConfig::validate() const {
   camera.validate();
   fallback.validate();

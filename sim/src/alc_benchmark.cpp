@@ -114,7 +114,8 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     if (std::optional<ExplorationSummary> s = internal::startingPoint(
             config.resume, run_dir(job),
             internal::runIdentity(description(job), config.worlds[job.world], config.voxel_size_m, config.max_time_s,
-                                  alc, config.alc.epsilon, config.safety, config.loop_closure)))
+                                  alc, config.alc.epsilon, config.safety, config.look_into_unknown,
+                                  config.loop_closure)))
       earlier[i] = AlcBenchmarkRun{config.worlds[job.world].name, job.arm, job.seed, *s};
     if (!earlier[i]) ++runs_to_do[job.world];
   }
@@ -130,6 +131,7 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     ec.planner.alc = config.alc;
     ec.planner.alc.tour.seed = job.seed;
     ec.planner.safety = config.safety;
+    ec.planner.viewpoint.look_into_unknown = config.look_into_unknown;
     if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
     const ExplorationRunConfig ro =
         internal::benchmarkRunConfig(config.keep_runs, worlds.file(job.world), description(job));
@@ -244,7 +246,8 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
      << " m, loop closure `" << toString(config.loop_closure) << "`, time limit " << config.max_time_s
      << " s. ALC: epsilon " << config.alc.epsilon << ", give-up timeout " << config.alc.give_up_timeout_s
      << " s, search radius " << config.alc.search_radius_m << " m. Safety layer "
-     << internal::safetyDescription(config.safety, config.drift_level)
+     << internal::safetyDescription(config.safety, config.drift_level) << ". View score `"
+     << planner::viewScoreName(config.look_into_unknown) << "`"
      << ". Both arms of a world and seed share the drift and planner seeds and the start. Values: mean ± sample "
         "standard deviation over the runs done. A run is incomplete when it ends below "
      << format("%.2f", config.min_finish_coverage) << " coverage of the observable surface, finished or not.\n";

@@ -103,11 +103,11 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
   std::vector<std::size_t> runs_to_do(config.worlds.size(), 0);
   for (std::size_t i = 0; i < order.size(); ++i) {
     const auto [w, seed] = order[i];
-    if (std::optional<ExplorationSummary> s =
-            internal::startingPoint(config.resume, run_dir(w, seed),
-                                    internal::runIdentity(description(w, seed), config.worlds[w], config.voxel_size_m,
-                                                          config.max_time_s, config.alc, planner::AlcConfig{}.epsilon,
-                                                          config.safety, SimulatorConfig{}.loop_closure)))
+    if (std::optional<ExplorationSummary> s = internal::startingPoint(
+            config.resume, run_dir(w, seed),
+            internal::runIdentity(description(w, seed), config.worlds[w], config.voxel_size_m, config.max_time_s,
+                                  config.alc, planner::AlcConfig{}.epsilon, config.safety, config.look_into_unknown,
+                                  SimulatorConfig{}.loop_closure)))
       earlier[i] = ExploreBenchmarkRun{config.worlds[w].name, seed, *s};
     if (!earlier[i]) ++runs_to_do[w];
   }
@@ -122,6 +122,7 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     ec.planner.alc_enabled = config.alc;
     ec.planner.alc.tour.seed = seed;
     ec.planner.safety = config.safety;
+    ec.planner.viewpoint.look_into_unknown = config.look_into_unknown;
     if (!ec.planner.safety.odometry) ec.planner.safety.odometry = odometryDriftOf(ec.simulator.drift);
     const ExplorationRunConfig ro =
         internal::benchmarkRunConfig(config.keep_runs, worlds.file(w), description(w, seed));
@@ -155,7 +156,8 @@ std::string exploreBenchmarkMarkdown(const ExploreBenchmarkResult& result, const
   std::ostringstream md;
   md << "# Exploration speed\n\nDrift " << config.drift_level << ", seeds 1.." << config.seeds << ", voxel "
      << config.voxel_size_m << " m, ALC " << (config.alc ? "on" : "off") << ", safety layer "
-     << internal::safetyDescription(config.safety, config.drift_level) << ", time limit " << config.max_time_s
+     << internal::safetyDescription(config.safety, config.drift_level) << ", view score `"
+     << planner::viewScoreName(config.look_into_unknown) << "`, time limit " << config.max_time_s
      << " s. Times are simulated seconds; `t95` is the time to 95 % coverage of the observable surface (`-`: never "
         "reached); the final sweep is the time spent on the small clusters after the main ones were done; the "
         "real-time factor is simulated over wall-clock time (this machine). A run is complete when it finished at 0.95 "

@@ -125,7 +125,7 @@ TEST_CASE("Resuming refuses a run flown with another path-drift scope, and reads
   safety.enabled = true;
   const auto identityWith = [&](vdbmap::planner::PathDriftScope scope) {
     safety.path_drift = scope;
-    return internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, safety, LoopClosureMode::PoseGraph);
+    return internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, safety, false, LoopClosureMode::PoseGraph);
   };
   const auto record = [&](const nlohmann::json& summary) { std::ofstream(dir / "summary.json") << summary.dump(); };
   // Recorded with `near`, asked without it: the error names the option.
@@ -141,5 +141,35 @@ TEST_CASE("Resuming refuses a run flown with another path-drift scope, and reads
   CHECK_THROWS_WITH(internal::startingPoint(true, dir, off), !Catch::Contains("was run with"));
   CHECK_THROWS_WITH(internal::startingPoint(true, dir, identityWith(vdbmap::planner::PathDriftScope::NearSurfaces)),
                     Catch::Contains("safety_path_drift = (not recorded)"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("Resuming refuses a run whose viewpoints scored by another rule, and reads older runs as FUEL's rule",
+          "[sim][bench]") {
+  namespace fs = std::filesystem;
+  using namespace vdbmap::sim;
+  const fs::path dir = fs::temp_directory_path() / "vdbmap_bench_identity_view_score";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  BenchmarkWorld world;
+  world.name = "room";
+  world.mesh = dir / "room.ply";
+  const auto identityWith = [&](bool look_into_unknown) {
+    return internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, vdbmap::planner::SafetyConfig{},
+                                 look_into_unknown, LoopClosureMode::PoseGraph);
+  };
+  const auto record = [&](const nlohmann::json& summary) { std::ofstream(dir / "summary.json") << summary.dump(); };
+  const nlohmann::json voxel = identityWith(false), into_unknown = identityWith(true);
+  CHECK(voxel.at("view_score") == "voxel");
+  CHECK(into_unknown.at("view_score") == "into-unknown");
+  record(into_unknown);
+  CHECK_THROWS_WITH(internal::startingPoint(true, dir, voxel), Catch::Contains("was run with view_score"));
+  // Before the key existed every run scored by FUEL's rule: such a summary passes the identity
+  // check for `voxel` (what fails is reading the incomplete summary) and fails it for into-unknown.
+  nlohmann::json older = voxel;
+  older.erase("view_score");
+  record(older);
+  CHECK_THROWS_WITH(internal::startingPoint(true, dir, voxel), !Catch::Contains("was run with"));
+  CHECK_THROWS_WITH(internal::startingPoint(true, dir, into_unknown), Catch::Contains("view_score = (not recorded)"));
   fs::remove_all(dir);
 }

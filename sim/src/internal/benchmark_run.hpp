@@ -66,7 +66,8 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
 /// too; null: the key must be absent).
 inline nlohmann::json runIdentity(const std::string& description, const BenchmarkWorld& world, double voxel_size_m,
                                   double max_time_s, bool alc_enabled, double epsilon,
-                                  const planner::SafetyConfig& safety, LoopClosureMode loop_closure) {
+                                  const planner::SafetyConfig& safety, bool look_into_unknown,
+                                  LoopClosureMode loop_closure) {
   const double clip_z_m = world.office ? world.office->height_m : world.world.ceiling_clip_z_m;
   const bool capped = world.office ? true : world.world.cap_ceiling;
   nlohmann::json identity = {
@@ -83,6 +84,7 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
       {"safety_free_clears", safety.enabled && safety.recent.newer_free_clears},
       {"safety_near_drift_tolerance_m", safety.enabled ? safety.near_drift_tolerance_m : 0.0},
       {"safety_path_drift", planner::toString(safety.enabled ? safety.path_drift : planner::PathDriftScope::Off)},
+      {"view_score", planner::viewScoreName(look_into_unknown)},
       {"loop_closure", toString(loop_closure)}};
   if (!world.office) identity["world"] = std::filesystem::absolute(world.mesh).lexically_normal().string();
   return identity;
@@ -90,7 +92,8 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
 
 /// Where a benchmark's planned run starts. Resuming: the run an earlier call left in `run_dir` (its
 /// summary.json), when it was run as `identity` says (runIdentity; a summary without
-/// "safety_near_drift_tolerance_m" or "safety_path_drift" predates that rule and ran without it), else nothing when
+/// "safety_near_drift_tolerance_m", "safety_path_drift" or "view_score" predates that option and ran without it, with
+/// FUEL's viewpoint rule), else nothing when
 /// there is none; throws std::runtime_error naming the file and the first key (in alphabetical order) that differs, so
 /// that a resumed table never mixes runs made with other options. Not resuming: nothing, after removing the
 /// summary.json an earlier call left there, so that this call, if stopped before it reaches the run, does not leave it
@@ -108,6 +111,7 @@ inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::f
     const auto it = recorded.find(key);
     if (it == recorded.end() && key == "safety_near_drift_tolerance_m" && value == 0.0) continue;
     if (it == recorded.end() && key == "safety_path_drift" && value == "off") continue;
+    if (it == recorded.end() && key == "view_score" && value == planner::viewScoreName(false)) continue;
     if (value.is_null() && (it == recorded.end() || it->is_null())) continue;
     if (it == recorded.end() || *it != value)
       throw std::runtime_error(file.string() + " was run with " + key + " = " +

@@ -111,6 +111,10 @@ struct ViewpointConfig {
 };
 using ViewpointParams [[deprecated("renamed ViewpointConfig")]] = ViewpointConfig;
 
+/// The name `--view-score` and summary.json give ViewpointConfig::look_into_unknown:
+/// "into-unknown" (true) or "voxel" (false, FUEL's rule).
+const char* viewScoreName(bool look_into_unknown);
+
 struct Viewpoint {
   Vec3d position_W = Vec3d::Zero();
   double yaw_rad = 0.0;

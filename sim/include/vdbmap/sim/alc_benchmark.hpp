@@ -22,6 +22,7 @@
 #pragma once
 
 #include "vdbmap/planner/active_loop_closure.hpp"
+#include "vdbmap/planner/viewpoint.hpp"
 #include "vdbmap/sim/benchmark_world.hpp"
 #include "vdbmap/sim/exploration.hpp"
 #include "vdbmap/sim/simulator.hpp"
@@ -47,6 +48,8 @@ struct AlcBenchmarkConfig {
   LoopClosureMode loop_closure = SimulatorConfig{}.loop_closure;
   /// Both arms' safety layer (exploration_manager.hpp; off by default, as in `vdbmap explore`).
   planner::SafetyConfig safety;
+  /// Both arms' viewpoint scoring (planner::ViewpointConfig::look_into_unknown, `--view-score`).
+  bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
   /// A run that ends (finished or not) below this coverage of the observable surface counts as
   /// incomplete in the tables: finishing with large unexplored regions is a failure; [0, 1].
   double min_finish_coverage = kCompleteCoverage;

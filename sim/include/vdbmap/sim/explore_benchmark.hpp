@@ -15,6 +15,7 @@
 // seed across the worlds, so that a benchmark stopped early has runs of each world.
 #pragma once
 
+#include "vdbmap/planner/viewpoint.hpp"
 #include "vdbmap/sim/benchmark_world.hpp"
 #include "vdbmap/sim/exploration.hpp"
 
@@ -35,6 +36,8 @@ struct ExploreBenchmarkConfig {
   double max_time_s = ExplorationConfig::kDefaultMaxTime_s;  ///< per run; (0, 1e5]
   bool alc = false;                                          ///< active loop closure on
   planner::SafetyConfig safety;  ///< the safety layer (off by default, as in `vdbmap explore`)
+  /// What viewpoints score by (planner::ViewpointConfig::look_into_unknown, `--view-score`).
+  bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
   bool keep_runs = false;  ///< also keep each run's log and map (large)
   /// Keep the runs an earlier call left in the output folder and run only the others, as
   /// AlcBenchmarkConfig::resume (a run made with other options is an error).
