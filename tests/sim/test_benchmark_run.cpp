@@ -111,65 +111,69 @@ TEST_CASE("A benchmark's header says when the safety layer's near-surface rule i
   CHECK(safetyDescription(safety, "s3").find("(the path flown counts in a frame's drift: near)") != std::string::npos);
 }
 
+namespace {
+/// A benchmark run's folder for the resume checks: recordings of summary.json and the identity a
+/// call asks for.
+struct ResumeFolder {
+  explicit ResumeFolder(const std::string& name) : dir(std::filesystem::temp_directory_path() / name) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    world.name = "room";
+    world.mesh = dir / "room.ply";
+  }
+  ~ResumeFolder() { std::filesystem::remove_all(dir); }
+  void record(const nlohmann::json& summary) const { std::ofstream(dir / "summary.json") << summary.dump(); }
+  nlohmann::json identity(const vdbmap::planner::SafetyConfig& safety, bool look_into_unknown) const {
+    return vdbmap::sim::internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, safety, look_into_unknown,
+                                              vdbmap::sim::LoopClosureMode::PoseGraph);
+  }
+  std::optional<vdbmap::sim::ExplorationSummary> resume(const nlohmann::json& identity) const {
+    return vdbmap::sim::internal::startingPoint(true, dir, identity);
+  }
+
+  std::filesystem::path dir;
+  vdbmap::sim::BenchmarkWorld world;
+};
+}  // namespace
+
 TEST_CASE("Resuming refuses a run flown with another path-drift scope, and reads older runs as flown without it",
           "[sim][bench]") {
-  namespace fs = std::filesystem;
-  using namespace vdbmap::sim;
-  const fs::path dir = fs::temp_directory_path() / "vdbmap_bench_identity_path_drift";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  BenchmarkWorld world;
-  world.name = "room";
-  world.mesh = dir / "room.ply";
+  using vdbmap::planner::PathDriftScope;
+  const ResumeFolder folder("vdbmap_bench_identity_path_drift");
   vdbmap::planner::SafetyConfig safety;
   safety.enabled = true;
-  const auto identityWith = [&](vdbmap::planner::PathDriftScope scope) {
+  const auto identityWith = [&](PathDriftScope scope) {
     safety.path_drift = scope;
-    return internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, safety, false, LoopClosureMode::PoseGraph);
+    return folder.identity(safety, false);
   };
-  const auto record = [&](const nlohmann::json& summary) { std::ofstream(dir / "summary.json") << summary.dump(); };
   // Recorded with `near`, asked without it: the error names the option.
-  record(identityWith(vdbmap::planner::PathDriftScope::NearSurfaces));
-  const nlohmann::json off = identityWith(vdbmap::planner::PathDriftScope::Off);
+  folder.record(identityWith(PathDriftScope::NearSurfaces));
+  const nlohmann::json off = identityWith(PathDriftScope::Off);
   CHECK(off.at("safety_path_drift") == "off");
-  CHECK_THROWS_WITH(internal::startingPoint(true, dir, off), Catch::Contains("was run with safety_path_drift"));
+  CHECK_THROWS_WITH(folder.resume(off), Catch::Contains("was run with safety_path_drift"));
   // A summary from before the option has no key: it ran without it, so the identity check passes
   // and what fails is reading the (incomplete) summary itself.
   nlohmann::json older = off;
   older.erase("safety_path_drift");
-  record(older);
-  CHECK_THROWS_WITH(internal::startingPoint(true, dir, off), !Catch::Contains("was run with"));
-  CHECK_THROWS_WITH(internal::startingPoint(true, dir, identityWith(vdbmap::planner::PathDriftScope::NearSurfaces)),
+  folder.record(older);
+  CHECK_THROWS_WITH(folder.resume(off), !Catch::Contains("was run with"));
+  CHECK_THROWS_WITH(folder.resume(identityWith(PathDriftScope::NearSurfaces)),
                     Catch::Contains("safety_path_drift = (not recorded)"));
-  fs::remove_all(dir);
 }
 
 TEST_CASE("Resuming refuses a run whose viewpoints scored by another rule, and reads older runs as FUEL's rule",
           "[sim][bench]") {
-  namespace fs = std::filesystem;
-  using namespace vdbmap::sim;
-  const fs::path dir = fs::temp_directory_path() / "vdbmap_bench_identity_view_score";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  BenchmarkWorld world;
-  world.name = "room";
-  world.mesh = dir / "room.ply";
-  const auto identityWith = [&](bool look_into_unknown) {
-    return internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, vdbmap::planner::SafetyConfig{},
-                                 look_into_unknown, LoopClosureMode::PoseGraph);
-  };
-  const auto record = [&](const nlohmann::json& summary) { std::ofstream(dir / "summary.json") << summary.dump(); };
-  const nlohmann::json voxel = identityWith(false), into_unknown = identityWith(true);
+  const ResumeFolder folder("vdbmap_bench_identity_view_score");
+  const nlohmann::json voxel = folder.identity({}, false), into_unknown = folder.identity({}, true);
   CHECK(voxel.at("view_score") == "voxel");
   CHECK(into_unknown.at("view_score") == "into-unknown");
-  record(into_unknown);
-  CHECK_THROWS_WITH(internal::startingPoint(true, dir, voxel), Catch::Contains("was run with view_score"));
+  folder.record(into_unknown);
+  CHECK_THROWS_WITH(folder.resume(voxel), Catch::Contains("was run with view_score"));
   // Before the key existed every run scored by FUEL's rule: such a summary passes the identity
   // check for `voxel` (what fails is reading the incomplete summary) and fails it for into-unknown.
   nlohmann::json older = voxel;
   older.erase("view_score");
-  record(older);
-  CHECK_THROWS_WITH(internal::startingPoint(true, dir, voxel), !Catch::Contains("was run with"));
-  CHECK_THROWS_WITH(internal::startingPoint(true, dir, into_unknown), Catch::Contains("view_score = (not recorded)"));
-  fs::remove_all(dir);
+  folder.record(older);
+  CHECK_THROWS_WITH(folder.resume(voxel), !Catch::Contains("was run with"));
+  CHECK_THROWS_WITH(folder.resume(into_unknown), Catch::Contains("view_score = (not recorded)"));
 }
