@@ -3,6 +3,7 @@
 
 #include "internal/summary_json.hpp"
 #include "text_format.hpp"
+#include "vdbmap/planner/viewpoint.hpp"
 #include "vdbmap/sim/benchmark_world.hpp"
 #include "vdbmap/sim/exploration.hpp"
 #include "vdbmap/sim/simulator.hpp"
@@ -90,14 +91,22 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
   return identity;
 }
 
+/// The identity keys that summaries written before their option existed lack, each with the value
+/// such a run was flown with (the option's default then).
+inline const nlohmann::json& keysAddedLater() {
+  static const nlohmann::json keys = {{"safety_near_drift_tolerance_m", 0.0},
+                                      {"safety_path_drift", planner::toString(planner::PathDriftScope::Off)},
+                                      {"view_score", planner::viewScoreName(false)}};
+  return keys;
+}
+
 /// Where a benchmark's planned run starts. Resuming: the run an earlier call left in `run_dir` (its
-/// summary.json), when it was run as `identity` says (runIdentity; a summary without
-/// "safety_near_drift_tolerance_m", "safety_path_drift" or "view_score" predates that option and ran without it, with
-/// FUEL's viewpoint rule), else nothing when
-/// there is none; throws std::runtime_error naming the file and the first key (in alphabetical order) that differs, so
-/// that a resumed table never mixes runs made with other options. Not resuming: nothing, after removing the
-/// summary.json an earlier call left there, so that this call, if stopped before it reaches the run, does not leave it
-/// to a later resume.
+/// summary.json), when it was run as `identity` says (runIdentity; a summary without one of
+/// keysAddedLater() counts as flown with its value there), else nothing when there is none; throws
+/// std::runtime_error naming the file and the first key (in alphabetical order) that differs, so
+/// that a resumed table never mixes runs made with other options. Not resuming: nothing, after
+/// removing the summary.json an earlier call left there, so that this call, if stopped before it
+/// reaches the run, does not leave it to a later resume.
 inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::filesystem::path& run_dir,
                                                        const nlohmann::json& identity) {
   const std::filesystem::path file = run_dir / "summary.json";
@@ -109,9 +118,7 @@ inline std::optional<ExplorationSummary> startingPoint(bool resume, const std::f
   const nlohmann::json recorded = readSummaryJson(file);
   for (const auto& [key, value] : identity.items()) {
     const auto it = recorded.find(key);
-    if (it == recorded.end() && key == "safety_near_drift_tolerance_m" && value == 0.0) continue;
-    if (it == recorded.end() && key == "safety_path_drift" && value == "off") continue;
-    if (it == recorded.end() && key == "view_score" && value == planner::viewScoreName(false)) continue;
+    if (it == recorded.end() && keysAddedLater().value(key, nlohmann::json()) == value) continue;
     if (value.is_null() && (it == recorded.end() || it->is_null())) continue;
     if (it == recorded.end() || *it != value)
       throw std::runtime_error(file.string() + " was run with " + key + " = " +
