@@ -153,15 +153,17 @@ int main(int argc, char** argv) {
       fallback.ring_radius_max_m = std::atof(argv[++i]);
     else if (a == "--fallback-rings" && has_value)
       fallback.ring_count = std::atoi(argv[++i]);
+    else if (a == "--fallback-min-visible" && has_value)
+      fallback.min_visible_samples = std::atoi(argv[++i]);
     else
       run_dir = a;
   }
   if (world_path.empty() || run_dir.empty()) {
-    std::fprintf(
-        stderr,
-        "usage: %s --world W.ply RUNDIR [--ceiling 2.5] [--fallback-clearance M] [--fallback-fraction F]\n"
-        "       [--fallback-radius-max M] [--fallback-rings N]   (the viewpoint fallback of the cluster table)\n",
-        argv[0]);
+    std::fprintf(stderr,
+                 "usage: %s --world W.ply RUNDIR [--ceiling 2.5] [--fallback-clearance M] [--fallback-fraction F]\n"
+                 "       [--fallback-radius-max M] [--fallback-rings N] [--fallback-min-visible K]   (the viewpoint "
+                 "fallback of the cluster table)\n",
+                 argv[0]);
     return 2;
   }
   try {

@@ -55,6 +55,7 @@ struct ExploreOptions {
   int final_min_cluster_size = planner::ExplorationManagerConfig{}.final_min_cluster_size;
   std::string final_sweep = planner::toString(planner::ExplorationManagerConfig{}.final_sweep);
   bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
+  int fallback_min_visible = planner::ViewpointFallback{}.min_visible_samples;
   bool no_initial_turn = false;
   bool overwrite = false;
   bool report = false;
@@ -117,6 +118,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.look_into_unknown;
+  config.planner.viewpoint.fallback.min_visible_samples = o.fallback_min_visible;
   config.planner.final_min_cluster_size = o.final_min_cluster_size;
   for (auto scope :
        {planner::FinalSweepScope::All, planner::FinalSweepScope::Pockets, planner::FinalSweepScope::PocketsOnce})
@@ -131,8 +133,9 @@ void runExplore(const ExploreOptions& o) {
       "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " + std::to_string(o.seed) +
       " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
       std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " +
-      planner::viewScoreName(o.look_into_unknown) + " --revisit-rounds " + std::to_string(o.revisit_rounds) +
-      " --w-dir " + std::to_string(o.w_dir) + " --lead-in " + o.lead_in + " --budgets " + o.budgets +
+      planner::viewScoreName(o.look_into_unknown) + " --fallback-min-visible " +
+      std::to_string(o.fallback_min_visible) + " --revisit-rounds " + std::to_string(o.revisit_rounds) + " --w-dir " +
+      std::to_string(o.w_dir) + " --lead-in " + o.lead_in + " --budgets " + o.budgets +
       (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
       (config.planner.alc_enabled
            ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
@@ -302,6 +305,11 @@ const Registration registration("explore", [](CLI::App& app) {
                   "it is over: shorter sweeps, fewer loop closures)")
       ->check(CLI::IsMember({"all", "pockets", "once"}));
   addViewScoreOption(*sub, o->look_into_unknown);
+  sub->add_option("--fallback-min-visible", o->fallback_min_visible,
+                  "A fallback viewpoint (for a cluster no ring viewpoint sees) passes when it sees more than this "
+                  "many of the cluster's voxels (or half of a small cluster): lower lets shelving whose goods show "
+                  "a few voxels per gap be looked into")
+      ->check(CLI::Range(0, 1000000));
   sub->add_option("--revisit-rounds", o->revisit_rounds,
                   "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
                   "more try each, with viewpoints computed in the map as it is then")

@@ -69,6 +69,8 @@ void ViewpointFallback::validate() const {
   if (!(min_clearance_m >= 0.0 && min_clearance_m <= 10.0)) fail("ViewpointFallback", "min_clearance_m", "[0, 10]");
   if (!(min_visible_fraction > 0.0 && min_visible_fraction <= 1.0))
     fail("ViewpointFallback", "min_visible_fraction", "(0, 1]");
+  if (min_visible_samples < 0 || min_visible_samples > 1000000)
+    fail("ViewpointFallback", "min_visible_samples", "[0, 1e6]");
 }
 
 const char* viewScoreName(bool look_into_unknown) { return look_into_unknown ? "into-unknown" : "voxel"; }
@@ -266,7 +268,7 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
       // A candidate passes (seen > threshold) with ceil(fraction x samples) samples, or with more
       // than min_visible_samples, and never with none.
       const int fraction_of_samples = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size()))) - 1;
-      const int threshold = std::max(0, std::min(p.min_visible_samples, fraction_of_samples));
+      const int threshold = std::max(0, std::min(fb.min_visible_samples, fraction_of_samples));
       searchRings(cluster, probe, sight, p,
                   {fb.ring_radius_min_m, fb.ring_radius_max_m, fb.ring_count, fb.height_offsets_m, fb.min_clearance_m,
                    threshold},

@@ -409,6 +409,42 @@ TEST_CASE("The fallback's threshold lets a small cluster pass by the fraction it
     CHECK(v.visible_samples == int(cluster.samples.size()));
 }
 
+TEST_CASE("A large cluster seen only a few voxels at a time gets fallback viewpoints at a lower threshold",
+          "[planner][viewpoint]") {
+  // A slot of unknown space 0.6 m high and 5.6 m long (x = 4.0 m, y 0.2-5.7 m, z 1.1-1.6 m) beside
+  // the known half of the halfKnownRoom, behind a plate at x = 3.7 m with a 0.5 m gap: as in goods
+  // on shelving, every viewpoint sees only the few slot voxels the gap shows.
+  DenseMap map = test::halfKnownRoom();
+  map.fill(CoordBBox(Coord(40, 0, 0), Coord(82, 62, 32)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(40, 2, 11), Coord(40, 57, 16)), Occupancy::Unknown);
+  map.fill(CoordBBox(Coord(37, 1, 1), Coord(37, 58, 28)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(37, 27, 11), Coord(37, 31, 16)), Occupancy::Free);
+  FrontierConfig fp;
+  fp.min_cluster_size = 1;
+  fp.split_radius_xy_m = 5.0;  // one cluster, not split
+  FrontierMap frontiers(fp);
+  frontiers.rebuild(map);
+  REQUIRE(frontiers.clusters().size() == 1);
+  const FrontierCluster& cluster = frontiers.clusters()[0];
+  ViewpointConfig params;
+  // Half the cluster is more than FUEL's 15: the fraction does not lower the threshold here.
+  REQUIRE(int(std::ceil(params.fallback.min_visible_fraction * double(cluster.samples.size()))) >
+          params.fallback.min_visible_samples);
+  CHECK(computeViewpoints(cluster, map, params).empty());
+
+  params.fallback.min_visible_samples = 2;
+  const std::vector<Viewpoint> views = computeViewpoints(cluster, map, params);
+  REQUIRE_FALSE(views.empty());
+  for (const Viewpoint& v : views) {
+    REQUIRE(test::bruteClear(map, v.position_W, params.fallback.min_clearance_m));
+    const int seen = bruteSeen(map, cluster, params.camera, v);
+    REQUIRE(seen == v.visible_samples);
+    REQUIRE(seen > 2);
+    REQUIRE(seen <= ViewpointConfig{}.min_visible_samples);  // a look at a time, through the gap
+    REQUIRE(v.position_W.x() < 3.7);                         // on the room's side of the plate
+  }
+}
+
 TEST_CASE("ViewpointConfig::validate names the field", "[planner][viewpoint]") {
   ViewpointConfig p;
   p.ring_radius_max_m = 1.0;
@@ -425,6 +461,9 @@ TEST_CASE("ViewpointConfig::validate names the field", "[planner][viewpoint]") {
   p = ViewpointConfig{};
   p.fallback.ring_radius_min_m = 3.0;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.ring_radius_max_m"));
+  p = ViewpointConfig{};
+  p.fallback.min_visible_samples = -1;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.min_visible_samples"));
   p = ViewpointConfig{};
   p.unknown_entry_reach_vox = -1;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("unknown_entry_reach_vox"));

@@ -67,6 +67,10 @@ struct ViewpointFallback {
   /// A fallback viewpoint passes when it sees more than min_visible_samples of the cluster's
   /// samples or at least this fraction of them (a cluster of 12 samples passes with 6); (0, 1]
   double min_visible_fraction = 0.5;
+  /// ... and more than this many is always enough; [0, 1e6]. FUEL's 15 (ViewpointConfig's) by
+  /// default; lower lets a large cluster seen only through narrow openings (goods on shelving,
+  /// each gap showing a few of its voxels) be visited a look at a time.
+  int min_visible_samples = 15;
 
   void validate() const;
 };
