@@ -59,8 +59,7 @@ void EscapePlanner::correctHistory(const std::function<FlatPose(const FlownViewp
 }
 
 std::optional<Trajectory> EscapePlanner::retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest,
-                                                 const std::function<bool(const Trajectory&)>& accept,
-                                                 double flown_since_s) {
+                                                 const RetreatCheck& accept, double flown_since_s) {
   const double vs = map.voxelSize(), r = params_.clearance_m;
   MapProbe probe(map);
   std::vector<Vec3d> way{vehicle.position_W};
@@ -88,7 +87,7 @@ std::optional<Trajectory> EscapePlanner::retreat(const MapQuery& map, const Vehi
   VehicleState at_rest = vehicle;
   at_rest.velocity_W.setZero();
   TrajectoryResult traj = planTrajectory(way, at_rest, vehicle.yaw_rad, corridor_map, params_.trajectory);
-  if (!traj.ok() || (accept && !accept(traj.trajectory))) return std::nullopt;
+  if (!traj.ok() || (accept && !accept(traj.trajectory, way))) return std::nullopt;
   flown_.resize(keep);
   return std::move(traj.trajectory);
 }

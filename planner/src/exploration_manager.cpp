@@ -644,9 +644,17 @@ bool ExplorationManager::remainingTrajectoryClearOfRecent(const RecentObstacleMa
 
 std::optional<Trajectory> ExplorationManager::retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest) {
   if (!recent_map_) return escapes_.retreat(map, vehicle, farthest);
-  const auto clear_of_recent = [this](const Trajectory& back) {
-    return clearOfRecent(*recent_map_, back, Eigen::Isometry3d::Identity(), 0.0,
-                         riskCheckStep_s(recent_map_->voxelSize()), params_.safety.clearance_m);
+  const auto clear_of_recent = [this](const Trajectory& back, const std::vector<Vec3d>& way_W) {
+    // The vehicle flew the way within the recent window, so it bears the clearance it had there
+    // when that was less than the safety clearance (a slot it descended into), less a quarter
+    // voxel for the trajectory's smoothing of the way; never less than the collision radius.
+    const double vs = recent_map_->voxelSize();
+    double way_clearance = params_.safety.clearance_m;
+    for (std::size_t k = 1; k < way_W.size(); ++k)
+      way_clearance = std::min(way_clearance, recent_map_->surfaceDistance(way_W[k], way_clearance));
+    const double r =
+        std::max(params_.collision_radius_m, std::min(params_.safety.clearance_m, way_clearance - 0.25 * vs));
+    return clearOfRecent(*recent_map_, back, Eigen::Isometry3d::Identity(), 0.0, riskCheckStep_s(vs), r);
   };
   // The way flown within the recent window: its drift relative to now is what the recent frames
   // bear; older, it may pass a wall the recent frames no longer hold.

@@ -1,5 +1,6 @@
 #include "vdbmap/planner/recent_obstacle_map.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -147,6 +148,17 @@ bool RecentObstacleMap::nearSurface(const Vec3d& p_W, double radius_m) const {
   for (auto it = box.begin(); it; ++it)
     if (isRecentSurface(*it) && (voxelCenter(*it) - p_W).norm() <= radius_m) return true;
   return false;
+}
+
+double RecentObstacleMap::surfaceDistance(const Vec3d& p_W, double max_m) const {
+  const openvdb::Coord lo = worldToVoxel(p_W - Vec3d::Constant(max_m)), hi = worldToVoxel(p_W + Vec3d::Constant(max_m));
+  openvdb::CoordBBox box(lo, hi);
+  box.intersect(surface_.bounds);
+  double nearest = max_m;
+  if (box.empty()) return nearest;  // (iterating it would visit voxels outside it)
+  for (auto it = box.begin(); it; ++it)
+    if (isRecentSurface(*it)) nearest = std::min(nearest, (voxelCenter(*it) - p_W).norm());
+  return nearest;
 }
 
 openvdb::CoordBBox RecentObstacleMap::knownBounds() const {

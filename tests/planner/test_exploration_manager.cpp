@@ -8,7 +8,10 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <type_traits>
+#include <vector>
 
 using namespace vdbmap;
 using namespace vdbmap::planner;
@@ -70,6 +73,17 @@ VehicleState onTrajectory(const ExplorationManager& m, double t) {
   s.velocity_W = c.velocity_W;
   s.yaw_rad = c.yaw_rad;
   return s;
+}
+
+/// A camera 90 degrees wide, 80 x 60 pixels times `scale`.
+CameraIntrinsics wideCamera(int scale = 1) {
+  CameraIntrinsics K;
+  K.width = 80 * scale;
+  K.height = 60 * scale;
+  K.fx = K.fy = 40.0 * scale;
+  K.cx = 0.5 * (K.width - 1);
+  K.cy = 0.5 * (K.height - 1);
+  return K;
 }
 
 /// What flyUntilBlocked leaves: the positions flown (the start first), the vehicle where the block
@@ -761,13 +775,8 @@ TEST_CASE("With the safety layer, a retreat whose way back a recent frame sees b
   const Vec3d back_dir = -f.vehicle.velocity_W.normalized();
   const Vec3d post = f.vehicle.position_W + 0.35 * back_dir;
   if (post_behind) {
-    CameraIntrinsics K;  // 90 degrees wide; the post fills its central 2 x 2 pixels
-    K.width = 80;
-    K.height = 60;
-    K.fx = K.fy = 40.0;
-    K.cx = 39.5;
-    K.cy = 29.5;
-    DepthImage depth(K.width, K.height);  // nothing else in view (0: no return)
+    const CameraIntrinsics K = wideCamera();  // the post fills its central 2 x 2 pixels
+    DepthImage depth(K.width, K.height);      // nothing else in view (0: no return)
     for (int v = 29; v <= 30; ++v)
       for (int u = 39; u <= 40; ++u) depth.at(u, v) = 0.35f;
     m.addDepthFrame(t, depth, K, lookingPose(f.vehicle.position_W, std::atan2(back_dir.y(), back_dir.x())));
@@ -778,6 +787,83 @@ TEST_CASE("With the safety layer, a retreat whose way back a recent frame sees b
   // Whatever it does instead keeps the vehicle's 0.2 m clear of the post.
   for (double u = 0.0; u <= m.trajectory().duration(); u += 0.02)
     CHECK((m.command(m.trajectoryStartTime() + u).position_W - post).norm() > 0.2);
+}
+
+TEST_CASE(
+    "With the safety layer, a retreat flies back beside a wall the way flown passed closer than the "
+    "safety clearance",
+    "[planner][exploration][safety]") {
+  // A vehicle that descended into a slot between shelves sees its sides closer than
+  // SafetyConfig::clearance_m; it flew that way, so the way back bears the clearance it had there.
+  // Here a vertical wall follows the way flown 0.22 m to its right (each segment offset), from
+  // 0.3 m along it on; a frame from the way's left sees it. The positions flown since lie within
+  // the path clearance of it, so the retreat goes back along all of that.
+  DenseMap map = halfKnownRoom();
+  const Vec3d start(1.0, 3.0, 1.5);
+  const ExplorationManagerConfig p = driftFreeLayerParams();
+  ExplorationManager m(p, at(start), 0.0);
+  const FlownUntilBlocked f = flyUntilBlocked(m, map, start);
+  const double t = f.t_s + 1.0 / 15.0;
+  struct Panel {
+    Eigen::Vector2d a, b;  // its ends, in the xy plane
+  };
+  std::vector<Panel> panels;
+  double s_m = 0.0;
+  for (std::size_t k = 1; k < f.flown.size(); ++k) {
+    const Eigen::Vector2d a = f.flown[k - 1].head<2>(), b = f.flown[k].head<2>();
+    s_m += (b - a).norm();
+    if (s_m < 0.3 || (b - a).norm() < 1e-6) continue;
+    const Eigen::Vector2d d = (b - a).normalized(), to_right(d.y(), -d.x());
+    panels.push_back({a + 0.22 * to_right, b + 0.22 * to_right});
+  }
+  REQUIRE(panels.size() >= 5);
+  // The frame: from 1 m to the left of the way's middle, looking right at the wall.
+  const Vec3d along = Vec3d(f.vehicle.position_W - start).cwiseProduct(Vec3d(1, 1, 0)).normalized();
+  const Vec3d right(along.y(), -along.x(), 0.0);
+  const Vec3d camera = start + 0.5 * (f.vehicle.position_W - start) - 1.0 * right;
+  const Pose3d T_W_S = lookingPose(camera, std::atan2(right.y(), right.x()));
+  const CameraIntrinsics K = wideCamera(4);  // a surface voxel per 4 x 4 pixels: about one per 5 cm at 1.2 m
+  DepthImage depth(K.width, K.height);       // 0: no return
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u) {
+      const Vec3d ray_W = T_W_S.linear() * Vec3d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);  // optical z = 1
+      const Eigen::Vector2d o = camera.head<2>(), w = ray_W.head<2>();
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const Panel& panel : panels) {  // o + t w = a + x (b - a), t > 0, x in [0, 1]
+        Eigen::Matrix2d A;
+        A << w, panel.a - panel.b;
+        if (std::abs(A.determinant()) < 1e-12) continue;
+        const Eigen::Vector2d tx = A.inverse() * (panel.a - o);
+        if (tx.x() > 0.0 && tx.y() >= 0.0 && tx.y() <= 1.0) nearest = std::min(nearest, tx.x());
+      }
+      if (std::isfinite(nearest)) depth.at(u, v) = float(nearest);
+    }
+  m.addDepthFrame(t, depth, K, T_W_S);
+  // The scene is what the comment says: the way flown passes the wall's recent surface voxels
+  // closer than the safety clearance, and farther than the collision radius.
+  RecentFrames seen(m.recentFrames()->config());  // the same frame's surface voxels, recounted
+  seen.add(t, depth, K, T_W_S);
+  const SurfaceVoxels& wall = seen.surfaceVoxels(kVoxel);
+  REQUIRE(wall.size() > 50);
+  const auto toWall = [&](const Vec3d& q) {
+    double d = 1e9;
+    for (const auto& [ijk, n] : wall) d = std::min(d, (map.voxelCenter(ijk) - q).norm());
+    return d;
+  };
+  double way_clearance = 1e9;
+  for (std::size_t k = 1; k < f.flown.size(); ++k) way_clearance = std::min(way_clearance, toWall(f.flown[k]));
+  REQUIRE(way_clearance < p.safety.clearance_m);
+  REQUIRE(way_clearance > p.collision_radius_m + 0.25 * kVoxel);
+
+  REQUIRE(m.update(map, f.block, f.vehicle, t).status == ExplorationStatus::Planned);
+  CHECK(m.counters().retreats == 1);
+  // It flies back along the way, keeping the wall as far as the way flown did, less a quarter
+  // voxel.
+  const double T = m.trajectory().duration();
+  for (double u = 0.0; u <= T; u += 0.02)
+    CHECK(toWall(m.command(m.trajectoryStartTime() + u).position_W) >= way_clearance - 0.25 * kVoxel);
+  const Vec3d end = m.command(m.trajectoryStartTime() + T).position_W;
+  CHECK((end - f.vehicle.position_W).norm() > p.safety.clearance_m);
 }
 
 TEST_CASE("With the safety layer, a retreat goes back only along the way flown within the recent window",
@@ -817,12 +903,7 @@ TEST_CASE("With the safety layer, a way seen free down its middle but not beside
   p.safety.enabled = true;  // no odometry declared: the map is never trusted, only the frames
   const Vec3d start(1.0, 3.0, 1.5);
   ExplorationManager m(p, at(start, 0.0), 0.0);
-  CameraIntrinsics K;  // 90 degrees wide
-  K.width = 80;
-  K.height = 60;
-  K.fx = K.fy = 40.0;
-  K.cx = 39.5;
-  K.cy = 29.5;
+  const CameraIntrinsics K = wideCamera();
   DepthImage depth(K.width, K.height, 4.75f);
   if (left_unseen)
     for (int v = 0; v < K.height; ++v)

@@ -470,6 +470,10 @@ TEST_CASE("RecentObstacleMap reads recent surface voxels occupied and everything
     for (const auto& [ijk, n] : surface) expected = expected || (map.voxelCenter(ijk) - p).norm() <= r;
     near += expected;
     REQUIRE(map.nearSurface(p, r) == expected);
+    // surfaceDistance: the nearest surface voxel centre's distance, capped at its max.
+    double nearest = r;
+    for (const auto& [ijk, n] : surface) nearest = std::min(nearest, (map.voxelCenter(ijk) - p).norm());
+    REQUIRE(map.surfaceDistance(p, r) == Approx(nearest).margin(1e-12));
   }
   CHECK(near > 100);
   CHECK(near < 1900);

@@ -15,6 +15,7 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <vector>
 
 namespace vdbmap::planner {
 
@@ -39,6 +40,10 @@ using EscapeParams [[deprecated("renamed EscapeConfig")]] = EscapeConfig;
 
 class EscapePlanner {
  public:
+  /// Vets a retreat: its trajectory and the way it follows (the vehicle's position, then the
+  /// positions flown, newest first, world frame).
+  using RetreatCheck = std::function<bool(const Trajectory& trajectory, const std::vector<Vec3d>& way_W)>;
+
   /// Throws std::invalid_argument for invalid params.
   explicit EscapePlanner(const EscapeConfig& params);
 
@@ -63,7 +68,7 @@ class EscapePlanner {
   /// retreat: e.g. one whose way what the camera saw since blocks. On success the positions
   /// flown after the end are forgotten, so that a retreat from there goes on backwards.
   std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest,
-                                    const std::function<bool(const Trajectory&)>& accept = {},
+                                    const RetreatCheck& accept = {},
                                     double flown_since_s = -std::numeric_limits<double>::infinity());
   /// A trajectory straight away from the occupied voxels within the clearance to the nearest
   /// clear point within escape_reach_m (preferring the away direction) whose straight way

@@ -578,7 +578,8 @@ class ExplorationManager {
   /// window only (SafetyConfig::window_s()), refusing a way back that passes within
   /// SafetyConfig::clearance_m of this update's recent surfaces beyond its start's own: the way
   /// flown is where odometry and the last correction put it; what the camera saw since is where
-  /// the walls are.
+  /// the walls are. A way that itself passes closer (the vehicle flew it) lowers that clearance
+  /// to its own, less a quarter voxel, but not below collision_radius_m.
   std::optional<Trajectory> retreat(const MapQuery& map, const VehicleState& vehicle, bool farthest);
   /// p_W counts as seen free for flight: a recent frame captured at or after since_t_s saw it
   /// free, or the whole map is younger than SafetyConfig::trustedAge_s (at the last update) and

@@ -65,6 +65,9 @@ class RecentObstacleMap : public MapQuery {
   const openvdb::CoordBBox& seenFreeBounds() const { return free_bounds_; }
   /// Some recent surface voxel's centre lies within radius_m of p_W.
   bool nearSurface(const Vec3d& p_W, double radius_m) const;
+  /// The distance from p_W to the nearest recent surface voxel's centre, or max_m when none lies
+  /// within max_m.
+  double surfaceDistance(const Vec3d& p_W, double max_m) const;
   /// The bounding box of the recent surface voxels (empty when there are none).
   const openvdb::CoordBBox& surfaceBounds() const { return surface_.bounds; }
   int verticalMarginVoxels() const { return vertical_margin_; }
