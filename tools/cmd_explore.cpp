@@ -56,6 +56,8 @@ struct ExploreOptions {
   std::string final_sweep = planner::toString(planner::ExplorationManagerConfig{}.final_sweep);
   bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
   int fallback_min_visible = planner::ViewpointFallback{}.min_visible_samples;
+  int fallback_large_voxels = planner::ViewpointFallback{}.large_cluster_voxels;
+  int fallback_large_min_visible = planner::ViewpointFallback{}.large_min_visible_samples;
   bool no_initial_turn = false;
   bool overwrite = false;
   bool report = false;
@@ -119,6 +121,8 @@ void runExplore(const ExploreOptions& o) {
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.look_into_unknown;
   config.planner.viewpoint.fallback.min_visible_samples = o.fallback_min_visible;
+  config.planner.viewpoint.fallback.large_cluster_voxels = o.fallback_large_voxels;
+  config.planner.viewpoint.fallback.large_min_visible_samples = o.fallback_large_min_visible;
   config.planner.final_min_cluster_size = o.final_min_cluster_size;
   for (auto scope :
        {planner::FinalSweepScope::All, planner::FinalSweepScope::Pockets, planner::FinalSweepScope::PocketsOnce})
@@ -134,9 +138,10 @@ void runExplore(const ExploreOptions& o) {
       " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
       std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " +
       planner::viewScoreName(o.look_into_unknown) + " --fallback-min-visible " +
-      std::to_string(o.fallback_min_visible) + " --revisit-rounds " + std::to_string(o.revisit_rounds) + " --w-dir " +
-      std::to_string(o.w_dir) + " --lead-in " + o.lead_in + " --budgets " + o.budgets +
-      (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
+      std::to_string(o.fallback_min_visible) + " --fallback-large-voxels " + std::to_string(o.fallback_large_voxels) +
+      " --fallback-large-min-visible " + std::to_string(o.fallback_large_min_visible) + " --revisit-rounds " +
+      std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --lead-in " + o.lead_in +
+      " --budgets " + o.budgets + (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
       (config.planner.alc_enabled
            ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
            : std::string()) +
@@ -310,6 +315,14 @@ const Registration registration("explore", [](CLI::App& app) {
                   "many of the cluster's voxels (or half of a small cluster): lower lets shelving whose goods show "
                   "a few voxels per gap be looked into")
       ->check(CLI::Range(0, 1000000));
+  sub->add_option("--fallback-large-min-visible", o->fallback_large_min_visible,
+                  "For a cluster of at least --fallback-large-voxels frontier voxels, the fallback threshold is this "
+                  "when lower than --fallback-min-visible: a large cluster seen a few voxels per gap is looked into, "
+                  "small ones keep the higher threshold")
+      ->check(CLI::Range(0, 1000000));
+  sub->add_option("--fallback-large-voxels", o->fallback_large_voxels,
+                  "How many frontier voxels make a cluster large for --fallback-large-min-visible")
+      ->check(CLI::Range(1, 1000000000));
   sub->add_option("--revisit-rounds", o->revisit_rounds,
                   "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
                   "more try each, with viewpoints computed in the map as it is then")

@@ -71,6 +71,16 @@ void ViewpointFallback::validate() const {
     fail("ViewpointFallback", "min_visible_fraction", "(0, 1]");
   if (min_visible_samples < 0 || min_visible_samples > 1000000)
     fail("ViewpointFallback", "min_visible_samples", "[0, 1e6]");
+  if (large_cluster_voxels < 1 || large_cluster_voxels > 1000000000)
+    fail("ViewpointFallback", "large_cluster_voxels", "[1, 1e9]");
+  if (large_min_visible_samples < 0 || large_min_visible_samples > 1000000)
+    fail("ViewpointFallback", "large_min_visible_samples", "[0, 1e6]");
+}
+
+int ViewpointFallback::minVisibleSamples(const FrontierCluster& cluster) const {
+  return cluster.voxels.size() >= std::size_t(large_cluster_voxels)
+             ? std::min(min_visible_samples, large_min_visible_samples)
+             : min_visible_samples;
 }
 
 const char* viewScoreName(bool look_into_unknown) { return look_into_unknown ? "into-unknown" : "voxel"; }
@@ -266,9 +276,9 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
     const ViewpointFallback& fb = p.fallback;
     if (viewpoints.empty() && fb.enabled) {
       // A candidate passes (seen > threshold) with ceil(fraction x samples) samples, or with more
-      // than min_visible_samples, and never with none.
+      // than the cluster's minVisibleSamples, and never with none.
       const int fraction_of_samples = int(std::ceil(fb.min_visible_fraction * double(cluster.samples.size()))) - 1;
-      const int threshold = std::max(0, std::min(fb.min_visible_samples, fraction_of_samples));
+      const int threshold = std::max(0, std::min(fb.minVisibleSamples(cluster), fraction_of_samples));
       searchRings(cluster, probe, sight, p,
                   {fb.ring_radius_min_m, fb.ring_radius_max_m, fb.ring_count, fb.height_offsets_m, fb.min_clearance_m,
                    threshold},

@@ -479,6 +479,8 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["initial_turn"] = c.planner.initial_turn;
   j["view_score"] = planner::viewScoreName(c.planner.viewpoint.look_into_unknown);
   j["fallback_min_visible"] = c.planner.viewpoint.fallback.min_visible_samples;
+  j["fallback_large_cluster_voxels"] = c.planner.viewpoint.fallback.large_cluster_voxels;
+  j["fallback_large_min_visible"] = c.planner.viewpoint.fallback.large_min_visible_samples;
   j["safety_layer"] = c.planner.safety.enabled;
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
   j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.map_thin_obstacles;

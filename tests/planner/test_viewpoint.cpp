@@ -427,13 +427,15 @@ TEST_CASE("A large cluster seen only a few voxels at a time gets fallback viewpo
   REQUIRE(frontiers.clusters().size() == 1);
   const FrontierCluster& cluster = frontiers.clusters()[0];
   ViewpointConfig params;
+  params.fallback.large_min_visible_samples = params.fallback.min_visible_samples;  // one threshold: 15
   // Half the cluster is more than FUEL's 15: the fraction does not lower the threshold here.
   REQUIRE(int(std::ceil(params.fallback.min_visible_fraction * double(cluster.samples.size()))) >
           params.fallback.min_visible_samples);
   CHECK(computeViewpoints(cluster, map, params).empty());
 
-  params.fallback.min_visible_samples = 2;
-  const std::vector<Viewpoint> views = computeViewpoints(cluster, map, params);
+  ViewpointConfig low = params;
+  low.fallback.min_visible_samples = 2;
+  const std::vector<Viewpoint> views = computeViewpoints(cluster, map, low);
   REQUIRE_FALSE(views.empty());
   for (const Viewpoint& v : views) {
     REQUIRE(test::bruteClear(map, v.position_W, params.fallback.min_clearance_m));
@@ -443,6 +445,20 @@ TEST_CASE("A large cluster seen only a few voxels at a time gets fallback viewpo
     REQUIRE(seen <= ViewpointConfig{}.min_visible_samples);  // a look at a time, through the gap
     REQUIRE(v.position_W.x() < 3.7);                         // on the room's side of the plate
   }
+
+  // The lower threshold for large clusters only: this cluster gets the same viewpoints when its
+  // size reaches large_cluster_voxels, and none when it falls one voxel short.
+  ViewpointConfig large = params;
+  large.fallback.large_min_visible_samples = 2;
+  large.fallback.large_cluster_voxels = int(cluster.voxels.size());
+  const std::vector<Viewpoint> large_views = computeViewpoints(cluster, map, large);
+  REQUIRE(large_views.size() == views.size());
+  for (std::size_t k = 0; k < views.size(); ++k) {
+    CHECK(large_views[k].position_W == views[k].position_W);
+    CHECK(large_views[k].visible_samples == views[k].visible_samples);
+  }
+  large.fallback.large_cluster_voxels = int(cluster.voxels.size()) + 1;
+  CHECK(computeViewpoints(cluster, map, large).empty());
 }
 
 TEST_CASE("ViewpointConfig::validate names the field", "[planner][viewpoint]") {
@@ -464,6 +480,12 @@ TEST_CASE("ViewpointConfig::validate names the field", "[planner][viewpoint]") {
   p = ViewpointConfig{};
   p.fallback.min_visible_samples = -1;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.min_visible_samples"));
+  p = ViewpointConfig{};
+  p.fallback.large_cluster_voxels = 0;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.large_cluster_voxels"));
+  p = ViewpointConfig{};
+  p.fallback.large_min_visible_samples = -1;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("ViewpointFallback.large_min_visible_samples"));
   p = ViewpointConfig{};
   p.unknown_entry_reach_vox = -1;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("unknown_entry_reach_vox"));

@@ -87,6 +87,8 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
       {"safety_path_drift", planner::toString(safety.enabled ? safety.path_drift : planner::PathDriftScope::Off)},
       {"view_score", planner::viewScoreName(look_into_unknown)},
       {"fallback_min_visible", planner::ViewpointFallback{}.min_visible_samples},  // benchmarks fly the default
+      {"fallback_large_cluster_voxels", planner::ViewpointFallback{}.large_cluster_voxels},
+      {"fallback_large_min_visible", planner::ViewpointFallback{}.large_min_visible_samples},
       {"loop_closure", toString(loop_closure)}};
   if (!world.office) identity["world"] = std::filesystem::absolute(world.mesh).lexically_normal().string();
   return identity;
@@ -98,7 +100,9 @@ inline const nlohmann::json& keysAddedLater() {
   static const nlohmann::json keys = {{"safety_near_drift_tolerance_m", 0.0},
                                       {"safety_path_drift", planner::toString(planner::PathDriftScope::Off)},
                                       {"view_score", planner::viewScoreName(false)},
-                                      {"fallback_min_visible", 15}};
+                                      {"fallback_min_visible", 15},
+                                      {"fallback_large_cluster_voxels", 100},
+                                      {"fallback_large_min_visible", 15}};
   return keys;
 }
 
