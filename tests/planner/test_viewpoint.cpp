@@ -367,7 +367,7 @@ TEST_CASE("A cluster the rings cannot see from gets the fallback's closer viewpo
     REQUIRE(test::bruteClear(map, v.position_W, fb.min_clearance_m));
     const int seen = bruteSeen(map, cluster, params.camera, v);
     REQUIRE(seen == v.visible_samples);
-    REQUIRE((seen > params.min_visible_samples || seen >= fraction_needed));
+    REQUIRE((seen > fb.minVisibleSamples(cluster) || seen >= fraction_needed));
     // On one of the fallback's rings, at one of its heights.
     const double r = (v.position_W - cluster.centroid_W).head<2>().norm();
     bool on_ring = false;
