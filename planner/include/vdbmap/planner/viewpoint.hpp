@@ -74,9 +74,9 @@ struct ViewpointFallback {
   /// A cluster of at least large_cluster_voxels frontier voxels passes with more than
   /// large_min_visible_samples instead, when that is lower: goods on shelving show a large cluster
   /// a few voxels per gap, while a low threshold for every cluster sends the vehicle on many small
-  /// looks (docs/exploration.md, "Stop 83"). [1, 1e9] and [0, 1e6].
+  /// looks (docs/exploration.md, "Stop 83"). [1, 1e9] and [0, 1e6]; 15 (the default) leaves it off.
   int large_cluster_voxels = 100;
-  int large_min_visible_samples = 5;
+  int large_min_visible_samples = 15;
 
   /// The threshold for `cluster` (before the fraction rule): min_visible_samples, or the lower
   /// large_min_visible_samples for a cluster of at least large_cluster_voxels voxels.
