@@ -91,6 +91,16 @@ std::unique_ptr<const SurfaceIndex> indexOf(const SurfaceVoxels& surface) {
   for (const auto& [c, n] : surface) index->insert(c);
   return index;
 }
+
+/// The voxels of `map`'s recent surface bounds within the cube of half-size radius_m around p_W
+/// (empty when none: iterating an empty box would visit voxels outside it).
+openvdb::CoordBBox surfaceBoxAround(const RecentObstacleMap& map, const Vec3d& p_W, double radius_m) {
+  openvdb::CoordBBox box(map.worldToVoxel(p_W - Vec3d::Constant(radius_m)),
+                         map.worldToVoxel(p_W + Vec3d::Constant(radius_m)));
+  box.intersect(map.surfaceBounds());
+  return box;
+}
+
 }  // namespace
 
 RecentObstacleMap::RecentObstacleMap(const MapQuery& base, const SurfaceVoxels& surface, const RecentFrames* seen_free,
@@ -140,22 +150,17 @@ bool RecentObstacleMap::isSeenFree(const openvdb::Coord& ijk) const {
 }
 
 bool RecentObstacleMap::nearSurface(const Vec3d& p_W, double radius_m) const {
-  const openvdb::Coord lo = worldToVoxel(p_W - Vec3d::Constant(radius_m)),
-                       hi = worldToVoxel(p_W + Vec3d::Constant(radius_m));
-  openvdb::CoordBBox box(lo, hi);
-  box.intersect(surface_.bounds);
-  if (box.empty()) return false;  // (iterating it would visit voxels outside it)
+  const openvdb::CoordBBox box = surfaceBoxAround(*this, p_W, radius_m);
+  if (box.empty()) return false;
   for (auto it = box.begin(); it; ++it)
     if (isRecentSurface(*it) && (voxelCenter(*it) - p_W).norm() <= radius_m) return true;
   return false;
 }
 
 double RecentObstacleMap::surfaceDistance(const Vec3d& p_W, double max_m) const {
-  const openvdb::Coord lo = worldToVoxel(p_W - Vec3d::Constant(max_m)), hi = worldToVoxel(p_W + Vec3d::Constant(max_m));
-  openvdb::CoordBBox box(lo, hi);
-  box.intersect(surface_.bounds);
+  const openvdb::CoordBBox box = surfaceBoxAround(*this, p_W, max_m);
   double nearest = max_m;
-  if (box.empty()) return nearest;  // (iterating it would visit voxels outside it)
+  if (box.empty()) return nearest;
   for (auto it = box.begin(); it; ++it)
     if (isRecentSurface(*it)) nearest = std::min(nearest, (voxelCenter(*it) - p_W).norm());
   return nearest;
