@@ -58,6 +58,7 @@ struct ExploreOptions {
   int fallback_min_visible = planner::ViewpointFallback{}.min_visible_samples;
   int fallback_large_voxels = planner::ViewpointFallback{}.large_cluster_voxels;
   int fallback_large_min_visible = planner::ViewpointFallback{}.large_min_visible_samples;
+  int fallback_large_min_visible_late = planner::ExplorationManagerConfig{}.late_large_min_visible_samples;
   bool no_initial_turn = false;
   bool overwrite = false;
   bool report = false;
@@ -123,6 +124,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.viewpoint.fallback.min_visible_samples = o.fallback_min_visible;
   config.planner.viewpoint.fallback.large_cluster_voxels = o.fallback_large_voxels;
   config.planner.viewpoint.fallback.large_min_visible_samples = o.fallback_large_min_visible;
+  config.planner.late_large_min_visible_samples = o.fallback_large_min_visible_late;
   config.planner.final_min_cluster_size = o.final_min_cluster_size;
   for (auto scope :
        {planner::FinalSweepScope::All, planner::FinalSweepScope::Pockets, planner::FinalSweepScope::PocketsOnce})
@@ -139,7 +141,8 @@ void runExplore(const ExploreOptions& o) {
       std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " +
       planner::viewScoreName(o.look_into_unknown) + " --fallback-min-visible " +
       std::to_string(o.fallback_min_visible) + " --fallback-large-voxels " + std::to_string(o.fallback_large_voxels) +
-      " --fallback-large-min-visible " + std::to_string(o.fallback_large_min_visible) + " --revisit-rounds " +
+      " --fallback-large-min-visible " + std::to_string(o.fallback_large_min_visible) +
+      " --fallback-large-min-visible-late " + std::to_string(o.fallback_large_min_visible_late) + " --revisit-rounds " +
       std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --lead-in " + o.lead_in +
       " --budgets " + o.budgets + (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
       (config.planner.alc_enabled
@@ -323,6 +326,12 @@ const Registration registration("explore", [](CLI::App& app) {
   sub->add_option("--fallback-large-voxels", o->fallback_large_voxels,
                   "How many frontier voxels make a cluster large for --fallback-large-min-visible")
       ->check(CLI::Range(1, 1000000000));
+  sub->add_option("--fallback-large-min-visible-late", o->fallback_large_min_visible_late,
+                  "From the first time no target is left (where the final sweep begins), a cluster of at least "
+                  "--fallback-large-voxels frontier voxels takes this fallback threshold when lower, and those still "
+                  "without a viewpoint are looked at again: shelving seen a few voxels per gap is looked into at the "
+                  "end (15 or more: off)")
+      ->check(CLI::Range(0, 1000000));
   sub->add_option("--revisit-rounds", o->revisit_rounds,
                   "Times to retry, before finishing, the clusters that were blacklisted or had no viewpoint: one "
                   "more try each, with viewpoints computed in the map as it is then")

@@ -357,6 +357,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readwrite("final_min_cluster_size", &ExplorationManagerConfig::final_min_cluster_size,
                      "when no target is left, the frontier's min cluster size drops to this once, for a final "
                      "sweep of the small clusters (0: off); [0, 1e8]")
+      .def_readwrite("late_large_min_visible_samples", &ExplorationManagerConfig::late_large_min_visible_samples,
+                     "from the first time no target is left, large clusters take this fallback threshold when lower, "
+                     "and those still without a viewpoint are looked at again (15 or more: off); [0, 1e6]")
       .def_readwrite("final_sweep", &ExplorationManagerConfig::final_sweep,
                      "which small clusters the final sweep visits (FinalSweepScope)")
       .def_readwrite("max_targets_per_replan", &ExplorationManagerConfig::max_targets_per_replan,
@@ -405,6 +408,9 @@ void bindExplorationParams(py::module_& m) {
                     "ExplorationManagerConfig.revisit_rounds done")
       .def_readonly("final_sweep_clusters", &ExplorationCounters::final_sweep_clusters,
                     "clusters the final sweep (ExplorationManagerConfig.final_min_cluster_size) added")
+      .def_readonly("late_large_clusters", &ExplorationCounters::late_large_clusters,
+                    "large clusters without a viewpoint looked at again when no target was left "
+                    "(ExplorationManagerConfig.late_large_min_visible_samples)")
       .def_readonly("emergency_stops", &ExplorationCounters::emergency_stops,
                     "replans because the recent frames saw the trajectory blocked (SafetyConfig)")
       .def_readonly("look_stops", &ExplorationCounters::look_stops,

@@ -245,6 +245,8 @@ void ExplorationManagerConfig::validate() const {
   if (max_failures < 1 || max_failures > 100) check.fail("max_failures", "[1, 100]");
   check.inRange("all_failed_spacing_s", all_failed_spacing_s, 0.0, 60.0);
   if (revisit_rounds < 0 || revisit_rounds > 100) check.fail("revisit_rounds", "[0, 100]");
+  if (late_large_min_visible_samples < 0 || late_large_min_visible_samples > 1000000)
+    check.fail("late_large_min_visible_samples", "[0, 1e6]");
   if (final_min_cluster_size < 0 || final_min_cluster_size > 100000000)
     check.fail("final_min_cluster_size", "[0, 1e8]");
   if (max_targets_per_replan < 1 || max_targets_per_replan > 100) check.fail("max_targets_per_replan", "[1, 100]");
@@ -264,6 +266,9 @@ ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, c
   frontiers_ = FrontierMap(params_.frontier);
   voxel_rule_ = params_.viewpoint;
   voxel_rule_.look_into_unknown = false;
+  late_rule_ = params_.viewpoint;
+  late_rule_.fallback.large_min_visible_samples =
+      std::min(late_rule_.fallback.large_min_visible_samples, params_.late_large_min_visible_samples);
   table_ = std::make_unique<PairCostTable>(params_.cost, params_.cost_path);
   turns_left_ = params_.initial_turn ? params_.initial_turn_parts : 0;
   phase_ = params_.initial_turn ? ExplorationPhase::InitialTurn : ExplorationPhase::Exploring;
@@ -395,7 +400,8 @@ bool ExplorationManager::outsideSweep(const FrontierCluster& cluster) const {
 
 void ExplorationManager::computeViews(const std::vector<const FrontierCluster*>& clusters, const MapQuery& map) {
   if (clusters.empty()) return;
-  std::vector<std::vector<Viewpoint>> views = computeViewpoints(clusters, map, params_.viewpoint);
+  std::vector<std::vector<Viewpoint>> views =
+      computeViewpoints(clusters, map, no_target_left_once_ ? late_rule_ : params_.viewpoint);
   for (std::size_t i = 0; i < clusters.size(); ++i) views_[clusters[i]->id] = std::move(views[i]);
 }
 
@@ -819,20 +825,8 @@ ExplorationStatus ExplorationManager::replan(const MapQuery& map, const VehicleS
 
 std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const MapQuery& map) {
   std::vector<Target> targets = liveTargets(map);
-  if (targets.empty() && params_.final_min_cluster_size > 0 &&
-      params_.final_min_cluster_size < frontiers_.params().min_cluster_size) {
-    // The final sweep: the small clusters, ignored so far, become targets (once: the frontier
-    // keeps the smaller size from now on).
-    const FrontierUpdate u = frontiers_.setMinClusterSize(map, params_.final_min_cluster_size);
-    counters_.final_sweep_clusters += u.added.size();
-    phase_ = ExplorationPhase::FinalSweep;
-    if (params_.final_sweep != FinalSweepScope::All)
-      for (ClusterId id : u.added) {  // the sweep's pockets
-        const FrontierCluster* c = frontiers_.find(id);
-        for (const openvdb::Coord& v : c->voxels) pocket_of_.emplace(v, pocket_visited_.size());
-        pocket_visited_.push_back(false);
-      }
-    applyFrontierUpdate(u, map);
+  if (targets.empty() && !no_target_left_once_) {
+    beginLateTargets(map);
     targets = liveTargets(map);
   }
   if (targets.empty() && !frontiers_.clusters().empty() &&
@@ -848,6 +842,36 @@ std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const 
     targets = liveTargets(map);
   }
   return targets;
+}
+
+void ExplorationManager::beginLateTargets(const MapQuery& map) {
+  no_target_left_once_ = true;  // computeViews takes late_rule_ from now on
+  const ViewpointFallback& fallback = params_.viewpoint.fallback;
+  if (params_.late_large_min_visible_samples <
+      std::min(fallback.min_visible_samples, fallback.large_min_visible_samples)) {
+    std::vector<const FrontierCluster*> large;
+    for (const FrontierCluster& c : frontiers_.clusters()) {
+      const auto it = views_.find(c.id);
+      if ((it == views_.end() || it->second.empty()) && c.voxels.size() >= std::size_t(fallback.large_cluster_voxels))
+        large.push_back(&c);
+    }
+    counters_.late_large_clusters = large.size();
+    computeViews(large, map);
+  }
+  if (params_.final_min_cluster_size > 0 && params_.final_min_cluster_size < frontiers_.params().min_cluster_size) {
+    // The final sweep: the small clusters, ignored so far, become targets (once: the frontier
+    // keeps the smaller size from now on).
+    const FrontierUpdate u = frontiers_.setMinClusterSize(map, params_.final_min_cluster_size);
+    counters_.final_sweep_clusters += u.added.size();
+    phase_ = ExplorationPhase::FinalSweep;
+    if (params_.final_sweep != FinalSweepScope::All)
+      for (ClusterId id : u.added) {  // the sweep's pockets
+        const FrontierCluster* c = frontiers_.find(id);
+        for (const openvdb::Coord& v : c->voxels) pocket_of_.emplace(v, pocket_visited_.size());
+        pocket_visited_.push_back(false);
+      }
+    applyFrontierUpdate(u, map);
+  }
 }
 
 ExplorationStatus ExplorationManager::finishOrWait(const MapQuery& map, const VehicleState& vehicle, double t_s,

@@ -476,11 +476,13 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["retreats"] = r.planner_counters.retreats;
   j["revisit_rounds"] = r.planner_counters.revisit_rounds;
   j["final_sweep_clusters"] = r.planner_counters.final_sweep_clusters;
+  j["late_large_clusters"] = r.planner_counters.late_large_clusters;
   j["initial_turn"] = c.planner.initial_turn;
   j["view_score"] = planner::viewScoreName(c.planner.viewpoint.look_into_unknown);
   j["fallback_min_visible"] = c.planner.viewpoint.fallback.min_visible_samples;
   j["fallback_large_cluster_voxels"] = c.planner.viewpoint.fallback.large_cluster_voxels;
   j["fallback_large_min_visible"] = c.planner.viewpoint.fallback.large_min_visible_samples;
+  j["fallback_large_min_visible_late"] = c.planner.late_large_min_visible_samples;
   j["safety_layer"] = c.planner.safety.enabled;
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
   j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.map_thin_obstacles;

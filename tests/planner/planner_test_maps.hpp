@@ -160,6 +160,21 @@ inline DenseMap halfKnownRoom() {
   return map;
 }
 
+/// halfKnownRoom with a slot of unknown space 0.6 m high and 5.6 m long (x = 4.0 m, y 0.2-5.7 m,
+/// z 1.1-1.6 m) beside its known half, the rest beyond x = 4 m occupied, behind a plate at
+/// x = 3.7 m with a 0.5 m gap: as in goods on shelving, every viewpoint sees only the few slot
+/// voxels the gap shows. Its frontier is the free voxels at x = 3.9 m beside the slot.
+inline DenseMap slotBehindPlate() {
+  using openvdb::Coord;
+  using openvdb::CoordBBox;
+  DenseMap map = halfKnownRoom();
+  map.fill(CoordBBox(Coord(40, 0, 0), Coord(82, 62, 32)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(40, 2, 11), Coord(40, 57, 16)), Occupancy::Unknown);
+  map.fill(CoordBBox(Coord(37, 1, 1), Coord(37, 58, 28)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(37, 27, 11), Coord(37, 31, 16)), Occupancy::Free);
+  return map;
+}
+
 /// Every point of the path, every 5 mm, has only free voxel centres within r (brute force).
 inline bool denselyClear(const DenseMap& map, const std::vector<Vec3d>& path, double r) {
   for (std::size_t i = 1; i < path.size(); ++i) {

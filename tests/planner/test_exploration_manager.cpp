@@ -149,6 +149,9 @@ TEST_CASE("ExplorationManagerConfig::validate names the field", "[planner][explo
   p.revisit_rounds = -1;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("revisit_rounds"));
   p = roomParams();
+  p.late_large_min_visible_samples = -1;
+  CHECK_THROWS_WITH(p.validate(), Catch::Contains("late_large_min_visible_samples"));
+  p = roomParams();
   p.final_min_cluster_size = -1;
   CHECK_THROWS_WITH(p.validate(), Catch::Contains("final_min_cluster_size"));
   CHECK_THROWS_AS(ExplorationManager(roomParams(), at(Vec3d(9, 3, 1.5)), 0.0), std::invalid_argument);
@@ -566,6 +569,52 @@ TEST_CASE("The final sweep visits a pocket smaller than min_cluster_size once no
   CHECK(step.status == ExplorationStatus::Finished);
   CHECK(step.clusters == 0);
   CHECK(m.counters().final_sweep_clusters == 1);  // once per run
+}
+
+TEST_CASE(
+    "With a late fallback threshold a large cluster seen a few voxels per gap is a target only once no other is left",
+    "[planner][exploration]") {
+  // The slot behind a plate, seen a few voxels per viewpoint (its fallback viewpoints need the
+  // lower threshold, 2), and a 1 m cube of unknown space in the room, an ordinary target.
+  DenseMap map = test::slotBehindPlate();
+  const CoordBBox cube(Coord(5, 40, 10), Coord(14, 49, 19));
+  map.fill(cube, Occupancy::Unknown);
+  ExplorationManagerConfig p = roomParams();
+  p.frontier.split_radius_xy_m = 5.0;  // the slot is one cluster
+  const bool late = GENERATE(false, true);
+  (late ? p.late_large_min_visible_samples : p.viewpoint.fallback.large_min_visible_samples) = 2;
+  const Vec3d start(2, 3, 1.5);
+  ExplorationManager m(p, at(start), 0.0);
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  ClusterId slot = 0;
+  for (const FrontierCluster& c : m.frontiers().clusters())
+    if (std::all_of(c.voxels.begin(), c.voxels.end(), [](const Coord& v) { return v.x() == 39; })) {
+      REQUIRE(c.voxels.size() >= std::size_t(p.viewpoint.fallback.large_cluster_voxels));
+      slot = c.id;
+    }
+  REQUIRE(slot != 0);
+  REQUIRE(step.clusters >= 2);
+  if (!late) {  // a target from the start
+    CHECK_FALSE(m.viewpoints().at(slot).empty());
+    CHECK(step.targets == step.clusters);
+    return;
+  }
+  CHECK(m.viewpoints().at(slot).empty());
+  CHECK(step.targets == step.clusters - 1);
+  CHECK(m.target() != slot);
+  CHECK(m.counters().late_large_clusters == 0);
+
+  // The cube is seen: nothing else is left, and the slot gets its viewpoints at the lower threshold.
+  map.fill(cube, Occupancy::Free);
+  const double t = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
+  step = m.update(map, cube, onTrajectory(m, t), t);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  CHECK(m.counters().late_large_clusters == 1);
+  REQUIRE(m.viewpoints().count(slot) == 1);
+  CHECK_FALSE(m.viewpoints().at(slot).empty());
+  CHECK(m.target() == slot);
+  CHECK(trajectoryClear(m, map, p.path.clearance_m - 1e-9));
 }
 
 TEST_CASE("The final sweep visits the pockets it began with and what remains of them, as its scope says",

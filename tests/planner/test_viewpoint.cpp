@@ -411,14 +411,7 @@ TEST_CASE("The fallback's threshold lets a small cluster pass by the fraction it
 
 TEST_CASE("A large cluster seen only a few voxels at a time gets fallback viewpoints at a lower threshold",
           "[planner][viewpoint]") {
-  // A slot of unknown space 0.6 m high and 5.6 m long (x = 4.0 m, y 0.2-5.7 m, z 1.1-1.6 m) beside
-  // the known half of the halfKnownRoom, behind a plate at x = 3.7 m with a 0.5 m gap: as in goods
-  // on shelving, every viewpoint sees only the few slot voxels the gap shows.
-  DenseMap map = test::halfKnownRoom();
-  map.fill(CoordBBox(Coord(40, 0, 0), Coord(82, 62, 32)), Occupancy::Occupied);
-  map.fill(CoordBBox(Coord(40, 2, 11), Coord(40, 57, 16)), Occupancy::Unknown);
-  map.fill(CoordBBox(Coord(37, 1, 1), Coord(37, 58, 28)), Occupancy::Occupied);
-  map.fill(CoordBBox(Coord(37, 27, 11), Coord(37, 31, 16)), Occupancy::Free);
+  const DenseMap map = test::slotBehindPlate();
   FrontierConfig fp;
   fp.min_cluster_size = 1;
   fp.split_radius_xy_m = 5.0;  // one cluster, not split

@@ -89,6 +89,7 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
       {"fallback_min_visible", planner::ViewpointFallback{}.min_visible_samples},  // benchmarks fly the default
       {"fallback_large_cluster_voxels", planner::ViewpointFallback{}.large_cluster_voxels},
       {"fallback_large_min_visible", planner::ViewpointFallback{}.large_min_visible_samples},
+      {"fallback_large_min_visible_late", planner::ExplorationManagerConfig{}.late_large_min_visible_samples},
       {"loop_closure", toString(loop_closure)}};
   if (!world.office) identity["world"] = std::filesystem::absolute(world.mesh).lexically_normal().string();
   return identity;
@@ -102,7 +103,8 @@ inline const nlohmann::json& keysAddedLater() {
                                       {"view_score", planner::viewScoreName(false)},
                                       {"fallback_min_visible", 15},
                                       {"fallback_large_cluster_voxels", 100},
-                                      {"fallback_large_min_visible", 15}};
+                                      {"fallback_large_min_visible", 15},
+                                      {"fallback_large_min_visible_late", 15}};
   return keys;
 }
 

@@ -285,6 +285,13 @@ struct ExplorationManagerConfig {
   /// FUEL's cluster_min ignores (between shelves, behind posts) are visited at the end, in one
   /// tour (final_sweep says which). 0: off; [0, 1e8]
   int final_min_cluster_size = 30;
+  /// From the first time no target is left (where the final sweep begins), a cluster of at least
+  /// viewpoint.fallback.large_cluster_voxels frontier voxels takes this fallback threshold
+  /// (ViewpointFallback::large_min_visible_samples) when it is lower than the one it had, and the
+  /// large clusters still without a viewpoint get theirs computed again then. Goods on shelving,
+  /// seen a few voxels per gap, are looked into at the end, not in many looks among aisles still
+  /// being explored (docs/exploration.md, "Stop 84"). 15 or more: off; [0, 1e6]
+  int late_large_min_visible_samples = 15;
   /// Which small clusters the final sweep visits (docs/exploration.md, "Final sweep").
   FinalSweepScope final_sweep = FinalSweepScope::PocketsOnce;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
@@ -452,6 +459,8 @@ struct ExplorationCounters {
   std::size_t retreats = 0;              ///< escapes back along the way flown
   std::size_t revisit_rounds = 0;        ///< ExplorationManagerConfig::revisit_rounds done
   std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
+  std::size_t late_large_clusters =
+      0;  ///< large clusters without a viewpoint looked at again (late_large_min_visible_samples)
   std::size_t emergency_stops = 0;       ///< ReplanReason::EmergencyStop replans (SafetyConfig)
   std::size_t look_stops = 0;            ///< ReplanReason::LookAhead: brakings to look along the way (SafetyConfig)
   std::size_t looks_resumed = 0;         ///< looks after which the vehicle flew on along the way it was flying
@@ -637,6 +646,9 @@ class ExplorationManager {
   /// The live targets; when none is left, the final sweep's small clusters, then (revisit_rounds)
   /// the blacklisted ones once more.
   std::vector<Target> gatherTargets(const MapQuery& map);
+  /// The first time no target is left: the large clusters' lower fallback threshold starts to act
+  /// (late_large_min_visible_samples), then the final sweep begins (final_min_cluster_size).
+  void beginLateTargets(const MapQuery& map);
   /// No target is left: finish once at rest, else let the trajectory run out (NoFrontier). With
   /// ALC, a loop may be closed first (ActiveLoopClosure::decideFinish).
   ExplorationStatus finishOrWait(const MapQuery& map, const VehicleState& vehicle, double t_s, ExplorationStep& step);
@@ -667,6 +679,8 @@ class ExplorationManager {
 
   ExplorationManagerConfig params_;
   ViewpointConfig voxel_rule_;  ///< params_.viewpoint with FUEL's rule (look_into_unknown off)
+  /// params_.viewpoint with the large clusters' late fallback threshold (late_large_min_visible_samples)
+  ViewpointConfig late_rule_;
   std::vector<Eigen::AlignedBox3d> free_boxes_;
   FrontierMap frontiers_;
   std::map<ClusterId, std::vector<Viewpoint>> views_;
@@ -693,6 +707,7 @@ class ExplorationManager {
 
   // The state machine.
   ExplorationPhase phase_ = ExplorationPhase::Exploring;
+  bool no_target_left_once_ = false;  ///< no target was left at some replan (late_rule_ applies)
   FlightKind flight_ = FlightKind::Hold;
   Pending pending_;
   int turns_left_ = 0;          ///< parts of the initial turn still to plan
