@@ -291,7 +291,7 @@ struct ExplorationManagerConfig {
   /// large clusters still without a viewpoint get theirs computed again then. Goods on shelving,
   /// seen a few voxels per gap, are looked into at the end, not in many looks among aisles still
   /// being explored (docs/exploration.md, "Stop 84"). 15 or more: off; [0, 1e6]
-  int late_large_min_visible_samples = 15;
+  int late_large_min_visible_samples = 5;
   /// Which small clusters the final sweep visits (docs/exploration.md, "Final sweep").
   FinalSweepScope final_sweep = FinalSweepScope::PocketsOnce;
   /// Targets tried per replan, in tour order, when the first ones fail; [1, 100]
