@@ -284,6 +284,7 @@ class ExplorationManagerConfig:
     all_failed_spacing_s: float
     revisit_rounds: int
     final_min_cluster_size: int
+    late_large_min_visible_samples: int
     final_sweep: FinalSweepScope
     max_targets_per_replan: int
     keep_target: bool
@@ -334,6 +335,8 @@ class ExplorationCounters:
     def revisit_rounds(self) -> int: ...
     @property
     def final_sweep_clusters(self) -> int: ...
+    @property
+    def late_large_clusters(self) -> int: ...
     @property
     def emergency_stops(self) -> int: ...
     @property
