@@ -846,18 +846,15 @@ std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const 
 
 void ExplorationManager::beginLateTargets(const MapQuery& map) {
   no_target_left_once_ = true;  // computeViews takes late_rule_ from now on
-  const ViewpointFallback& fallback = params_.viewpoint.fallback;
-  if (params_.late_large_min_visible_samples <
-      std::min(fallback.min_visible_samples, fallback.large_min_visible_samples)) {
-    std::vector<const FrontierCluster*> large;
-    for (const FrontierCluster& c : frontiers_.clusters()) {
-      const auto it = views_.find(c.id);
-      if ((it == views_.end() || it->second.empty()) && c.voxels.size() >= std::size_t(fallback.large_cluster_voxels))
-        large.push_back(&c);
-    }
-    counters_.late_large_clusters = large.size();
-    computeViews(large, map);
+  std::vector<const FrontierCluster*> lowered;  // without a viewpoint, and with a lower threshold now
+  for (const FrontierCluster& c : frontiers_.clusters()) {
+    const auto it = views_.find(c.id);
+    if ((it == views_.end() || it->second.empty()) &&
+        late_rule_.fallback.minVisibleSamples(c) < params_.viewpoint.fallback.minVisibleSamples(c))
+      lowered.push_back(&c);
   }
+  counters_.late_large_clusters = lowered.size();
+  computeViews(lowered, map);
   if (params_.final_min_cluster_size > 0 && params_.final_min_cluster_size < frontiers_.params().min_cluster_size) {
     // The final sweep: the small clusters, ignored so far, become targets (once: the frontier
     // keeps the smaller size from now on).

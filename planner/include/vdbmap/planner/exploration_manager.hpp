@@ -459,8 +459,8 @@ struct ExplorationCounters {
   std::size_t retreats = 0;              ///< escapes back along the way flown
   std::size_t revisit_rounds = 0;        ///< ExplorationManagerConfig::revisit_rounds done
   std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
-  std::size_t late_large_clusters =
-      0;  ///< large clusters without a viewpoint looked at again (late_large_min_visible_samples)
+  /// large clusters without a viewpoint looked at again (late_large_min_visible_samples)
+  std::size_t late_large_clusters = 0;
   std::size_t emergency_stops = 0;       ///< ReplanReason::EmergencyStop replans (SafetyConfig)
   std::size_t look_stops = 0;            ///< ReplanReason::LookAhead: brakings to look along the way (SafetyConfig)
   std::size_t looks_resumed = 0;         ///< looks after which the vehicle flew on along the way it was flying
