@@ -55,6 +55,7 @@ struct ExploreOptions {
   int final_min_cluster_size = planner::ExplorationManagerConfig{}.final_min_cluster_size;
   std::string final_sweep = planner::toString(planner::ExplorationManagerConfig{}.final_sweep);
   bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
+  std::string vertical_frontier = planner::ViewpointConfig{}.vertical_into_unknown ? "into-unknown" : "voxel";
   int fallback_min_visible = planner::ViewpointFallback{}.min_visible_samples;
   int fallback_large_voxels = planner::ViewpointFallback{}.large_cluster_voxels;
   int fallback_large_min_visible = planner::ViewpointFallback{}.large_min_visible_samples;
@@ -121,6 +122,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.look_into_unknown;
+  config.planner.viewpoint.vertical_into_unknown = o.vertical_frontier == "into-unknown";
   config.planner.viewpoint.fallback.min_visible_samples = o.fallback_min_visible;
   config.planner.viewpoint.fallback.large_cluster_voxels = o.fallback_large_voxels;
   config.planner.viewpoint.fallback.large_min_visible_samples = o.fallback_large_min_visible;
@@ -139,12 +141,13 @@ void runExplore(const ExploreOptions& o) {
       "vdbmap explore --world " + o.world.string() + " --drift " + o.drift + " --seed " + std::to_string(o.seed) +
       " --mode " + o.mode + " --min-cluster-size " + std::to_string(o.min_cluster_size) + " --final-min-cluster-size " +
       std::to_string(o.final_min_cluster_size) + " --final-sweep " + o.final_sweep + " --view-score " +
-      planner::viewScoreName(o.look_into_unknown) + " --fallback-min-visible " +
-      std::to_string(o.fallback_min_visible) + " --fallback-large-voxels " + std::to_string(o.fallback_large_voxels) +
-      " --fallback-large-min-visible " + std::to_string(o.fallback_large_min_visible) +
-      " --fallback-large-min-visible-late " + std::to_string(o.fallback_large_min_visible_late) + " --revisit-rounds " +
-      std::to_string(o.revisit_rounds) + " --w-dir " + std::to_string(o.w_dir) + " --lead-in " + o.lead_in +
-      " --budgets " + o.budgets + (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
+      planner::viewScoreName(o.look_into_unknown) + " --vertical-frontier " + o.vertical_frontier +
+      " --fallback-min-visible " + std::to_string(o.fallback_min_visible) + " --fallback-large-voxels " +
+      std::to_string(o.fallback_large_voxels) + " --fallback-large-min-visible " +
+      std::to_string(o.fallback_large_min_visible) + " --fallback-large-min-visible-late " +
+      std::to_string(o.fallback_large_min_visible_late) + " --revisit-rounds " + std::to_string(o.revisit_rounds) +
+      " --w-dir " + std::to_string(o.w_dir) + " --lead-in " + o.lead_in + " --budgets " + o.budgets +
+      (o.no_initial_turn ? " --no-initial-turn" : "") + " --alc " + o.alc +
       (config.planner.alc_enabled
            ? " --epsilon " + std::to_string(o.epsilon) + " --finish-loop-age " + std::to_string(o.finish_loop_age_s)
            : std::string()) +
@@ -313,6 +316,13 @@ const Registration registration("explore", [](CLI::App& app) {
                   "it is over: shorter sweeps, fewer loop closures)")
       ->check(CLI::IsMember({"all", "pockets", "once"}));
   addViewScoreOption(*sub, o->look_into_unknown);
+  sub->add_option("--vertical-frontier", o->vertical_frontier,
+                  "With --view-score voxel, how a frontier voxel whose unknown neighbours lie only above or below "
+                  "it counts for a viewpoint until no target is left: into-unknown (only when the camera looks into "
+                  "that unknown: the top of a shelf board seen from its height does not count) or voxel (FUEL's "
+                  "rule: seen is enough). From the first time no target is left, FUEL's rule, and the clusters "
+                  "left without a viewpoint get theirs")
+      ->check(CLI::IsMember({"into-unknown", "voxel"}));
   sub->add_option("--fallback-min-visible", o->fallback_min_visible,
                   "A fallback viewpoint (for a cluster no ring viewpoint sees) passes when it sees more than this "
                   "many of the cluster's voxels (or half of a small cluster): lower lets shelving whose goods show "

@@ -68,6 +68,9 @@ void bindFrontierAndViewpoints(py::module_& m) {
                      "[0, 100]")
       .def_readwrite("voxel_rule_fallback", &ViewpointConfig::voxel_rule_fallback,
                      "with look_into_unknown: a cluster no candidate observes that way gets viewpoints by FUEL's rule")
+      .def_readwrite("vertical_into_unknown", &ViewpointConfig::vertical_into_unknown,
+                     "with FUEL's rule: a sample whose unknown neighbours lie only above or below it counts only when "
+                     "the camera looks into them (the exploration manager keeps it until no target is left)")
       .def_readwrite("camera", &ViewpointConfig::camera, "CameraFrustum")
       .def_readwrite("fallback", &ViewpointConfig::fallback, "ViewpointFallback")
       .def("validate", &ViewpointConfig::validate, "Raises ValueError naming the field and its allowed range.");

@@ -266,9 +266,11 @@ ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, c
   frontiers_ = FrontierMap(params_.frontier);
   voxel_rule_ = params_.viewpoint;
   voxel_rule_.look_into_unknown = false;
+  voxel_rule_.vertical_into_unknown = false;
   late_rule_ = params_.viewpoint;
   late_rule_.fallback.large_min_visible_samples =
       std::min(late_rule_.fallback.large_min_visible_samples, params_.late_large_min_visible_samples);
+  late_rule_.vertical_into_unknown = false;
   table_ = std::make_unique<PairCostTable>(params_.cost, params_.cost_path);
   turns_left_ = params_.initial_turn ? params_.initial_turn_parts : 0;
   phase_ = params_.initial_turn ? ExplorationPhase::InitialTurn : ExplorationPhase::Exploring;
@@ -435,7 +437,8 @@ std::vector<ExplorationManager::Target> ExplorationManager::liveTargets(const Ma
 }
 
 const ViewpointConfig& ExplorationManager::ruleOf(const Viewpoint& view) const {
-  return view.looks_into_unknown == params_.viewpoint.look_into_unknown ? params_.viewpoint : voxel_rule_;
+  if (view.looks_into_unknown != params_.viewpoint.look_into_unknown) return voxel_rule_;
+  return no_target_left_once_ ? late_rule_ : params_.viewpoint;
 }
 
 bool ExplorationManager::seesAny(MapProbe& sight, const Viewpoint& view, const FrontierCluster& cluster) const {
@@ -846,11 +849,13 @@ std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const 
 
 void ExplorationManager::beginLateTargets(const MapQuery& map) {
   no_target_left_once_ = true;  // computeViews takes late_rule_ from now on
-  std::vector<const FrontierCluster*> lowered;  // without a viewpoint, and with a lower threshold now
+  // Without a viewpoint, and with a lower threshold or FUEL's rule alone now.
+  std::vector<const FrontierCluster*> lowered;
   for (const FrontierCluster& c : frontiers_.clusters()) {
     const auto it = views_.find(c.id);
     if ((it == views_.end() || it->second.empty()) &&
-        late_rule_.fallback.minVisibleSamples(c) < params_.viewpoint.fallback.minVisibleSamples(c))
+        (late_rule_.fallback.minVisibleSamples(c) < params_.viewpoint.fallback.minVisibleSamples(c) ||
+         late_rule_.vertical_into_unknown != params_.viewpoint.vertical_into_unknown))
       lowered.push_back(&c);
   }
   counters_.late_large_clusters = lowered.size();

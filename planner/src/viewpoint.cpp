@@ -152,15 +152,23 @@ std::vector<openvdb::Coord> visibleVoxels(MapProbe& probe, const Vec3d& eye_W, d
 namespace {
 int maxNorm(const openvdb::Coord& d) { return std::max({std::abs(d.x()), std::abs(d.y()), std::abs(d.z())}); }
 
+/// Whether a face neighbour of `v` beside it (not above or below) is unknown.
+bool unknownBeside(MapProbe& probe, const openvdb::Coord& v) {
+  for (const openvdb::Coord& d : kFaceNeighbours)
+    if (d.z() == 0 && probe.at(v + d) == Occupancy::Unknown) return true;
+  return false;
+}
+
 /// Calls on_observed(sample) for each sample observedSamples() returns (until it returns false).
 template <typename OnObserved>
 void forEachObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& samples,
                      const ViewpointConfig& params, OnObserved&& on_observed) {
-  if (!params.look_into_unknown) return forEachSeen(probe, eye_W, yaw_rad, samples, params.camera, on_observed);
+  if (!params.look_into_unknown && !params.vertical_into_unknown)
+    return forEachSeen(probe, eye_W, yaw_rad, samples, params.camera, on_observed);
   const double voxel_size_m = probe.voxelSize();
   const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
   const Eigen::AlignedBox3d* bounds = params.frontier_bounds_W ? &*params.frontier_bounds_W : nullptr;
-  for (const openvdb::Coord& v : samples) {
+  const auto looks_into_unknown = [&](const openvdb::Coord& v) {
     for (const openvdb::Coord& d : kFaceNeighbours) {
       const openvdb::Coord n = v + d;
       if (probe.at(n) != Occupancy::Unknown) continue;
@@ -169,11 +177,20 @@ void forEachObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const 
       // The ray toward n enters unknown space at n or near it; one entering it farther off runs
       // along the unknown's edge, as toward the top of a board seen edge-on.
       const std::optional<openvdb::Coord> entry = probe.firstNotFree(eye_W, p);
-      if (entry && probe.at(*entry) == Occupancy::Unknown && maxNorm(*entry - n) <= params.unknown_entry_reach_vox) {
-        if (!on_observed(v)) return;
-        break;
-      }
+      if (entry && probe.at(*entry) == Occupancy::Unknown && maxNorm(*entry - n) <= params.unknown_entry_reach_vox)
+        return true;
     }
+    return false;
+  };
+  for (const openvdb::Coord& v : samples) {
+    bool observed;
+    if (!params.look_into_unknown && unknownBeside(probe, v)) {
+      const Vec3d p = voxelCenterOf(v, voxel_size_m);
+      observed = frustumContains(params.camera, eye_W, c, s, p) && probe.isVisible(p, eye_W);
+    } else {
+      observed = looks_into_unknown(v);
+    }
+    if (observed && !on_observed(v)) return;
   }
 }
 }  // namespace
@@ -289,6 +306,7 @@ std::vector<Viewpoint> computeViewpoints(const FrontierCluster& cluster, const M
   if (viewpoints.empty() && params.look_into_unknown && params.voxel_rule_fallback) {
     ViewpointConfig fuel = params;
     fuel.look_into_unknown = false;
+    fuel.vertical_into_unknown = false;
     search(fuel);
   }
   std::stable_sort(viewpoints.begin(), viewpoints.end(),

@@ -617,6 +617,52 @@ TEST_CASE(
   CHECK(trajectoryClear(m, map, p.path.clearance_m - 1e-9));
 }
 
+TEST_CASE("With the vertical rule a board's top seen only edge-on is a target only once no other is left",
+          "[planner][exploration]") {
+  // A shelf board's top: under a closed box of unknown space (occupied sides, 1.7-2.9 m up, x 4-7.9
+  // m, y 2-4 m) the free voxels at 1.6 m are frontier with the unknown only above them. From the
+  // rings at their height a camera sees them but not into the unknown above: FUEL's rule gives them
+  // viewpoints whose visits fail; the vertical rule none. A 1 m cube of unknown space in the room
+  // is an ordinary target.
+  DenseMap map = test::makeRoom({80, 60, 30});
+  map.fill(CoordBBox(Coord(39, 19, 17), Coord(78, 40, 28)), Occupancy::Occupied);
+  map.fill(CoordBBox(Coord(40, 20, 17), Coord(78, 39, 28)), Occupancy::Unknown);
+  const CoordBBox cube(Coord(5, 40, 5), Coord(14, 49, 14));
+  map.fill(cube, Occupancy::Unknown);
+  ExplorationManagerConfig p = roomParams();
+  p.frontier.split_radius_xy_m = 5.0;    // the board's top is one cluster
+  p.viewpoint.fallback.enabled = false;  // no lower rings looking up into it
+  p.viewpoint.vertical_into_unknown = GENERATE(false, true);
+  CAPTURE(p.viewpoint.vertical_into_unknown);
+  const Vec3d start(2, 1.5, 1.0);
+  ExplorationManager m(p, at(start), 0.0);
+  ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  ClusterId board = 0;
+  for (const FrontierCluster& c : m.frontiers().clusters())
+    if (std::all_of(c.voxels.begin(), c.voxels.end(), [](const Coord& v) { return v.z() == 16; })) board = c.id;
+  REQUIRE(board != 0);
+  REQUIRE(step.clusters == 2);
+  if (!p.viewpoint.vertical_into_unknown) {  // FUEL's rule: a target from the start
+    CHECK_FALSE(m.viewpoints().at(board).empty());
+    CHECK(step.targets == 2);
+    return;
+  }
+  CHECK(m.viewpoints().at(board).empty());
+  CHECK(step.targets == 1);
+  CHECK(m.target() != board);
+
+  // The cube is seen: no target is left, and the board's top gets viewpoints by FUEL's rule.
+  map.fill(cube, Occupancy::Free);
+  const double t = m.trajectoryStartTime() + m.trajectory().duration() + 0.01;
+  step = m.update(map, cube, onTrajectory(m, t), t);
+  REQUIRE(step.status == ExplorationStatus::Planned);
+  CHECK(m.counters().late_large_clusters == 1);
+  REQUIRE_FALSE(m.viewpoints().at(board).empty());
+  CHECK(m.target() == board);
+  CHECK(trajectoryClear(m, map, p.path.clearance_m - 1e-9));
+}
+
 TEST_CASE("The final sweep visits the pockets it began with and what remains of them, as its scope says",
           "[planner][exploration]") {
   // Pocket A (roomWithPocket's) starts the sweep. While the vehicle flies there, pocket B of the

@@ -58,6 +58,25 @@ int bruteObserved(const DenseMap& map, const FrontierCluster& cluster, const Vie
   return bruteObserved(map, cluster.samples, params, v.position_W, v.yaw_rad);
 }
 
+/// The samples observed by FUEL's rule with vertical_into_unknown, recounted by brute force: a
+/// sample with an unknown neighbour beside it counts when seen, one whose unknown neighbours lie
+/// only above or below it when observed as bruteObserved counts.
+int bruteObservedVertical(const DenseMap& map, const std::vector<Coord>& samples, const ViewpointConfig& params,
+                          const Vec3d& eye, double yaw) {
+  int seen = 0;
+  for (const Coord& s : samples) {
+    bool beside = false;
+    for (const Coord& d : kFaceNeighbours) beside |= d.z() == 0 && map.get(s + d) == Occupancy::Unknown;
+    if (beside) {
+      const Vec3d p = map.voxelCenter(s);
+      seen += params.camera.contains(eye, yaw, p) && test::bruteVisible(map, p, eye);
+    } else {
+      seen += bruteObserved(map, {s}, params, eye, yaw);
+    }
+  }
+  return seen;
+}
+
 /// The defaults with look_into_unknown on.
 ViewpointConfig intoUnknown() {
   ViewpointConfig p;
@@ -232,7 +251,7 @@ TEST_CASE("observedSamples equals the brute-force rule for every entry reach, in
   REQUIRE(samples.size() > 1000);
   std::uniform_real_distribution<double> px(0.3, 3.6), py(0.3, 5.6), pz(0.3, 2.6), yaw(-M_PI, M_PI);
   MapProbe probe(map);
-  std::size_t observed_total = 0, visible_total = 0;
+  std::size_t observed_total = 0, visible_total = 0, vertical_total = 0, vertical_fewer = 0;
   for (int i = 0; i < 40; ++i) {
     ViewpointConfig params = intoUnknown();
     params.unknown_entry_reach_vox = i % 3;
@@ -253,9 +272,18 @@ TEST_CASE("observedSamples equals the brute-force rule for every entry reach, in
     REQUIRE(observesAny(probe, eye, y, samples, params) == !fuel.empty());
     REQUIRE(observesAny(probe, eye, y, {}, params) == false);
     visible_total += fuel.size();
+    params.vertical_into_unknown = true;
+    const std::vector<Coord> vertical = observedSamples(probe, eye, y, samples, params);
+    REQUIRE(int(vertical.size()) == bruteObservedVertical(map, samples, params, eye, y));
+    REQUIRE(countObserved(probe, eye, y, samples, params) == int(vertical.size()));
+    REQUIRE(observesAny(probe, eye, y, samples, params) == !vertical.empty());
+    vertical_total += vertical.size();
+    vertical_fewer += vertical.size() < fuel.size();
   }
   CHECK(observed_total > 500);
   CHECK(visible_total > 500);
+  CHECK(vertical_total > 500);
+  CHECK(vertical_fewer > 0);  // the room's floor and ceiling frontier is seen but not looked into
 }
 
 TEST_CASE("A free layer under unknown space seen edge-on is visible but not observed", "[planner][viewpoint]") {
@@ -285,6 +313,20 @@ TEST_CASE("A free layer under unknown space seen edge-on is visible but not obse
   ViewpointConfig strict = params;
   strict.unknown_entry_reach_vox = 0;
   CHECK(countObserved(probe, below, yaw, layer, strict) < countObserved(probe, below, yaw, layer, params));
+
+  // FUEL's rule with vertical_into_unknown judges this layer, whose unknown lies only above it, as
+  // looking into the unknown does; the free voxels beside the unknown's west face (x = 0.9 m,
+  // from 1.7 m up) stay FUEL's: seen is enough.
+  ViewpointConfig vertical;
+  vertical.vertical_into_unknown = true;
+  CHECK(countObserved(probe, level, yaw, layer, vertical) == 0);
+  CHECK(countObserved(probe, below, yaw, layer, vertical) == countObserved(probe, below, yaw, layer, params));
+  std::vector<Coord> face;  // free voxels at x = 0.9 m with unknown beside them, 1.7-2.5 m up
+  for (int y = 5; y <= 15; ++y)
+    for (int z = 17; z <= 25; ++z) face.emplace_back(9, y, z);
+  const Vec3d back(0.2, 1.0, 2.1);
+  CHECK(countObserved(probe, back, yaw, face, vertical) == countVisible(probe, back, yaw, face, vertical.camera));
+  CHECK(countObserved(probe, back, yaw, face, vertical) > 50);
 
   SECTION("A cluster of it that no candidate observes gets viewpoints by FUEL's rule, marked so") {
     FrontierCluster cluster;

@@ -69,6 +69,7 @@ class ViewpointConfig:
     look_into_unknown: bool
     unknown_entry_reach_vox: int
     voxel_rule_fallback: bool
+    vertical_into_unknown: bool
     camera: CameraFrustum
     fallback: ViewpointFallback
     def __init__(self, **kwargs: Any) -> None: ...

@@ -291,6 +291,8 @@ struct ExplorationManagerConfig {
   /// large clusters still without a viewpoint get theirs computed again then. Goods on shelving,
   /// seen a few voxels per gap, are looked into at the end, not in many looks among aisles still
   /// being explored (docs/exploration.md, "Stop 84"). 15 or more: off; [0, 1e6]
+  /// From then on viewpoints also score by FUEL's rule alone (ViewpointConfig::
+  /// vertical_into_unknown off), and the clusters that had none by the vertical rule get theirs.
   int late_large_min_visible_samples = 5;
   /// Which small clusters the final sweep visits (docs/exploration.md, "Final sweep").
   FinalSweepScope final_sweep = FinalSweepScope::PocketsOnce;
@@ -459,7 +461,8 @@ struct ExplorationCounters {
   std::size_t retreats = 0;              ///< escapes back along the way flown
   std::size_t revisit_rounds = 0;        ///< ExplorationManagerConfig::revisit_rounds done
   std::size_t final_sweep_clusters = 0;  ///< clusters the final sweep (final_min_cluster_size) added
-  /// large clusters without a viewpoint looked at again (late_large_min_visible_samples)
+  /// clusters without a viewpoint looked at again when no target was left: large ones
+  /// (late_large_min_visible_samples), and every one when viewpoint.vertical_into_unknown was on
   std::size_t late_large_clusters = 0;
   std::size_t emergency_stops = 0;       ///< ReplanReason::EmergencyStop replans (SafetyConfig)
   std::size_t look_stops = 0;            ///< ReplanReason::LookAhead: brakings to look along the way (SafetyConfig)

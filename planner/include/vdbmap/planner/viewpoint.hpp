@@ -111,6 +111,12 @@ struct ViewpointConfig {
   /// FUEL's rule (Viewpoint::looks_into_unknown false), e.g. the top of a board the camera will see
   /// once it flies closer; off: such a cluster has none until its viewpoints are computed again.
   bool voxel_rule_fallback = true;
+  /// With FUEL's rule (look_into_unknown off): a sample whose unknown face neighbours all lie
+  /// straight above or below it counts only when observed as look_into_unknown observes it; the
+  /// others by FUEL's rule. A level camera at a board's height sees the free voxels on its top but
+  /// not into the unknown above them, so visits there fail (docs/exploration.md, "Stop 87"). The
+  /// exploration manager keeps it until no target is left, and scores by FUEL's rule from then on.
+  bool vertical_into_unknown = false;
   /// Where unknown voxels make frontiers (FrontierConfig::bounds_W): one outside it is no reason
   /// to fly anywhere. Unset: no limit.
   std::optional<Eigen::AlignedBox3d> frontier_bounds_W;
