@@ -65,6 +65,14 @@ ExplorationManagerConfig driftFreeLayerParams() {
   return p;
 }
 
+/// The id of the manager's frontier cluster whose every voxel satisfies `in` (0: none).
+template <typename Pred>
+ClusterId clusterWhere(const ExplorationManager& m, Pred in) {
+  for (const FrontierCluster& c : m.frontiers().clusters())
+    if (std::all_of(c.voxels.begin(), c.voxels.end(), in)) return c.id;
+  return 0;
+}
+
 /// The vehicle as the manager commands it at t (exactly on its trajectory).
 VehicleState onTrajectory(const ExplorationManager& m, double t) {
   const VehicleState c = m.command(t);
@@ -587,13 +595,9 @@ TEST_CASE(
   ExplorationManager m(p, at(start), 0.0);
   ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
   REQUIRE(step.status == ExplorationStatus::Planned);
-  ClusterId slot = 0;
-  for (const FrontierCluster& c : m.frontiers().clusters())
-    if (std::all_of(c.voxels.begin(), c.voxels.end(), [](const Coord& v) { return v.x() == 39; })) {
-      REQUIRE(c.voxels.size() >= std::size_t(p.viewpoint.fallback.large_cluster_voxels));
-      slot = c.id;
-    }
+  const ClusterId slot = clusterWhere(m, [](const Coord& v) { return v.x() == 39; });
   REQUIRE(slot != 0);
+  REQUIRE(m.frontiers().find(slot)->voxels.size() >= std::size_t(p.viewpoint.fallback.large_cluster_voxels));
   REQUIRE(step.clusters >= 2);
   if (!late) {  // a target from the start
     CHECK_FALSE(m.viewpoints().at(slot).empty());
@@ -638,9 +642,7 @@ TEST_CASE("With the vertical rule a board's top seen only edge-on is a target on
   ExplorationManager m(p, at(start), 0.0);
   ExplorationStep step = m.update(map, CoordBBox(), at(start), 0.0);
   REQUIRE(step.status == ExplorationStatus::Planned);
-  ClusterId board = 0;
-  for (const FrontierCluster& c : m.frontiers().clusters())
-    if (std::all_of(c.voxels.begin(), c.voxels.end(), [](const Coord& v) { return v.z() == 16; })) board = c.id;
+  const ClusterId board = clusterWhere(m, [](const Coord& v) { return v.z() == 16; });
   REQUIRE(board != 0);
   REQUIRE(step.clusters == 2);
   if (!p.viewpoint.vertical_into_unknown) {  // FUEL's rule: a target from the start
