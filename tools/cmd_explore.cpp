@@ -55,7 +55,7 @@ struct ExploreOptions {
   int final_min_cluster_size = planner::ExplorationManagerConfig{}.final_min_cluster_size;
   std::string final_sweep = planner::toString(planner::ExplorationManagerConfig{}.final_sweep);
   bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
-  std::string vertical_frontier = planner::ViewpointConfig{}.vertical_into_unknown ? "into-unknown" : "voxel";
+  std::string vertical_frontier = planner::viewScoreName(planner::ViewpointConfig{}.vertical_into_unknown);
   int fallback_min_visible = planner::ViewpointFallback{}.min_visible_samples;
   int fallback_large_voxels = planner::ViewpointFallback{}.large_cluster_voxels;
   int fallback_large_min_visible = planner::ViewpointFallback{}.large_min_visible_samples;
@@ -122,7 +122,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.frontier.min_cluster_size = o.min_cluster_size;
   config.planner.revisit_rounds = o.revisit_rounds;
   config.planner.viewpoint.look_into_unknown = o.look_into_unknown;
-  config.planner.viewpoint.vertical_into_unknown = o.vertical_frontier == "into-unknown";
+  config.planner.viewpoint.vertical_into_unknown = o.vertical_frontier == planner::viewScoreName(true);
   config.planner.viewpoint.fallback.min_visible_samples = o.fallback_min_visible;
   config.planner.viewpoint.fallback.large_cluster_voxels = o.fallback_large_voxels;
   config.planner.viewpoint.fallback.large_min_visible_samples = o.fallback_large_min_visible;
@@ -322,7 +322,7 @@ const Registration registration("explore", [](CLI::App& app) {
                   "that unknown: the top of a shelf board seen from its height does not count) or voxel (FUEL's "
                   "rule: seen is enough). From the first time no target is left, FUEL's rule, and the clusters "
                   "left without a viewpoint get theirs")
-      ->check(CLI::IsMember({"into-unknown", "voxel"}));
+      ->check(CLI::IsMember({planner::viewScoreName(true), planner::viewScoreName(false)}));
   sub->add_option("--fallback-min-visible", o->fallback_min_visible,
                   "A fallback viewpoint (for a cluster no ring viewpoint sees) passes when it sees more than this "
                   "many of the cluster's voxels (or half of a small cluster): lower lets shelving whose goods show "

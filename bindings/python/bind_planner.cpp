@@ -412,8 +412,9 @@ void bindExplorationParams(py::module_& m) {
       .def_readonly("final_sweep_clusters", &ExplorationCounters::final_sweep_clusters,
                     "clusters the final sweep (ExplorationManagerConfig.final_min_cluster_size) added")
       .def_readonly("late_large_clusters", &ExplorationCounters::late_large_clusters,
-                    "large clusters without a viewpoint looked at again when no target was left "
-                    "(ExplorationManagerConfig.late_large_min_visible_samples)")
+                    "clusters without a viewpoint looked at again when no target was left: large ones "
+                    "(ExplorationManagerConfig.late_large_min_visible_samples), every one with "
+                    "ViewpointConfig.vertical_into_unknown")
       .def_readonly("emergency_stops", &ExplorationCounters::emergency_stops,
                     "replans because the recent frames saw the trajectory blocked (SafetyConfig)")
       .def_readonly("look_stops", &ExplorationCounters::look_stops,

@@ -850,12 +850,12 @@ std::vector<ExplorationManager::Target> ExplorationManager::gatherTargets(const 
 void ExplorationManager::beginLateTargets(const MapQuery& map) {
   no_target_left_once_ = true;  // computeViews takes late_rule_ from now on
   // Without a viewpoint, and with a lower threshold or FUEL's rule alone now.
+  const bool rule_changed = late_rule_.vertical_into_unknown != params_.viewpoint.vertical_into_unknown;
   std::vector<const FrontierCluster*> lowered;
   for (const FrontierCluster& c : frontiers_.clusters()) {
     const auto it = views_.find(c.id);
     if ((it == views_.end() || it->second.empty()) &&
-        (late_rule_.fallback.minVisibleSamples(c) < params_.viewpoint.fallback.minVisibleSamples(c) ||
-         late_rule_.vertical_into_unknown != params_.viewpoint.vertical_into_unknown))
+        (rule_changed || late_rule_.fallback.minVisibleSamples(c) < params_.viewpoint.fallback.minVisibleSamples(c)))
       lowered.push_back(&c);
   }
   counters_.late_large_clusters = lowered.size();

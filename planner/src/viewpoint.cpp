@@ -118,17 +118,21 @@ double yawToward(const Vec3d& eye_W, const std::vector<openvdb::Coord>& voxels, 
 }
 
 namespace {
-/// Calls on_seen(voxel), until it returns false, for each voxel whose centre the camera sees:
-/// inside the frustum and range, nothing but known-free voxels on the ray.
+/// Whether a camera at eye_W whose yaw has cosine c and sine s sees the centre of voxel v: inside
+/// the frustum and range, nothing but known-free voxels on the ray.
+bool seesCentre(MapProbe& probe, const Vec3d& eye_W, double c, double s, const openvdb::Coord& v,
+                const CameraFrustum& camera) {
+  const Vec3d p = voxelCenterOf(v, probe.voxelSize());
+  return frustumContains(camera, eye_W, c, s, p) && probe.isVisible(p, eye_W);
+}
+
+/// Calls on_seen(voxel), until it returns false, for each voxel whose centre the camera sees.
 template <typename OnSeen>
 void forEachSeen(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const std::vector<openvdb::Coord>& voxels,
                  const CameraFrustum& camera, OnSeen&& on_seen) {
-  const double voxel_size_m = probe.voxelSize();
   const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
-  for (const openvdb::Coord& v : voxels) {
-    const Vec3d p = voxelCenterOf(v, voxel_size_m);
-    if (frustumContains(camera, eye_W, c, s, p) && probe.isVisible(p, eye_W) && !on_seen(v)) return;
-  }
+  for (const openvdb::Coord& v : voxels)
+    if (seesCentre(probe, eye_W, c, s, v, camera) && !on_seen(v)) return;
 }
 }  // namespace
 
@@ -183,13 +187,9 @@ void forEachObserved(MapProbe& probe, const Vec3d& eye_W, double yaw_rad, const 
     return false;
   };
   for (const openvdb::Coord& v : samples) {
-    bool observed;
-    if (!params.look_into_unknown && unknownBeside(probe, v)) {
-      const Vec3d p = voxelCenterOf(v, voxel_size_m);
-      observed = frustumContains(params.camera, eye_W, c, s, p) && probe.isVisible(p, eye_W);
-    } else {
-      observed = looks_into_unknown(v);
-    }
+    const bool observed = !params.look_into_unknown && unknownBeside(probe, v)
+                              ? seesCentre(probe, eye_W, c, s, v, params.camera)
+                              : looks_into_unknown(v);
     if (observed && !on_observed(v)) return;
   }
 }

@@ -483,7 +483,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["fallback_large_cluster_voxels"] = c.planner.viewpoint.fallback.large_cluster_voxels;
   j["fallback_large_min_visible"] = c.planner.viewpoint.fallback.large_min_visible_samples;
   j["fallback_large_min_visible_late"] = c.planner.late_large_min_visible_samples;
-  j["vertical_frontier"] = c.planner.viewpoint.vertical_into_unknown ? "into-unknown" : "voxel";
+  j["vertical_frontier"] = planner::viewScoreName(c.planner.viewpoint.vertical_into_unknown);
   j["safety_layer"] = c.planner.safety.enabled;
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
   j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.map_thin_obstacles;

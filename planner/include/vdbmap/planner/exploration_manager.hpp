@@ -290,9 +290,9 @@ struct ExplorationManagerConfig {
   /// (ViewpointFallback::large_min_visible_samples) when it is lower than the one it had, and the
   /// large clusters still without a viewpoint get theirs computed again then. Goods on shelving,
   /// seen a few voxels per gap, are looked into at the end, not in many looks among aisles still
-  /// being explored (docs/exploration.md, "Stop 84"). 15 or more: off; [0, 1e6]
-  /// From then on viewpoints also score by FUEL's rule alone (ViewpointConfig::
-  /// vertical_into_unknown off), and the clusters that had none by the vertical rule get theirs.
+  /// being explored (docs/exploration.md, "Stop 84"). From then on viewpoints also score by FUEL's
+  /// rule alone (ViewpointConfig::vertical_into_unknown off), and every cluster that had none by
+  /// the vertical rule gets its viewpoints computed again. 15 or more: off; [0, 1e6]
   int late_large_min_visible_samples = 5;
   /// Which small clusters the final sweep visits (docs/exploration.md, "Final sweep").
   FinalSweepScope final_sweep = FinalSweepScope::PocketsOnce;
@@ -683,6 +683,7 @@ class ExplorationManager {
   ExplorationManagerConfig params_;
   ViewpointConfig voxel_rule_;  ///< params_.viewpoint with FUEL's rule (look_into_unknown off)
   /// params_.viewpoint with the large clusters' late fallback threshold (late_large_min_visible_samples)
+  /// and FUEL's rule alone (vertical_into_unknown off): the rule once no target was left
   ViewpointConfig late_rule_;
   std::vector<Eigen::AlignedBox3d> free_boxes_;
   FrontierMap frontiers_;
