@@ -25,7 +25,7 @@ struct BenchAlcOptions {
   double min_finish_coverage = sim::AlcBenchmarkConfig{}.min_finish_coverage;
   std::string safety = planner::SafetyConfig{}.enabled ? "on" : "off";
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
-  std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
+  std::string safety_map_thin = mapThinName(planner::SafetyConfig{});
   double safety_near_tolerance_m = planner::SafetyConfig{}.near_drift_tolerance_m;
   std::string safety_path_drift = planner::toString(planner::SafetyConfig{}.path_drift);
   bool look_into_unknown = planner::ViewpointConfig{}.look_into_unknown;
@@ -49,7 +49,7 @@ void runBenchAlc(const BenchAlcOptions& o) {
   c.min_finish_coverage = o.min_finish_coverage;
   c.safety.enabled = o.safety == "on";
   c.safety.seen_free_is_free = o.safety_seen_free == "on";
-  c.safety.map_thin_obstacles = o.safety_map_thin == "on";
+  setMapThin(c.safety, o.safety_map_thin);
   c.safety.near_drift_tolerance_m = o.safety_near_tolerance_m;
   c.safety.path_drift = parsePathDrift(o.safety_path_drift);
   c.look_into_unknown = o.look_into_unknown;

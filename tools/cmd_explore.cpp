@@ -35,7 +35,7 @@ struct ExploreOptions {
   double safety_window_s = planner::RecentFramesConfig{}.window_s;
   double safety_max_window_s = planner::SafetyConfig{}.max_window_s;
   std::string safety_seen_free = planner::SafetyConfig{}.seen_free_is_free ? "on" : "off";
-  std::string safety_map_thin = planner::SafetyConfig{}.map_thin_obstacles ? "on" : "off";
+  std::string safety_map_thin = mapThinName(planner::SafetyConfig{});
   std::string safety_free_clears = planner::RecentFramesConfig{}.newer_free_clears ? "on" : "off";
   double safety_vertical_margin_m = planner::SafetyConfig{}.vertical_margin_m;
   double safety_vertical_sigmas = planner::SafetyConfig{}.vertical_margin_sigmas;
@@ -109,7 +109,7 @@ void runExplore(const ExploreOptions& o) {
   config.planner.safety.recent.window_s = o.safety_window_s;
   config.planner.safety.max_window_s = o.safety_max_window_s;
   config.planner.safety.seen_free_is_free = o.safety_seen_free == "on";
-  config.planner.safety.map_thin_obstacles = o.safety_map_thin == "on";
+  setMapThin(config.planner.safety, o.safety_map_thin);
   config.planner.safety.recent.newer_free_clears = o.safety_free_clears == "on";
   config.planner.safety.vertical_margin_m = o.safety_vertical_margin_m;
   config.planner.safety.vertical_margin_sigmas = o.safety_vertical_sigmas;
@@ -260,11 +260,8 @@ const Registration registration("explore", [](CLI::App& app) {
                   "With the safety layer, paths also read free the space the recent frames saw free, whatever the "
                   "global map says (a door that drift closed in the map, seen open now, is open)")
       ->check(CLI::IsMember({"on", "off"}));
-  sub->add_option("--safety-map-thin", o->safety_map_thin,
-                  "With the safety layer, paths also read the global map's thin structure as obstacles (on); off (the "
-                  "default): only the recent frames' surfaces stand for it (under drift, end points of a surface "
-                  "seen at another drift stay where they landed, and read as a wall in free space)")
-      ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--safety-map-thin", o->safety_map_thin, kSafetyMapThinHelp)
+      ->check(CLI::IsMember({"on", "without-drift", "off"}));
   sub->add_option("--safety-free-clears", o->safety_free_clears,
                   "With the safety layer, a recent frame's surface voxel that a newer frame saw free is no longer an "
                   "obstacle (the newest observation wins: within the window drift still moves what older frames saw)")

@@ -94,7 +94,22 @@ inline constexpr const char* kSafetyPathDriftHelp =
     "been seen more lately (s3: about 3 s at 1.5 m/s instead of 9.4 s): on (at every point of the way), near (where "
     "the way passes near a recent surface) or off (by the frame's age alone)";
 
-/// `--safety on|off`, `--safety-seen-free on|off`, `--safety-map-thin on|off`,
+/// `--safety-map-thin`'s values: on (SafetyConfig::map_thin_obstacles), without-drift
+/// (map_thin_without_drift alone) or off (neither).
+inline std::string mapThinName(const planner::SafetyConfig& safety) {
+  return safety.map_thin_obstacles ? "on" : safety.map_thin_without_drift ? "without-drift" : "off";
+}
+inline void setMapThin(planner::SafetyConfig& safety, const std::string& value) {
+  safety.map_thin_obstacles = value == "on";
+  safety.map_thin_without_drift = value == "without-drift";
+}
+inline const char* const kSafetyMapThinHelp =
+    "With the safety layer, paths also read the global map's thin structure as obstacles: on; without-drift (the "
+    "default): only when the declared odometry does not drift (s1), where a surface seen again lands where it was; "
+    "off: only the recent frames' surfaces stand for it (under drift, end points of a surface seen at another drift "
+    "stay where they landed, and read as a wall in free space)";
+
+/// `--safety on|off`, `--safety-seen-free on|off`, `--safety-map-thin on|without-drift|off`,
 /// `--safety-near-tolerance M` and `--safety-path-drift off|near|on` of the benchmarks (as `vdbmap
 /// explore`'s).
 inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& seen_free, std::string& map_thin,
@@ -105,10 +120,8 @@ inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& se
                  "With the safety layer, paths also read free the space the recent frames saw free (as vdbmap "
                  "explore --safety-seen-free)")
       ->check(CLI::IsMember({"on", "off"}));
-  sub.add_option("--safety-map-thin", map_thin,
-                 "With the safety layer, paths also read the global map's thin structure as obstacles (as vdbmap "
-                 "explore --safety-map-thin)")
-      ->check(CLI::IsMember({"on", "off"}));
+  sub.add_option("--safety-map-thin", map_thin, kSafetyMapThinHelp)
+      ->check(CLI::IsMember({"on", "without-drift", "off"}));
   sub.add_option("--safety-near-tolerance", near_tolerance_m, kSafetyNearToleranceHelp)->check(CLI::Range(0.0, 10.0));
   sub.add_option("--safety-path-drift", path_drift, kSafetyPathDriftHelp)->check(CLI::IsMember({"off", "near", "on"}));
 }

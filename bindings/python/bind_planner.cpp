@@ -284,7 +284,13 @@ void bindExplorationParams(py::module_& m) {
                      "True)")
       .def_readwrite("map_thin_obstacles", &SafetyConfig::map_thin_obstacles,
                      "True: paths read the global map's thin structure as obstacles; False (the default) leaves it "
-                     "to the recent surfaces")
+                     "to the recent surfaces, but see map_thin_without_drift")
+      .def_readwrite("map_thin_without_drift", &SafetyConfig::map_thin_without_drift,
+                     "True (the default): paths read the global map's thin structure also when the declared "
+                     "odometry does not drift at all (s1), where a surface seen again leaves no ghost")
+      .def("effective_map_thin_obstacles", &SafetyConfig::mapThinObstacles,
+           "whether paths read the global map's thin structure: map_thin_obstacles, or map_thin_without_drift with "
+           "a declared odometry that does not drift")
       .def_readwrite("vertical_margin_m", &SafetyConfig::vertical_margin_m,
                      "paths keep this much more from the global map's surfaces straight above and below, when the "
                      "odometry may drift (the camera sees neither); [0, 2]")

@@ -196,6 +196,11 @@ double SafetyConfig::verticalMargin_m(double map_age_s) const {
   return std::clamp(grown, vertical_margin_m, std::max(vertical_margin_m, max_vertical_margin_m));
 }
 
+bool SafetyConfig::mapThinObstacles() const {
+  validate();
+  return map_thin_obstacles || (map_thin_without_drift && odometry && odometry->displacement_m(1.0, 1.0) == 0.0);
+}
+
 double SafetyConfig::trustedAge_s() const {
   validate();
   return odometry ? odometry->longestWithin(drift_tolerance_m, drift_lever_m, 0.0, 1e9) : 0.0;
@@ -281,6 +286,7 @@ ExplorationManager::ExplorationManager(const ExplorationManagerConfig& params, c
   if (params_.safety.enabled) recent_ = std::make_unique<RecentFrames>(params_.safety.recent);
   start_t_ = t_s;
   map_trusted_until_s_ = t_s + params_.safety.trustedAge_s();
+  map_thin_ = params_.safety.mapThinObstacles();
 }
 
 ExplorationManager::~ExplorationManager() = default;
@@ -720,7 +726,7 @@ ExplorationStep ExplorationManager::update(const MapQuery& base_map, const openv
   const CachedMap map(free_map);
   std::optional<RecentObstacleMap> recent_map;
   // With the safety layer, flight may leave the map's thin structure to the recent surfaces.
-  const MapQuery& flight_base = recent_ && !params_.safety.map_thin_obstacles ? map.sightMap() : map;
+  const MapQuery& flight_base = recent_ && !map_thin_ ? map.sightMap() : map;
   if (recent_) {
     recent_map.emplace(flight_base, recent_->surfaceIndex(map.voxelSize()),
                        params_.safety.seen_free_is_free ? recent_.get() : nullptr,

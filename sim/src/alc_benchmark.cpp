@@ -114,7 +114,7 @@ AlcBenchmarkResult runAlcBenchmark(const AlcBenchmarkConfig& config, const std::
     if (std::optional<ExplorationSummary> s = internal::startingPoint(
             config.resume, run_dir(job),
             internal::runIdentity(description(job), config.worlds[job.world], config.voxel_size_m, config.max_time_s,
-                                  alc, config.alc.epsilon, config.safety, config.look_into_unknown,
+                                  alc, config.alc.epsilon, config.safety, config.drift_level, config.look_into_unknown,
                                   config.loop_closure)))
       earlier[i] = AlcBenchmarkRun{config.worlds[job.world].name, job.arm, job.seed, *s};
     if (!earlier[i]) ++runs_to_do[job.world];

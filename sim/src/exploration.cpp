@@ -486,7 +486,7 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["vertical_frontier"] = planner::viewScoreName(c.planner.viewpoint.vertical_into_unknown);
   j["safety_layer"] = c.planner.safety.enabled;
   j["safety_seen_free"] = c.planner.safety.enabled && c.planner.safety.seen_free_is_free;
-  j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.map_thin_obstacles;
+  j["safety_map_thin"] = !c.planner.safety.enabled || c.planner.safety.mapThinObstacles();
   j["safety_free_clears"] = c.planner.safety.enabled && c.planner.safety.recent.newer_free_clears;
   j["safety_path_drift"] =
       planner::toString(c.planner.safety.enabled ? c.planner.safety.path_drift : planner::PathDriftScope::Off);

@@ -106,8 +106,8 @@ ExploreBenchmarkResult runExploreBenchmark(const ExploreBenchmarkConfig& config,
     if (std::optional<ExplorationSummary> s = internal::startingPoint(
             config.resume, run_dir(w, seed),
             internal::runIdentity(description(w, seed), config.worlds[w], config.voxel_size_m, config.max_time_s,
-                                  config.alc, planner::AlcConfig{}.epsilon, config.safety, config.look_into_unknown,
-                                  SimulatorConfig{}.loop_closure)))
+                                  config.alc, planner::AlcConfig{}.epsilon, config.safety, config.drift_level,
+                                  config.look_into_unknown, SimulatorConfig{}.loop_closure)))
       earlier[i] = ExploreBenchmarkRun{config.worlds[w].name, seed, *s};
     if (!earlier[i]) ++runs_to_do[w];
   }

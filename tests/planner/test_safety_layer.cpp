@@ -502,6 +502,35 @@ TEST_CASE(
   CHECK(firstFlightEnd(false, 2.5f).x() < 4.5);
 }
 
+TEST_CASE(
+    "With the layer the map's thin structure is read where the declared odometry does not drift, and left to "
+    "the recent surfaces where it does",
+    "[planner][safety]") {
+  // The room, door and slab of the test above; the slab is what the map's thin-structure rules
+  // read. Without drift it is real thin structure (a surface seen again lands where it was), under
+  // drift it may be a ghost.
+  DenseMap base = planner::test::wallRoom();
+  base.fill(CoordBBox(Coord(70, 1, 1), Coord(98, 58, 28)), Occupancy::Unknown);
+  const GhostMap map(base, CoordBBox(Coord(47, 20, 1), Coord(47, 40, 28)));
+  const VehicleState start = planner::test::at(Vec3d(2.0, 3.0, 1.0), 0.0);
+  const auto firstFlightEnd = [&](const std::optional<OdometryDrift>& odometry, bool without_drift) {
+    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(10, 6, 3)));
+    p.safety.enabled = true;
+    p.safety.odometry = odometry;
+    p.safety.map_thin_without_drift = without_drift;
+    ExplorationManager m(p, start, 0.0);
+    m.update(map, CoordBBox(), start, 0.0);
+    return m.command(1e9).position_W;
+  };
+  OdometryDrift drifting;
+  drifting.position_m_per_sqrt_s = 0.016;
+  drifting.yaw_rad_per_sqrt_s = 0.016;
+  CHECK(firstFlightEnd(OdometryDrift{}, true).x() < 5.0);   // no drift: the slab blocks the door
+  CHECK(firstFlightEnd(drifting, true).x() > 5.0);          // drift: left to the recent surfaces
+  CHECK(firstFlightEnd(std::nullopt, true).x() > 5.0);      // none declared: it may drift
+  CHECK(firstFlightEnd(OdometryDrift{}, false).x() > 5.0);  // switched off
+}
+
 namespace {
 /// A manager with the layer in the exact corridor, at `start` with `velocity` and facing -x, whose
 /// only view of the way ahead (+x) is a frame from x = 0.2 m at t = 0; at t_plan it sees the wall

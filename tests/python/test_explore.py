@@ -272,18 +272,29 @@ def test_the_safety_layer_is_set_from_python_and_its_counters_come_back(room):
     # With the layer, seen free space is free and thin structure is the recent frames', as the CLI's
     # defaults say.
     assert vdbmap.planner.SafetyConfig().seen_free_is_free and cli_default("explore", "--safety-seen-free") == "on"
-    assert not vdbmap.planner.SafetyConfig().map_thin_obstacles and cli_default("explore", "--safety-map-thin") == "off"
+    assert not vdbmap.planner.SafetyConfig().map_thin_obstacles and vdbmap.planner.SafetyConfig().map_thin_without_drift
+    assert cli_default("explore", "--safety-map-thin") == "without-drift"
     # A recent surface that a newer frame saw free is cleared, in the library and the CLI.
     assert vdbmap.planner.RecentFramesConfig().newer_free_clears
     assert cli_default("explore", "--safety-free-clears") == "on"
     # No drift declared: the base window; s1's drift (none) declared: the longest; s3's: the base.
     safety = vdbmap.planner.SafetyConfig()
     assert safety.odometry is None and safety.window_s() == safety.recent.window_s
+    assert not safety.effective_map_thin_obstacles()  # no odometry declared: it may drift
     safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s1"))
     assert safety.window_s() == safety.max_window_s
+    # Without drift the map's thin structure is read (no ghosts), unless switched off.
+    assert safety.effective_map_thin_obstacles()
+    safety.map_thin_without_drift = False
+    assert not safety.effective_map_thin_obstacles()
+    safety.map_thin_without_drift = True
     safety.odometry = sim.odometry_drift_of(sim.DriftConfig.preset("s3"))
     assert safety.odometry.position_m_per_sqrt_s == pytest.approx((5e-2 / 200) ** 0.5)
     assert safety.window_s() == safety.recent.window_s
+    assert not safety.effective_map_thin_obstacles()
+    safety.map_thin_obstacles = True
+    assert safety.effective_map_thin_obstacles()
+    safety.map_thin_obstacles = False
     # The vertical margin holds under drift (s3's, or none declared), not without it (s1's).
     assert cli_default("explore", "--safety-vertical-margin") == str(safety.vertical_margin_m)
     assert safety.effective_vertical_margin_m() == safety.vertical_margin_m == 0.2

@@ -123,9 +123,10 @@ struct ResumeFolder {
   }
   ~ResumeFolder() { std::filesystem::remove_all(dir); }
   void record(const nlohmann::json& summary) const { std::ofstream(dir / "summary.json") << summary.dump(); }
-  nlohmann::json identity(const vdbmap::planner::SafetyConfig& safety, bool look_into_unknown) const {
-    return vdbmap::sim::internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, safety, look_into_unknown,
-                                              vdbmap::sim::LoopClosureMode::PoseGraph);
+  nlohmann::json identity(const vdbmap::planner::SafetyConfig& safety, bool look_into_unknown,
+                          const std::string& drift_level = "s3") const {
+    return vdbmap::sim::internal::runIdentity("run", world, 0.1, 60.0, false, 0.2, safety, drift_level,
+                                              look_into_unknown, vdbmap::sim::LoopClosureMode::PoseGraph);
   }
   std::optional<vdbmap::sim::ExplorationSummary> resume(const nlohmann::json& identity) const {
     return vdbmap::sim::internal::startingPoint(true, dir, identity);
@@ -135,6 +136,27 @@ struct ResumeFolder {
   vdbmap::sim::BenchmarkWorld world;
 };
 }  // namespace
+
+TEST_CASE("A benchmark records the map's thin structure as read without drift (s1) and not under it", "[sim][bench]") {
+  const ResumeFolder folder("vdbmap_bench_identity_map_thin");
+  vdbmap::planner::SafetyConfig safety;
+  safety.enabled = true;  // the default: the map's thin structure only where the odometry does not drift
+  CHECK(folder.identity(safety, false, "s1").at("safety_map_thin") == true);
+  CHECK(folder.identity(safety, false, "s3").at("safety_map_thin") == false);
+  using vdbmap::sim::internal::safetyDescription;
+  CHECK(safetyDescription(safety, "s1").find("no thin structure from the map") == std::string::npos);
+  CHECK(safetyDescription(safety, "s3").find("(no thin structure from the map)") != std::string::npos);
+  // An s1 run flown before the rule (thin structure left to the recent frames) does not stand for
+  // one flown with it.
+  safety.map_thin_without_drift = false;
+  folder.record(folder.identity(safety, false, "s1"));
+  safety.map_thin_without_drift = true;
+  CHECK_THROWS_WITH(folder.resume(folder.identity(safety, false, "s1")),
+                    Catch::Contains("was run with safety_map_thin"));
+  // Off the layer flight reads the map's thin structure anyway.
+  safety.enabled = false;
+  CHECK(folder.identity(safety, false, "s3").at("safety_map_thin") == true);
+}
 
 TEST_CASE("Resuming refuses a run flown with another path-drift scope, and reads older runs as flown without it",
           "[sim][bench]") {

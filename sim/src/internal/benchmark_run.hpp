@@ -50,7 +50,7 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
   if (!at_level.odometry) at_level.odometry = odometryDriftOf(DriftConfig::preset(drift_level));
   const double first_m = at_level.verticalMargin_m(), most_m = at_level.verticalMargin_m(1e9);
   return std::string("on") + (safety.seen_free_is_free ? " (seen free is free)" : "") +
-         (!safety.map_thin_obstacles ? " (no thin structure from the map)" : "") + " (vertical margin " +
+         (!at_level.mapThinObstacles() ? " (no thin structure from the map)" : "") + " (vertical margin " +
          format("%.2f", first_m) + (most_m > first_m ? format("-%.2f", most_m) : std::string()) + " m)" +
          (at_level.nearSeenAge_s() < at_level.seenAge_s()
               ? " (near surfaces only frames drifted at most " + format("%.2f", safety.near_drift_tolerance_m) +
@@ -67,8 +67,11 @@ inline std::string safetyDescription(const planner::SafetyConfig& safety, const 
 /// too; null: the key must be absent).
 inline nlohmann::json runIdentity(const std::string& description, const BenchmarkWorld& world, double voxel_size_m,
                                   double max_time_s, bool alc_enabled, double epsilon,
-                                  const planner::SafetyConfig& safety, bool look_into_unknown,
-                                  LoopClosureMode loop_closure) {
+                                  const planner::SafetyConfig& safety, const std::string& drift_level,
+                                  bool look_into_unknown, LoopClosureMode loop_closure) {
+  // As the run declares its odometry (setDrift): summary.json records what flight read.
+  planner::SafetyConfig at_level = safety;
+  if (!at_level.odometry) at_level.odometry = odometryDriftOf(DriftConfig::preset(drift_level));
   const double clip_z_m = world.office ? world.office->height_m : world.world.ceiling_clip_z_m;
   const bool capped = world.office ? true : world.world.cap_ceiling;
   nlohmann::json identity = {
@@ -81,7 +84,7 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
       {"epsilon", alc_enabled ? epsilon : 0.0},
       {"safety_layer", safety.enabled},
       {"safety_seen_free", safety.enabled && safety.seen_free_is_free},
-      {"safety_map_thin", !safety.enabled || safety.map_thin_obstacles},
+      {"safety_map_thin", !safety.enabled || at_level.mapThinObstacles()},
       {"safety_free_clears", safety.enabled && safety.recent.newer_free_clears},
       {"safety_near_drift_tolerance_m", safety.enabled ? safety.near_drift_tolerance_m : 0.0},
       {"safety_path_drift", planner::toString(safety.enabled ? safety.path_drift : planner::PathDriftScope::Off)},

@@ -165,8 +165,13 @@ struct SafetyConfig {
   /// structure. Under drift end points do not average as the tsdf does: a surface seen again at
   /// another drift leaves its earlier end points in what the map now holds free, a ghost of it,
   /// and those read as walls (a door closed by the ghost of the corridor's wall). The runs behind
-  /// the default: docs/exploration.md, "Stop 59".
+  /// the default: docs/exploration.md, "Stop 59". mapThinObstacles() says what flight reads.
   bool map_thin_obstacles = false;
+  /// Read the global map's thin structure also when the declared odometry does not drift at all
+  /// (s1): a surface seen again then lands where it was, so no ghost is left, and a post or a
+  /// board's end thinner than a voxel is in the map only as thin structure (the recent frames
+  /// hold it only while they see it; docs/exploration.md, "Stop 88").
+  bool map_thin_without_drift = true;
   /// How far paths and trajectories keep from the global map's surfaces straight above and below,
   /// beyond their clearance (RecentObstacleMap's vertical margin, rounded to voxels). The camera
   /// sees neither straight up nor down, so drift can bring a beam overhead closer than the map
@@ -189,6 +194,10 @@ struct SafetyConfig {
   /// to [vertical_margin_m, max(vertical_margin_m, max_vertical_margin_m)]. Throws
   /// std::invalid_argument for an invalid config or a negative or non-finite age.
   double verticalMargin_m(double map_age_s = 0.0) const;
+  /// Whether paths and trajectories read the global map's thin structure as obstacles:
+  /// map_thin_obstacles, or map_thin_without_drift with a declared odometry that does not drift
+  /// at all. Throws std::invalid_argument for an invalid config.
+  bool mapThinObstacles() const;
   /// How long the recent frames are trusted: trustedAge_s() clamped to [recent.window_s,
   /// max_window_s] (recent.window_s without a known odometry, or when max_window_s is shorter).
   /// Throws std::invalid_argument for an invalid config.
@@ -734,6 +743,7 @@ class ExplorationManager {
   Trajectory trajectory_;
   double trajectory_t0_ = 0.0;
   double map_trusted_until_s_ = 0.0;  ///< start + SafetyConfig::trustedAge_s (seenFree)
+  bool map_thin_ = false;             ///< SafetyConfig::mapThinObstacles, with the layer on
   Eigen::Isometry3d shift_ =
       Eigen::Isometry3d::Identity();  ///< applied to trajectory_ (frame shifts since it was planned)
 
