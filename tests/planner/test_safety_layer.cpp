@@ -464,71 +464,77 @@ class GhostMap : public MapQuery {
   const DenseMap& base_;
   CoordBBox ghost_;
 };
+
+/// wallRoom's 10 x 6 m room, its wall at x = 5 m with a door at y 2.5-3.5 m; unknown beyond x =
+/// 7 m (the frontier).
+DenseMap doorRoom() {
+  DenseMap base = planner::test::wallRoom();
+  base.fill(CoordBBox(Coord(70, 1, 1), Coord(98, 58, 28)), Occupancy::Unknown);
+  return base;
+}
+/// A slab 0.2 m before doorRoom's wall across y 2-4 m, which only the thin-structure reading holds.
+const CoordBBox kSlabBeforeDoor(Coord(47, 20, 1), Coord(47, 40, 28));
+
+/// Where the first flight ends of a manager with the layer (`safety`, enabled here) standing at
+/// (2, 3, 1) facing the door, optionally with a frame that sees a wall `wall_ahead_m` ahead.
+Vec3d firstFlightEnd(const MapQuery& map, SafetyConfig safety, const std::optional<float>& wall_ahead_m = {}) {
+  const VehicleState start = planner::test::at(Vec3d(2.0, 3.0, 1.0), 0.0);
+  ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(10, 6, 3)));
+  p.safety = std::move(safety);
+  p.safety.enabled = true;
+  ExplorationManager m(p, start, 0.0);
+  if (wall_ahead_m) {
+    const CameraIntrinsics K = quarterCamera();
+    const Pose3d T_W_S = lookingPose(start.position_W, start.yaw_rad);
+    m.addDepthFrame(0.0, DepthImage(K.width, K.height, *wall_ahead_m), K, T_W_S);
+  }
+  m.update(map, CoordBBox(), start, 0.0);
+  return m.command(1e9).position_W;
+}
 }  // namespace
 
 TEST_CASE(
     "With the map's thin structure left to the recent surfaces, a door its ghost closes is open, and what "
     "the camera sees there still blocks it",
     "[planner][safety]") {
-  // wallRoom's 10 x 6 m room, its wall at x = 5 m with a door at y 2.5-3.5 m; unknown beyond x =
-  // 7 m (the frontier). The ghost: a slab 0.2 m before the wall across y 2-4 m, as the end points
-  // of the wall seen at another drift leave it. The vehicle stands at (2, 3, 1) facing the door.
-  DenseMap base = planner::test::wallRoom();
-  base.fill(CoordBBox(Coord(70, 1, 1), Coord(98, 58, 28)), Occupancy::Unknown);
-  const GhostMap map(base, CoordBBox(Coord(47, 20, 1), Coord(47, 40, 28)));
+  // The slab is a ghost: the end points of the wall seen at another drift. No odometry is declared.
+  const DenseMap base = doorRoom();
+  const GhostMap map(base, kSlabBeforeDoor);
   REQUIRE(MapProbe(map).atWorld(Vec3d(4.7, 3.0, 1.0)) == Occupancy::Occupied);
   REQUIRE(MapProbe(map.sightMap()).atWorld(Vec3d(4.7, 3.0, 1.0)) == Occupancy::Free);
-  const VehicleState start = planner::test::at(Vec3d(2.0, 3.0, 1.0), 0.0);
-  const auto firstFlightEnd = [&](bool map_thin, const std::optional<float>& wall_ahead_m) {
-    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(10, 6, 3)));
-    p.safety.enabled = true;
-    p.safety.map_thin_obstacles = map_thin;
-    ExplorationManager m(p, start, 0.0);
-    if (wall_ahead_m) {  // a frame that sees a real wall across the way to the door
-      const CameraIntrinsics K = quarterCamera();
-      const Pose3d T_W_S = lookingPose(start.position_W, start.yaw_rad);
-      m.addDepthFrame(0.0, DepthImage(K.width, K.height, *wall_ahead_m), K, T_W_S);
-    }
-    m.update(map, CoordBBox(), start, 0.0);
-    return m.command(1e9).position_W;
-  };
+  SafetyConfig thin, recent_only;
+  thin.map_thin_obstacles = true;
   // The map's thin structure read: the ghost closes the door, no flight gets through.
-  CHECK(firstFlightEnd(true, std::nullopt).x() < 5.0);
+  CHECK(firstFlightEnd(map, thin).x() < 5.0);
   // Left to the recent surfaces (none yet): the door is open.
-  const Vec3d through = firstFlightEnd(false, std::nullopt);
+  const Vec3d through = firstFlightEnd(map, recent_only);
   INFO("without the map's thin structure the flight ends at " << through.transpose());
   CHECK(through.x() > 5.0);
   // A wall the camera sees 2.5 m ahead (x = 4.5 m, across the door's approach) blocks it again.
-  CHECK(firstFlightEnd(false, 2.5f).x() < 4.5);
+  CHECK(firstFlightEnd(map, recent_only, 2.5f).x() < 4.5);
 }
 
 TEST_CASE(
     "With the layer the map's thin structure is read where the declared odometry does not drift, and left to "
     "the recent surfaces where it does",
     "[planner][safety]") {
-  // The room, door and slab of the test above; the slab is what the map's thin-structure rules
-  // read. Without drift it is real thin structure (a surface seen again lands where it was), under
-  // drift it may be a ghost.
-  DenseMap base = planner::test::wallRoom();
-  base.fill(CoordBBox(Coord(70, 1, 1), Coord(98, 58, 28)), Occupancy::Unknown);
-  const GhostMap map(base, CoordBBox(Coord(47, 20, 1), Coord(47, 40, 28)));
-  const VehicleState start = planner::test::at(Vec3d(2.0, 3.0, 1.0), 0.0);
-  const auto firstFlightEnd = [&](const std::optional<OdometryDrift>& odometry, bool without_drift) {
-    ExplorationManagerConfig p = countedConfig(Eigen::AlignedBox3d(Vec3d(0, 0, 0), Vec3d(10, 6, 3)));
-    p.safety.enabled = true;
-    p.safety.odometry = odometry;
-    p.safety.map_thin_without_drift = without_drift;
-    ExplorationManager m(p, start, 0.0);
-    m.update(map, CoordBBox(), start, 0.0);
-    return m.command(1e9).position_W;
+  // The slab is what the map's thin-structure rules read: real thin structure without drift (a
+  // surface seen again lands where it was), possibly a ghost under drift.
+  const DenseMap base = doorRoom();
+  const GhostMap map(base, kSlabBeforeDoor);
+  const auto withOdometry = [](const std::optional<OdometryDrift>& odometry, bool without_drift) {
+    SafetyConfig safety;
+    safety.odometry = odometry;
+    safety.map_thin_without_drift = without_drift;
+    return safety;
   };
   OdometryDrift drifting;
   drifting.position_m_per_sqrt_s = 0.016;
   drifting.yaw_rad_per_sqrt_s = 0.016;
-  CHECK(firstFlightEnd(OdometryDrift{}, true).x() < 5.0);   // no drift: the slab blocks the door
-  CHECK(firstFlightEnd(drifting, true).x() > 5.0);          // drift: left to the recent surfaces
-  CHECK(firstFlightEnd(std::nullopt, true).x() > 5.0);      // none declared: it may drift
-  CHECK(firstFlightEnd(OdometryDrift{}, false).x() > 5.0);  // switched off
+  CHECK(firstFlightEnd(map, withOdometry(OdometryDrift{}, true)).x() < 5.0);   // no drift: the slab blocks
+  CHECK(firstFlightEnd(map, withOdometry(drifting, true)).x() > 5.0);          // drift: the recent frames'
+  CHECK(firstFlightEnd(map, withOdometry(std::nullopt, true)).x() > 5.0);      // none declared: it may drift
+  CHECK(firstFlightEnd(map, withOdometry(OdometryDrift{}, false)).x() > 5.0);  // the rule off
 }
 
 namespace {
