@@ -261,7 +261,7 @@ const Registration registration("explore", [](CLI::App& app) {
                   "global map says (a door that drift closed in the map, seen open now, is open)")
       ->check(CLI::IsMember({"on", "off"}));
   sub->add_option("--safety-map-thin", o->safety_map_thin, kSafetyMapThinHelp)
-      ->check(CLI::IsMember({"on", "without-drift", "off"}));
+      ->check(CLI::IsMember(kSafetyMapThinValues));
   sub->add_option("--safety-free-clears", o->safety_free_clears,
                   "With the safety layer, a recent frame's surface voxel that a newer frame saw free is no longer an "
                   "obstacle (the newest observation wins: within the window drift still moves what older frames saw)")

@@ -103,6 +103,7 @@ inline void setMapThin(planner::SafetyConfig& safety, const std::string& value) 
   safety.map_thin_obstacles = value == "on";
   safety.map_thin_without_drift = value == "without-drift";
 }
+inline const std::vector<std::string> kSafetyMapThinValues = {"on", "without-drift", "off"};
 inline const char* const kSafetyMapThinHelp =
     "With the safety layer, paths also read the global map's thin structure as obstacles: on; without-drift (the "
     "default): only when the declared odometry does not drift (s1), where a surface seen again lands where it was; "
@@ -120,8 +121,7 @@ inline void addSafetyOptions(CLI::App& sub, std::string& safety, std::string& se
                  "With the safety layer, paths also read free the space the recent frames saw free (as vdbmap "
                  "explore --safety-seen-free)")
       ->check(CLI::IsMember({"on", "off"}));
-  sub.add_option("--safety-map-thin", map_thin, kSafetyMapThinHelp)
-      ->check(CLI::IsMember({"on", "without-drift", "off"}));
+  sub.add_option("--safety-map-thin", map_thin, kSafetyMapThinHelp)->check(CLI::IsMember(kSafetyMapThinValues));
   sub.add_option("--safety-near-tolerance", near_tolerance_m, kSafetyNearToleranceHelp)->check(CLI::Range(0.0, 10.0));
   sub.add_option("--safety-path-drift", path_drift, kSafetyPathDriftHelp)->check(CLI::IsMember({"off", "near", "on"}));
 }

@@ -19,6 +19,11 @@ namespace vdbmap::planner {
 namespace {
 double yawOf(const Eigen::Isometry3d& T) { return std::atan2(T.linear()(1, 0), T.linear()(0, 0)); }
 
+/// A declared odometry that does not drift at all (every term 0: s1).
+bool declaresNoDrift(const std::optional<OdometryDrift>& odometry) {
+  return odometry && odometry->displacement_m(1.0, 1.0) == 0.0;
+}
+
 /// The replan was triggered by the trajectory being blocked: if no new one is found, the vehicle stops.
 bool blocked(ReplanReason r) { return r == ReplanReason::CollisionRisk || r == ReplanReason::EmergencyStop; }
 
@@ -191,14 +196,14 @@ double SafetyConfig::verticalMargin_m(double map_age_s) const {
   if (!(map_age_s >= 0.0 && std::isfinite(map_age_s)))
     throw std::invalid_argument("SafetyConfig::verticalMargin_m: map_age_s must be finite and >= 0");
   if (!odometry) return vertical_margin_m;
-  if (odometry->displacement_m(1.0, 1.0) == 0.0) return 0.0;
+  if (declaresNoDrift(odometry)) return 0.0;
   const double grown = vertical_margin_sigmas * odometry->axisDisplacement_m(map_age_s);
   return std::clamp(grown, vertical_margin_m, std::max(vertical_margin_m, max_vertical_margin_m));
 }
 
 bool SafetyConfig::mapThinObstacles() const {
   validate();
-  return map_thin_obstacles || (map_thin_without_drift && odometry && odometry->displacement_m(1.0, 1.0) == 0.0);
+  return map_thin_obstacles || (map_thin_without_drift && declaresNoDrift(odometry));
 }
 
 double SafetyConfig::trustedAge_s() const {

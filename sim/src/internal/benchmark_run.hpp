@@ -41,13 +41,18 @@ inline ExplorationRunConfig benchmarkRunConfig(bool keep_runs, std::string world
   return ro;
 }
 
+/// `safety` with the odometry a run at `drift_level` declares (setDrift), unless it declares one.
+inline planner::SafetyConfig atDriftLevel(planner::SafetyConfig safety, const std::string& drift_level) {
+  if (!safety.odometry) safety.odometry = odometryDriftOf(DriftConfig::preset(drift_level));
+  return safety;
+}
+
 /// The safety layer as a benchmark's table header states it: "off", or "on" with its options and
 /// the vertical margin its runs keep at `drift_level` (none without drift; "a-b" when it grows
 /// from a at the start to at most b).
 inline std::string safetyDescription(const planner::SafetyConfig& safety, const std::string& drift_level) {
   if (!safety.enabled) return "off";
-  planner::SafetyConfig at_level = safety;
-  if (!at_level.odometry) at_level.odometry = odometryDriftOf(DriftConfig::preset(drift_level));
+  const planner::SafetyConfig at_level = atDriftLevel(safety, drift_level);
   const double first_m = at_level.verticalMargin_m(), most_m = at_level.verticalMargin_m(1e9);
   return std::string("on") + (safety.seen_free_is_free ? " (seen free is free)" : "") +
          (!at_level.mapThinObstacles() ? " (no thin structure from the map)" : "") + " (vertical margin " +
@@ -69,9 +74,8 @@ inline nlohmann::json runIdentity(const std::string& description, const Benchmar
                                   double max_time_s, bool alc_enabled, double epsilon,
                                   const planner::SafetyConfig& safety, const std::string& drift_level,
                                   bool look_into_unknown, LoopClosureMode loop_closure) {
-  // As the run declares its odometry (setDrift): summary.json records what flight read.
-  planner::SafetyConfig at_level = safety;
-  if (!at_level.odometry) at_level.odometry = odometryDriftOf(DriftConfig::preset(drift_level));
+  // As the run declares its odometry: summary.json records what flight read.
+  const planner::SafetyConfig at_level = atDriftLevel(safety, drift_level);
   const double clip_z_m = world.office ? world.office->height_m : world.world.ceiling_clip_z_m;
   const bool capped = world.office ? true : world.world.cap_ceiling;
   nlohmann::json identity = {
