@@ -33,6 +33,8 @@ void AlcBenchmarkConfig::validate() const {
 }
 
 namespace {
+/// A length that may not be known (negative): null in JSON.
+nlohmann::json known(double length_m) { return length_m >= 0.0 ? nlohmann::json(length_m) : nlohmann::json(nullptr); }
 
 constexpr const char* kArms[] = {"no_alc", "alc"};
 
@@ -50,8 +52,10 @@ nlohmann::json toJson(const AlcBenchmarkRun& r) {
           {"coverage_seen", s.coverage_seen},
           {"path_length_m", s.path_length_m},
           {"estimate_error_rmse_m", s.estimate_error_rmse_m},
-          {"keyframe_error_rmse_m",
-           s.keyframe_error_rmse_m >= 0.0 ? nlohmann::json(s.keyframe_error_rmse_m) : nlohmann::json(nullptr)},
+          {"keyframe_error_rmse_m", known(s.keyframe_error_rmse_m)},
+          {"keyframe_error_aligned_rmse_m", known(s.keyframe_error_aligned_rmse_m)},
+          {"accuracy_aligned_rmse_m", known(s.accuracy_aligned_rmse_m)},
+          {"map_alignment_yaw_deg", s.map_alignment.yaw_rad * 180.0 / M_PI},
           {"alc_detours", s.alc_detours},
           {"alc_time_s", s.alc_time_s},
           {"alc_give_ups", s.alc_give_ups},
@@ -65,10 +69,12 @@ using internal::Spread;
 using internal::spread;
 
 using Metric = std::function<double(const ExplorationSummary&)>;
+/// The runs' values of a metric in one arm; negative values (not known: summaries older than the
+/// metric) are left out.
 std::vector<double> values(const AlcBenchmarkResult& result, const std::string& arm, const Metric& metric) {
   std::vector<double> v;
   for (const AlcBenchmarkRun& r : result.runs)
-    if (r.arm == arm) v.push_back(metric(r.summary));
+    if (r.arm == arm && metric(r.summary) >= 0.0) v.push_back(metric(r.summary));
   return v;
 }
 
@@ -197,6 +203,10 @@ struct Effect {
   std::size_t n = 0;
   Spread time_off, time_on, loops_off, loops_on, rmse_off, rmse_on, rmse_change, time_change, loop_gain;
   std::size_t alc_better = 0;  ///< pairs where ALC's map RMSE is lower
+  /// The maps' RMSE after each one's 4-DOF alignment (accuracy_aligned_rmse_m), over the pairs
+  /// where both arms know it.
+  Spread aligned_off, aligned_on;
+  std::size_t aligned_alc_better = 0;
   std::size_t incomplete_off = 0, incomplete_on = 0;
   std::size_t collisions_off = 0, collisions_on = 0;
   double min_coverage_off = 1.0, min_coverage_on = 1.0;
@@ -207,7 +217,7 @@ struct Effect {
 Effect effect(const std::vector<Pair>& ps, double min_finish_coverage) {
   Effect e;
   e.n = ps.size();
-  std::vector<double> t0, t1, l0, l1, r0, r1, dr, dt, dl;
+  std::vector<double> t0, t1, l0, l1, r0, r1, dr, dt, dl, a0, a1;
   for (const Pair& p : ps) {
     t0.push_back(p.off->exploration_time_s);
     t1.push_back(p.on->exploration_time_s);
@@ -219,6 +229,11 @@ Effect effect(const std::vector<Pair>& ps, double min_finish_coverage) {
     dt.push_back(p.on->exploration_time_s / p.off->exploration_time_s - 1.0);
     dl.push_back(double(p.on->loop_closures) - double(p.off->loop_closures));
     e.alc_better += p.on->accuracy_rmse_m < p.off->accuracy_rmse_m ? 1 : 0;
+    if (p.off->accuracy_aligned_rmse_m >= 0.0 && p.on->accuracy_aligned_rmse_m >= 0.0) {
+      a0.push_back(p.off->accuracy_aligned_rmse_m);
+      a1.push_back(p.on->accuracy_aligned_rmse_m);
+      e.aligned_alc_better += p.on->accuracy_aligned_rmse_m < p.off->accuracy_aligned_rmse_m ? 1 : 0;
+    }
     e.incomplete_off += complete(*p.off, min_finish_coverage) ? 0 : 1;
     e.incomplete_on += complete(*p.on, min_finish_coverage) ? 0 : 1;
     e.collisions_off += p.off->collisions;
@@ -229,6 +244,7 @@ Effect effect(const std::vector<Pair>& ps, double min_finish_coverage) {
   e.time_off = spread(t0), e.time_on = spread(t1), e.loops_off = spread(l0), e.loops_on = spread(l1);
   e.rmse_off = spread(r0), e.rmse_on = spread(r1), e.rmse_change = spread(dr), e.time_change = spread(dt);
   e.loop_gain = spread(dl);
+  e.aligned_off = spread(a0), e.aligned_on = spread(a1);
   return e;
 }
 
@@ -256,6 +272,13 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
       {"exploration time (s)", {"%.1f", [](const ExplorationSummary& s) { return s.exploration_time_s; }}},
       {"loop closures", {"%.1f", [](const ExplorationSummary& s) { return double(s.loop_closures); }}},
       {"accuracy RMSE (m)", {"%.4f", [](const ExplorationSummary& s) { return s.accuracy_rmse_m; }}},
+      {"accuracy RMSE after the 4-DOF alignment (m)",
+       {"%.4f", [](const ExplorationSummary& s) { return s.accuracy_aligned_rmse_m; }}},
+      {"map yaw offset, absolute (deg)",  // not known where the aligned RMSE is not
+       {"%.2f",
+        [](const ExplorationSummary& s) {
+          return s.accuracy_aligned_rmse_m < 0.0 ? -1.0 : std::abs(s.map_alignment.yaw_rad) * 180.0 / M_PI;
+        }}},
       {"completeness", {"%.3f", [](const ExplorationSummary& s) { return s.completeness; }}},
       {"coverage", {"%.3f", [](const ExplorationSummary& s) { return s.coverage; }}},
       {"coverage seen", {"%.3f", [](const ExplorationSummary& s) { return s.coverage_seen; }}},
@@ -292,7 +315,14 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
        << format("%.4f m", e.rmse_change.sd) << " (ratio of the means "
        << format("%.2f", e.rmse_on.mean / e.rmse_off.mean) << "); ALC's map better in " << e.alc_better << " of " << e.n
        << " pairs (" << format("%.0f %%", 100.0 * double(e.alc_better) / double(e.n)) << ")\n"
-       << "- incomplete runs: " << e.incomplete_off << " without ALC, " << e.incomplete_on
+       << "- after each map's 4-DOF alignment with the truth (the rigid offset of its first seconds removed): ";
+    if (e.aligned_off.n == 0)
+      md << "-\n";
+    else
+      md << format("%.4f", e.aligned_off.mean) << " against " << format("%.4f m", e.aligned_on.mean)
+         << " (ratio of the means " << format("%.2f", e.aligned_on.mean / e.aligned_off.mean)
+         << "); ALC's map better in " << e.aligned_alc_better << " of " << e.aligned_off.n << " pairs\n";
+    md << "- incomplete runs: " << e.incomplete_off << " without ALC, " << e.incomplete_on
        << " with ALC; lowest coverage " << format("%.3f", e.min_coverage_off) << " / "
        << format("%.3f", e.min_coverage_on) << "\n";
     // A map's RMSE is over the surface it holds: a run that stops early holds only what it saw
@@ -313,31 +343,37 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
     md << "- paper (Zhang et al. 2022): +8 % time, +3 loop closures, a better map\n";
   }
 
-  md << "\n## Per world\n\n| world | pairs | RMSE no_alc / alc (m) | ALC better | loops no_alc / alc | time no_alc / "
+  md << "\n## Per world\n\n| world | pairs | RMSE no_alc / alc (m) | ALC better | aligned RMSE no_alc / alc (m) | "
+        "ALC better aligned | loops no_alc / alc | time no_alc / "
         "alc (s) | overhead | incomplete no_alc / alc | lowest coverage no_alc / alc | collisions no_alc / alc |\n"
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const BenchmarkWorld& w : config.worlds) {
     const std::vector<Pair> ps = pairs(result.runs, w.name);
     if (ps.empty()) continue;
     const Effect e = effect(ps, config.min_finish_coverage);
     md << "| " << w.name << " | " << e.n << " | " << format("%.4f", e.rmse_off.mean) << " / "
        << format("%.4f", e.rmse_on.mean) << " | " << e.alc_better << " / " << e.n << " | "
-       << format("%.1f", e.loops_off.mean) << " / " << format("%.1f", e.loops_on.mean) << " | "
-       << format("%.0f", e.time_off.mean) << " / " << format("%.0f", e.time_on.mean) << " | "
-       << format("%+.1f %%", 100.0 * e.overhead()) << " | " << e.incomplete_off << " / " << e.incomplete_on << " | "
-       << format("%.3f", e.min_coverage_off) << " / " << format("%.3f", e.min_coverage_on) << " | " << e.collisions_off
-       << " / " << e.collisions_on << " |\n";
+       << (e.aligned_off.n == 0 ? std::string("-")
+                                : format("%.4f", e.aligned_off.mean) + " / " + format("%.4f", e.aligned_on.mean))
+       << " | " << e.aligned_alc_better << " / " << e.aligned_off.n << " | " << format("%.1f", e.loops_off.mean)
+       << " / " << format("%.1f", e.loops_on.mean) << " | " << format("%.0f", e.time_off.mean) << " / "
+       << format("%.0f", e.time_on.mean) << " | " << format("%+.1f %%", 100.0 * e.overhead()) << " | "
+       << e.incomplete_off << " / " << e.incomplete_on << " | " << format("%.3f", e.min_coverage_off) << " / "
+       << format("%.3f", e.min_coverage_on) << " | " << e.collisions_off << " / " << e.collisions_on << " |\n";
   }
 
-  md << "\n## Runs\n\n| world | seed | arm | finished | time (s) | loops | RMSE (m) | completeness | coverage (seen) | "
+  md << "\n## Runs\n\n| world | seed | arm | finished | time (s) | loops | RMSE / aligned (m) | yaw offset (deg) | "
+        "completeness | coverage (seen) | "
         "estimate error online / keyframes (m) | detours (with loop / given up) | detour time (s) | collisions |\n"
-        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const AlcBenchmarkRun& r : result.runs) {
     const ExplorationSummary& s = r.summary;
     md << "| " << r.world << " | " << r.seed << " | " << r.arm << " | " << (s.finished ? "yes" : "no") << " | "
        << format("%.1f", s.exploration_time_s) << " | " << s.loop_closures << " | " << format("%.4f", s.accuracy_rmse_m)
-       << " | " << format("%.3f", s.completeness) << " | " << format("%.3f", s.coverage) << " ("
-       << format("%.3f", s.coverage_seen) << ") | " << format("%.3f", s.estimate_error_rmse_m) << " / "
+       << " / " << (s.accuracy_aligned_rmse_m >= 0.0 ? format("%.4f", s.accuracy_aligned_rmse_m) : std::string("-"))
+       << " | " << format("%+.2f", s.map_alignment.yaw_rad * 180.0 / M_PI) << " | " << format("%.3f", s.completeness)
+       << " | " << format("%.3f", s.coverage) << " (" << format("%.3f", s.coverage_seen) << ") | "
+       << format("%.3f", s.estimate_error_rmse_m) << " / "
        << (s.keyframe_error_rmse_m >= 0.0 ? format("%.3f", s.keyframe_error_rmse_m) : std::string("-")) << " | "
        << s.alc_detours << " (" << s.alc_detour_loops << " / " << s.alc_give_ups << ") | "
        << format("%.1f", s.alc_time_s) << " | " << s.collisions << " |\n";

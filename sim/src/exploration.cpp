@@ -1,4 +1,5 @@
 #include "vdbmap/sim/exploration.hpp"
+#include "vdbmap/sim/trajectory_alignment.hpp"
 #include "vdbmap/field_check.hpp"
 
 #include "vdbmap/sim/collision_events.hpp"
@@ -127,17 +128,22 @@ double estimateErrorRmse(const std::vector<io::StampedPose>& truth, const std::v
 /// RMSE of the positions the map holds its keyframes at (after the last correction) against the
 /// true ones, `truth` indexed by frame id; negative when the map keeps no frames (modes none and
 /// submap). What the map's accuracy follows, where estimateErrorRmse follows the online estimate.
-double keyframeErrorRmse(const KeyframeStore& keyframes, const std::vector<io::StampedPose>& truth) {
-  double sum = 0.0;
-  std::size_t n = 0;
+/// The kept keyframes' positions where the final map holds them (every correction applied) and
+/// their true ones: what the map's accuracy follows, where estimateErrorRmse follows the online
+/// estimate.
+struct KeyframePositions {
+  std::vector<Vec3d> map_W, true_W;
+};
+KeyframePositions keyframePositions(const KeyframeStore& keyframes, const std::vector<io::StampedPose>& truth) {
+  KeyframePositions k;
   for (const auto& [id, keyframe] : keyframes) {
     if (!keyframe.integrated) continue;
     if (id >= truth.size() || std::abs(truth[id].timestamp_s - keyframe.timestamp) > 1e-6)
       throw std::logic_error("keyframe " + std::to_string(id) + " is not the frame of that index");
-    sum += (truth[id].T_W_S.translation() - keyframe.T_W_S_integrated.translation()).squaredNorm();
-    ++n;
+    k.map_W.push_back(keyframe.T_W_S_integrated.translation());
+    k.true_W.push_back(truth[id].T_W_S.translation());
   }
-  return n == 0 ? -1.0 : std::sqrt(sum / double(n));
+  return k;
 }
 }  // namespace
 
@@ -518,6 +524,15 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["estimate_error_rmse_m"] = s.estimate_error_rmse_m;
   j["keyframe_error_rmse_m"] =
       s.keyframe_error_rmse_m >= 0.0 ? nlohmann::json(s.keyframe_error_rmse_m) : nlohmann::json(nullptr);
+  j["keyframe_error_aligned_rmse_m"] = s.keyframe_error_aligned_rmse_m >= 0.0
+                                           ? nlohmann::json(s.keyframe_error_aligned_rmse_m)
+                                           : nlohmann::json(nullptr);
+  j["accuracy_aligned_rmse_m"] =
+      s.accuracy_aligned_rmse_m >= 0.0 ? nlohmann::json(s.accuracy_aligned_rmse_m) : nlohmann::json(nullptr);
+  j["map_alignment"] = {
+      {"yaw_deg", s.map_alignment.yaw_rad * 180.0 / M_PI},
+      {"translation_m",
+       {s.map_alignment.position_W.x(), s.map_alignment.position_W.y(), s.map_alignment.position_W.z()}}};
   if (r.flight.frames > 0) {  // the log's statistics (with a log only)
     j["estimate_error_max_m"] = r.flight.estimate_error_max_m;
     j["odometry_error_final_m"] = r.flight.odometry_error_final_m;
@@ -633,7 +648,13 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
   s.alc_finish_detours = r.alc.finish_detours;
   s.alc_detour_loops = r.alc.loops_on_detour;
   s.estimate_error_rmse_m = estimateErrorRmse(r.trajectory_true, r.trajectory_estimate);
-  s.keyframe_error_rmse_m = keyframeErrorRmse(r.mapper->keyframes(), r.trajectory_true);
+  const KeyframePositions keyframe_positions = keyframePositions(r.mapper->keyframes(), r.trajectory_true);
+  if (!keyframe_positions.map_W.empty())
+    s.keyframe_error_rmse_m = alignedRmse(FlatPose{}, keyframe_positions.map_W, keyframe_positions.true_W);
+  if (keyframe_positions.map_W.size() >= 2) {
+    s.map_alignment = alignYawTranslation(keyframe_positions.map_W, keyframe_positions.true_W);
+    s.keyframe_error_aligned_rmse_m = alignedRmse(s.map_alignment, keyframe_positions.map_W, keyframe_positions.true_W);
+  }
   s.observable = observable.stats();
   s.time_to_coverage_s.fill(-1.0);
   for (std::size_t i = 0; i < kCoverageMilestones.size(); ++i)
@@ -660,6 +681,11 @@ ExplorationSummary exploreToFolder(const World& world, const ExplorationConfig& 
     const SurfaceEval e = evaluateSurface(mesh, world.mesh(), eval);
     s.accuracy_rmse_m = e.accuracy_rmse_m;
     s.completeness = e.completeness;
+    if (s.keyframe_error_aligned_rmse_m >= 0.0) {
+      TriangleMesh aligned = mesh;
+      for (Vec3f& v : aligned.vertices) v = applyAlignment(s.map_alignment, v.cast<double>()).cast<float>();
+      s.accuracy_aligned_rmse_m = evaluateSurface(aligned, world.mesh(), eval).accuracy_rmse_m;
+    }
   }
   io::writeTumTrajectory(run_dir / "trajectory_true.txt", r.trajectory_true);
   io::writeTumTrajectory(run_dir / "trajectory_odom.txt", r.trajectory_estimate);
@@ -724,10 +750,22 @@ ExplorationSummary internal::explorationSummaryOf(const nlohmann::json& j, const
   s.alc_detour_loops = summaryValue<std::size_t>(j, "alc_detour_loops", f);
   s.alc_finish_detours = summaryValue<std::size_t>(j, "alc_finish_detours", f);
   s.estimate_error_rmse_m = summaryValue<double>(j, "estimate_error_rmse_m", f);
-  const auto keyframe_error = j.find("keyframe_error_rmse_m");  // older summaries lack it
-  s.keyframe_error_rmse_m = keyframe_error != j.end() && !keyframe_error->is_null()
-                                ? summaryValue<double>(j, "keyframe_error_rmse_m", f)
-                                : -1.0;
+  // Older summaries lack these errors (the alignment's, before stop 89); null: not known.
+  const auto optional_length = [&](const char* key) {
+    const auto it = j.find(key);
+    return it != j.end() && !it->is_null() ? summaryValue<double>(j, key, f) : -1.0;
+  };
+  s.keyframe_error_rmse_m = optional_length("keyframe_error_rmse_m");
+  s.keyframe_error_aligned_rmse_m = optional_length("keyframe_error_aligned_rmse_m");
+  s.accuracy_aligned_rmse_m = optional_length("accuracy_aligned_rmse_m");
+  if (const auto alignment = j.find("map_alignment"); alignment != j.end()) {
+    const auto t = summaryValue<std::vector<double>>(*alignment, "translation_m", f);
+    if (t.size() != 3)
+      throw std::runtime_error(f.string() + ": \"map_alignment\".\"translation_m\" has " + std::to_string(t.size()) +
+                               " values, not 3");
+    s.map_alignment.yaw_rad = summaryValue<double>(*alignment, "yaw_deg", f) * M_PI / 180.0;
+    s.map_alignment.position_W = Vec3d(t[0], t[1], t[2]);
+  }
   s.planner_ms_median = summaryValue<double>(j, "planner_ms_median", f);
   s.planner_ms_max = summaryValue<double>(j, "planner_ms_max", f);
   s.frames_total = summaryValue<std::size_t>(j, "frames_total", f);

@@ -30,6 +30,7 @@ SUMMARY_KEYS = {
     "blacklisted_clusters", "holds",
     "map_update_ms_median", "frame_wall_ms_median", "reintegrated_frames", "estimate_error_rmse_m",
     "estimate_error_max_m", "odometry_error_final_m", "observable_surface", "wall_s", "budgets",
+    "map_alignment", "keyframe_error_aligned_rmse_m", "accuracy_aligned_rmse_m",
 }
 # Quaternions of TUM rows are unit to rounding.
 UNIT_QUATERNION_TOLERANCE = 1e-9

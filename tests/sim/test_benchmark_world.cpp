@@ -61,10 +61,11 @@ TEST_CASE("a generated benchmark world is the generator's office under its own c
 
 namespace {
 sim::AlcBenchmarkRun fakeRun(const std::string& world, const std::string& arm, std::uint64_t seed, double time_s,
-                             double rmse_m, std::size_t loops, double coverage) {
+                             double rmse_m, std::size_t loops, double coverage, double aligned_rmse_m = -1.0) {
   sim::AlcBenchmarkRun r{world, arm, seed, {}};
   r.summary.exploration_time_s = time_s;
   r.summary.accuracy_rmse_m = rmse_m;
+  r.summary.accuracy_aligned_rmse_m = aligned_rmse_m;  // negative: not known (an older summary)
   r.summary.loop_closures = loops;
   r.summary.coverage = coverage;
   r.summary.coverage_seen = 0.995;  // what the camera saw: drift, not the exploration, lost the rest
@@ -78,13 +79,17 @@ TEST_CASE("bench alc tables pair the arms by world and seed", "[sim][bench][alc]
   config.worlds = parseBenchmarkWorlds("office:1-2:20x16", 0.0);
   config.seeds = 2;
   sim::AlcBenchmarkResult result;
-  // office1: ALC better on both seeds; office2: worse on seed 1, and seed 2 ends below 0.95.
-  result.runs = {
-      fakeRun("office1_20x16", "no_alc", 1, 100, 0.20, 2, 0.99), fakeRun("office1_20x16", "alc", 1, 110, 0.10, 5, 0.99),
-      fakeRun("office1_20x16", "no_alc", 2, 100, 0.20, 2, 0.99), fakeRun("office1_20x16", "alc", 2, 110, 0.10, 5, 0.98),
-      fakeRun("office2_20x16", "no_alc", 1, 100, 0.10, 4, 0.97), fakeRun("office2_20x16", "alc", 1, 130, 0.35, 3, 0.96),
-      fakeRun("office2_20x16", "no_alc", 2, 100, 0.20, 1, 0.90), fakeRun("office2_20x16", "alc", 2, 90, 0.10, 4, 0.99),
-      fakeRun("office2_20x16", "no_alc", 3, 100, 0.20, 1, 0.90)};  // its ALC arm not done: unpaired
+  // office1: ALC better on both seeds (after the alignment on seed 1 only); office2: worse on seed
+  // 1, and seed 2 ends below 0.95; its runs do not know their aligned RMSE.
+  result.runs = {fakeRun("office1_20x16", "no_alc", 1, 100, 0.20, 2, 0.99, 0.05),
+                 fakeRun("office1_20x16", "alc", 1, 110, 0.10, 5, 0.99, 0.04),
+                 fakeRun("office1_20x16", "no_alc", 2, 100, 0.20, 2, 0.99, 0.05),
+                 fakeRun("office1_20x16", "alc", 2, 110, 0.10, 5, 0.98, 0.06),
+                 fakeRun("office2_20x16", "no_alc", 1, 100, 0.10, 4, 0.97),
+                 fakeRun("office2_20x16", "alc", 1, 130, 0.35, 3, 0.96),
+                 fakeRun("office2_20x16", "no_alc", 2, 100, 0.20, 1, 0.90),
+                 fakeRun("office2_20x16", "alc", 2, 90, 0.10, 4, 0.99),
+                 fakeRun("office2_20x16", "no_alc", 3, 100, 0.20, 1, 0.90)};  // its ALC arm not done: unpaired
   const std::string md = sim::alcBenchmarkMarkdown(result, config);
   INFO(md);
   // Pooled over the 4 pairs: times 400 vs 440 (+10 %), ALC better in 3, one incomplete run per arm
@@ -97,11 +102,19 @@ TEST_CASE("bench alc tables pair the arms by world and seed", "[sim][bench][alc]
   // RMSEs compare fairly between complete runs: 3 pairs have both arms >= 0.95, ALC better in 2.
   CHECK(md.find("over the 3 pairs where both runs are complete: RMSE change +0.0167 ± 0.2021 m, ALC's map better in "
                 "2 of 3, time overhead +16.7 %") != std::string::npos);
+  // After each map's alignment: only the 2 pairs that know it, and only known values per arm.
+  CHECK(md.find("0.0500 against 0.0500 m (ratio of the means 1.00); ALC's map better in 1 of 2 pairs") !=
+        std::string::npos);
+  CHECK(md.find("| accuracy RMSE after the 4-DOF alignment (m) | 0.0500 ± 0.0000 | 0.0500 ± 0.0141 |") !=
+        std::string::npos);
   // Per world rows.
-  CHECK(md.find("| office1_20x16 | 2 | 0.2000 / 0.1000 | 2 / 2 | 2.0 / 5.0 | 100 / 110 | +10.0 % | 0 / 0 |") !=
+  CHECK(md.find("| office1_20x16 | 2 | 0.2000 / 0.1000 | 2 / 2 | 0.0500 / 0.0500 | 1 / 2 | 2.0 / 5.0 | 100 / 110 | "
+                "+10.0 % | 0 / 0 |") != std::string::npos);
+  CHECK(md.find(
+            "| office2_20x16 | 2 | 0.1500 / 0.2250 | 1 / 2 | - | 0 / 0 | 2.5 / 3.5 | 100 / 110 | +10.0 % | 1 / 0 |") !=
         std::string::npos);
-  CHECK(md.find("| office2_20x16 | 2 | 0.1500 / 0.2250 | 1 / 2 | 2.5 / 3.5 | 100 / 110 | +10.0 % | 1 / 0 |") !=
-        std::string::npos);
+  CHECK(md.find("| 0.2000 / 0.0500 |") != std::string::npos);  // a run's RMSE and aligned RMSE
+  CHECK(md.find("| 0.1000 / - |") != std::string::npos);       // not known
   // Every run is listed, the unpaired one too, with the coverage the camera saw beside the map's.
   CHECK(md.find("| office2_20x16 | 3 | no_alc |") != std::string::npos);
   CHECK(md.find("| 0.900 (0.995) |") != std::string::npos);

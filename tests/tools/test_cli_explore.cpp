@@ -9,6 +9,7 @@
 
 #include "vdbmap/io/mesh_io.hpp"
 #include "vdbmap/io/tum_trajectory.hpp"
+#include "vdbmap/sim/trajectory_alignment.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -104,6 +105,26 @@ TEST_CASE("vdbmap explore writes a run folder whose log vdbmap integrate replays
     // (TUM files hold positions to 0.1 mm)
     CHECK(std::sqrt(sum / double(keyframes.size())) ==
           Approx(s.at("keyframe_error_rmse_m").get<double>()).margin(1e-3));
+
+    // The map's 4-DOF alignment with the truth: the best yaw and translation for these keyframes,
+    // never worse than none (no alignment is one of those it chooses from), and applied to the map
+    // for accuracy_aligned_rmse_m.
+    std::vector<vdbmap::Vec3d> map_W, true_W;
+    for (const auto& k : keyframes) {
+      map_W.push_back(k.T_W_S.translation());
+      true_W.push_back(std::find_if(truth.begin(), truth.end(), [&](const auto& t) {
+                         return std::abs(t.timestamp_s - k.timestamp_s) < 1e-4;
+                       })->T_W_S.translation());
+    }
+    const vdbmap::sim::FlatPose A = vdbmap::sim::alignYawTranslation(map_W, true_W);
+    const auto& alignment = s.at("map_alignment");
+    CHECK(alignment.at("yaw_deg").get<double>() == Approx(A.yaw_rad * 180.0 / M_PI).margin(0.01));
+    for (int a = 0; a < 3; ++a)
+      CHECK(alignment.at("translation_m")[a].get<double>() == Approx(A.position_W[a]).margin(1e-3));
+    CHECK(s.at("keyframe_error_aligned_rmse_m").get<double>() ==
+          Approx(vdbmap::sim::alignedRmse(A, map_W, true_W)).margin(1e-3));
+    CHECK(s.at("keyframe_error_aligned_rmse_m").get<double>() <= s.at("keyframe_error_rmse_m").get<double>() + 1e-9);
+    CHECK(s.at("accuracy_aligned_rmse_m").get<double>() > 0.0);
   }
 
   // How the time went: coverage every second (and once more after the final correction, equal to
@@ -225,6 +246,10 @@ TEST_CASE("vdbmap explore without --world flies the embedded house, whatever the
   CHECK(s.at("box").at("min")[1].get<double>() == Approx(-5.7));
   // s1 has no drift: the map holds every keyframe exactly where the camera was.
   CHECK(s.at("keyframe_error_rmse_m").get<double>() == 0.0);
+  // ... so aligning it with the truth moves nothing.
+  CHECK(s.at("keyframe_error_aligned_rmse_m").get<double>() == Approx(0.0).margin(1e-9));
+  CHECK(std::abs(s.at("map_alignment").at("yaw_deg").get<double>()) < 1e-6);
+  CHECK(s.at("accuracy_aligned_rmse_m").get<double>() == Approx(s.at("accuracy_rmse_m").get<double>()).margin(1e-6));
   // The run starts with the turn on the spot, and its summary says so.
   CHECK(s.at("initial_turn") == true);
   CHECK(s.at("activity_time_s").at("initial_turn").get<double>() > 0.0);

@@ -383,6 +383,7 @@ json exploreRun(const fs::path& dir, const ReportConfig& config, ReportStats& st
   add("collision events", "collisions");
   add("closest approach", "min_clearance_m", "m");
   add("map RMSE vs world", "accuracy_rmse_m", "m");
+  add("map RMSE after the 4-DOF alignment", "accuracy_aligned_rmse_m", "m");
   add("completeness", "completeness");
   add("estimate error RMSE", "estimate_error_rmse_m", "m");
   add("drift mode / mapper", "mode");

@@ -283,12 +283,21 @@ struct ExplorationSummary {
   /// The positions the final map holds its keyframes at (every correction applied) vs the true
   /// ones: what the map's accuracy follows. Negative when not known (no keyframes kept).
   double keyframe_error_rmse_m = -1.0;
+  /// The yaw about z and translation that best map the keyframes' positions onto the true ones
+  /// (alignYawTranslation): the rigid offset that drift before any loop could close left in the
+  /// whole map. Identity without kept keyframes.
+  FlatPose map_alignment;
+  /// keyframe_error_rmse_m after map_alignment; negative when not known.
+  double keyframe_error_aligned_rmse_m = -1.0;
   double planner_ms_median = 0.0;
   double planner_ms_max = 0.0;
   std::size_t frames_total = 0;
   std::size_t keyframes_kept = 0;
   double accuracy_rmse_m = 0.0;  ///< map surface vs the world mesh (vdbmap/eval.hpp), as bench drift
-  double completeness = 0.0;     ///< of the WHOLE world mesh within 2 voxels (hidden surfaces included)
+  /// accuracy_rmse_m of the map moved by map_alignment: the map's inner consistency, what loop
+  /// closure can still improve; negative when not known.
+  double accuracy_aligned_rmse_m = -1.0;
+  double completeness = 0.0;  ///< of the WHOLE world mesh within 2 voxels (hidden surfaces included)
   bool finished = false;
   bool complete = false;  ///< finished with coverage >= kCompleteCoverage
   ObservableSurfaceStats observable;
