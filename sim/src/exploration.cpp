@@ -1,5 +1,4 @@
 #include "vdbmap/sim/exploration.hpp"
-#include "vdbmap/sim/trajectory_alignment.hpp"
 #include "vdbmap/field_check.hpp"
 
 #include "vdbmap/sim/collision_events.hpp"
@@ -11,6 +10,7 @@
 #include "vdbmap/timing.hpp"
 #include "vdbmap/planner/tsdf_map_query.hpp"
 #include "vdbmap/sim/pose_graph.hpp"
+#include "vdbmap/sim/trajectory_alignment.hpp"
 #include "internal/summary_json.hpp"
 #include "text_format.hpp"
 
@@ -125,12 +125,10 @@ double estimateErrorRmse(const std::vector<io::StampedPose>& truth, const std::v
   return truth.empty() ? 0.0 : std::sqrt(sum / double(truth.size()));
 }
 
-/// RMSE of the positions the map holds its keyframes at (after the last correction) against the
-/// true ones, `truth` indexed by frame id; negative when the map keeps no frames (modes none and
-/// submap). What the map's accuracy follows, where estimateErrorRmse follows the online estimate.
 /// The kept keyframes' positions where the final map holds them (every correction applied) and
-/// their true ones: what the map's accuracy follows, where estimateErrorRmse follows the online
-/// estimate.
+/// their true ones, `truth` indexed by frame id: what the map's accuracy follows, where
+/// estimateErrorRmse follows the online estimate. Empty when the map keeps no frames (modes none
+/// and submap).
 struct KeyframePositions {
   std::vector<Vec3d> map_W, true_W;
 };
