@@ -33,8 +33,6 @@ void AlcBenchmarkConfig::validate() const {
 }
 
 namespace {
-/// A length that may not be known (negative): null in JSON.
-nlohmann::json known(double length_m) { return length_m >= 0.0 ? nlohmann::json(length_m) : nlohmann::json(nullptr); }
 
 constexpr const char* kArms[] = {"no_alc", "alc"};
 
@@ -52,9 +50,9 @@ nlohmann::json toJson(const AlcBenchmarkRun& r) {
           {"coverage_seen", s.coverage_seen},
           {"path_length_m", s.path_length_m},
           {"estimate_error_rmse_m", s.estimate_error_rmse_m},
-          {"keyframe_error_rmse_m", known(s.keyframe_error_rmse_m)},
-          {"keyframe_error_aligned_rmse_m", known(s.keyframe_error_aligned_rmse_m)},
-          {"accuracy_aligned_rmse_m", known(s.accuracy_aligned_rmse_m)},
+          {"keyframe_error_rmse_m", internal::knownOrNull(s.keyframe_error_rmse_m)},
+          {"keyframe_error_aligned_rmse_m", internal::knownOrNull(s.keyframe_error_aligned_rmse_m)},
+          {"accuracy_aligned_rmse_m", internal::knownOrNull(s.accuracy_aligned_rmse_m)},
           {"map_alignment_yaw_deg", s.map_alignment.yaw_rad * 180.0 / M_PI},
           {"alc_detours", s.alc_detours},
           {"alc_time_s", s.alc_time_s},
@@ -371,9 +369,11 @@ std::string alcBenchmarkMarkdown(const AlcBenchmarkResult& result, const AlcBenc
     md << "| " << r.world << " | " << r.seed << " | " << r.arm << " | " << (s.finished ? "yes" : "no") << " | "
        << format("%.1f", s.exploration_time_s) << " | " << s.loop_closures << " | " << format("%.4f", s.accuracy_rmse_m)
        << " / " << (s.accuracy_aligned_rmse_m >= 0.0 ? format("%.4f", s.accuracy_aligned_rmse_m) : std::string("-"))
-       << " | " << format("%+.2f", s.map_alignment.yaw_rad * 180.0 / M_PI) << " | " << format("%.3f", s.completeness)
-       << " | " << format("%.3f", s.coverage) << " (" << format("%.3f", s.coverage_seen) << ") | "
-       << format("%.3f", s.estimate_error_rmse_m) << " / "
+       << " | "
+       << (s.accuracy_aligned_rmse_m >= 0.0 ? format("%+.2f", s.map_alignment.yaw_rad * 180.0 / M_PI)
+                                            : std::string("-"))
+       << " | " << format("%.3f", s.completeness) << " | " << format("%.3f", s.coverage) << " ("
+       << format("%.3f", s.coverage_seen) << ") | " << format("%.3f", s.estimate_error_rmse_m) << " / "
        << (s.keyframe_error_rmse_m >= 0.0 ? format("%.3f", s.keyframe_error_rmse_m) : std::string("-")) << " | "
        << s.alc_detours << " (" << s.alc_detour_loops << " / " << s.alc_give_ups << ") | "
        << format("%.1f", s.alc_time_s) << " | " << s.collisions << " |\n";

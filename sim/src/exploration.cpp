@@ -520,13 +520,9 @@ nlohmann::json summaryJson(const ExplorationSummary& s, const ExplorationResult&
   j["pruned_frames_deintegrated"] = r.pruned_frames_deintegrated;
   j["reintegrated_frames"] = r.reintegrated_frames;
   j["estimate_error_rmse_m"] = s.estimate_error_rmse_m;
-  j["keyframe_error_rmse_m"] =
-      s.keyframe_error_rmse_m >= 0.0 ? nlohmann::json(s.keyframe_error_rmse_m) : nlohmann::json(nullptr);
-  j["keyframe_error_aligned_rmse_m"] = s.keyframe_error_aligned_rmse_m >= 0.0
-                                           ? nlohmann::json(s.keyframe_error_aligned_rmse_m)
-                                           : nlohmann::json(nullptr);
-  j["accuracy_aligned_rmse_m"] =
-      s.accuracy_aligned_rmse_m >= 0.0 ? nlohmann::json(s.accuracy_aligned_rmse_m) : nlohmann::json(nullptr);
+  j["keyframe_error_rmse_m"] = internal::knownOrNull(s.keyframe_error_rmse_m);
+  j["keyframe_error_aligned_rmse_m"] = internal::knownOrNull(s.keyframe_error_aligned_rmse_m);
+  j["accuracy_aligned_rmse_m"] = internal::knownOrNull(s.accuracy_aligned_rmse_m);
   j["map_alignment"] = {
       {"yaw_deg", s.map_alignment.yaw_rad * 180.0 / M_PI},
       {"translation_m",

@@ -18,4 +18,10 @@ nlohmann::json readSummaryJson(const std::filesystem::path& summary_json);
 /// the file and the key when a key is missing or of another type.
 ExplorationSummary explorationSummaryOf(const nlohmann::json& j, const std::filesystem::path& file);
 
+/// A length that may not be known (ExplorationSummary holds those as negative): null in JSON, as
+/// summary.json writes and explorationSummaryOf reads it.
+inline nlohmann::json knownOrNull(double length_m) {
+  return length_m >= 0.0 ? nlohmann::json(length_m) : nlohmann::json(nullptr);
+}
+
 }  // namespace vdbmap::sim::internal
